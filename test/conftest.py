@@ -1,0 +1,35 @@
+"""Shared pytest fixtures.
+
+ROS tests run in their own DDS domain (random ROS_DOMAIN_ID, localhost-only discovery)
+so that concurrently running test sessions on one machine never see each other's topics.
+"""
+import os
+import random
+
+import pytest
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+
+@pytest.fixture
+def ros_domain_id():
+    """A DDS domain id private to this test (also exported for subprocess nodes)."""
+    domain = random.SystemRandom().randint(1, 100)
+    old = os.environ.get('ROS_DOMAIN_ID')
+    os.environ['ROS_DOMAIN_ID'] = str(domain)
+    yield domain
+    if old is None:
+        os.environ.pop('ROS_DOMAIN_ID', None)
+    else:
+        os.environ['ROS_DOMAIN_ID'] = old
+
+
+@pytest.fixture
+def ros_context(ros_domain_id):
+    """An initialised rclpy Context on the private domain; shut down after the test."""
+    rclpy = pytest.importorskip('rclpy')
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros_domain_id)
+    yield context
+    if context.ok():
+        rclpy.shutdown(context=context)
