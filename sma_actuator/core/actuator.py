@@ -12,9 +12,11 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
               shared by both wires, output = contraction fraction (0 cold, 1 hot); σ [K] is
               the stress coupling (Clausius-Clapeyron shift from the antagonist's pull)
   4. shaft    φ = φ0 + g (y_a − s_b y_b)           (pulley kinematics, g = ε L / 2r)
-  5. sensor   φ_meas(t) = p(φ(t − D)) with fatigue (1 − f_s N) scaling of the stroke and
-              f_o N offset drift over N accumulated transformation cycles, and the
-              potentiometer polynomial p(φ) = φ + c2 φ² + c3 φ³.
+  5. sensor   φ_meas(t) = p(φ(t − D)) with functional fatigue: the stroke shrinks by
+              f_s per hour of operation and the zero drifts by f_o per hour (time is the
+              usage measure so the effect stays separable; under steady cycling it is
+              proportional to accumulated cycles), and the potentiometer polynomial
+              p(φ) = φ + c2 φ² + c3 φ³.
 
 Steps 1-3 run in one compiled kernel (`simulate_wires`); steps 4-5 are vectorised output
 maps. With every effect parameter at its neutral value this is exactly the paper's model
@@ -97,8 +99,8 @@ class ActuatorParams:
     stroke_ratio_b: float = 1.0      # asymmetric_wires: stroke of wire b relative to a
     sensor_c2_rad: float = 0.0       # sensor_nonlinearity: quadratic term [rad at 1 rad]
     sensor_c3_rad: float = 0.0       # sensor_nonlinearity: cubic term [rad at 1 rad]
-    fatigue_offset_rad: float = 0.0  # fatigue_drift: zero drift per transformation cycle
-    fatigue_stroke: float = 0.0      # fatigue_drift: stroke loss fraction per cycle
+    fatigue_offset_rad_per_h: float = 0.0  # fatigue_drift: zero drift per hour of operation
+    fatigue_stroke_per_h: float = 0.0      # fatigue_drift: stroke loss fraction per hour
     duty_limit: float = 1.0          # current_limit: duty above which mean current saturates
     hysteresis: PlayHysteresis = field(default_factory=flexinol_hysteresis)
 
@@ -234,16 +236,12 @@ def shaft_angle(params, y_a, y_b):
     return params.offset_rad + params.stroke_rad * (np.asarray(y_a) - params.stroke_ratio_b * np.asarray(y_b))
 
 
-def transformation_cycles(y_a, y_b, n0=0.0):
-    """Accumulated transformation cycles N: (Σ|Δy_a| + Σ|Δy_b|) / 2 (a full loop of one wire = 1)."""
-    dy = np.abs(np.diff(y_a, prepend=y_a[0])) + np.abs(np.diff(y_b, prepend=y_b[0]))
-    return n0 + 0.5 * np.cumsum(dy)
-
-
-def sensor_map(params, phi, cycles):
-    """Step 5 without the delay: fatigue scaling/drift and the potentiometer polynomial."""
+def sensor_map(params, phi, time_s):
+    """Step 5 without the delay: fatigue scaling/drift over time [s] and the potentiometer polynomial."""
+    hours = np.asarray(time_s) / 3600.0
     phi0 = params.offset_rad
-    phi = phi0 + (phi - phi0) * (1.0 - params.fatigue_stroke * cycles) + params.fatigue_offset_rad * cycles
+    phi = (phi0 + (phi - phi0) * (1.0 - params.fatigue_stroke_per_h * hours)
+           + params.fatigue_offset_rad_per_h * hours)
     return phi + params.sensor_c2_rad * phi ** 2 + params.sensor_c3_rad * phi ** 3
 
 
@@ -290,7 +288,7 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
     ya, yb, ta, tb = simulate_wires(duty_a, duty_b, amb, dist, dt, params.kernel_vector(),
                                     h.r, h.lo, h.hi, h.w, h.k1, h.y0, st)
     phi = shaft_angle(params, ya, yb)
-    phi = sensor_map(params, phi, transformation_cycles(ya, yb))
+    phi = sensor_map(params, phi, np.arange(n) * dt)
     return Trajectory(delay_signal(phi, dt, params.delay_s), ta, tb, ya, yb)
 
 
@@ -309,7 +307,6 @@ class AntagonisticActuator:
     def reset(self, theta_c=None):
         """Both wires at ambient (or theta_c), cold and fully martensitic, shaft at rest."""
         self._state = initial_state(self.params, theta_c)
-        self._cycles = 0.0
         self._time = 0.0
         self._history = [(0.0, self._measured(self._state[4], self._state[5]))]
 
@@ -325,7 +322,7 @@ class AntagonisticActuator:
 
     def _measured(self, y_a, y_b):
         phi = shaft_angle(self.params, y_a, y_b)
-        return float(sensor_map(self.params, phi, self._cycles))
+        return float(sensor_map(self.params, phi, self._time))
 
     def step(self, duty_a, duty_b, dt, ambient_c=None, disturbance_k=0.0):
         """Hold the duties for dt seconds; return the (delayed, sensed) shaft angle [rad]."""
@@ -340,14 +337,10 @@ class AntagonisticActuator:
         dist = finite_scalar('disturbance_k', disturbance_k)
         n_sub = max(1, int(np.ceil(dt / self.max_substep_s)))
         h = self.params.hysteresis
-        y_before = self._state[4:6].copy()
         ya, yb, _, _ = simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
                                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
                                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
                                       h.y0, self._state)
-        ys_a = np.concatenate([[y_before[0]], ya])
-        ys_b = np.concatenate([[y_before[1]], yb])
-        self._cycles = float(transformation_cycles(ys_a, ys_b, self._cycles)[-1])
         self._time += dt
         self._history.append((self._time, self._measured(ya[-1], yb[-1])))
         return self._delayed()
