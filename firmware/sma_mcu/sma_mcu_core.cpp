@@ -1,0 +1,133 @@
+// Protocol and safety logic of the SMA actuator MCU; see sma_mcu_core.h.
+#include "sma_mcu_core.h"
+
+namespace sma {
+
+namespace {
+// Wrapping uint32 difference: correct across the 71.6-minute micros() rollover.
+uint32_t elapsed(uint32_t now_us, uint32_t then_us) { return now_us - then_us; }
+}  // namespace
+
+McuCore::McuCore(ReadAdc read_adc, Transmit transmit, void* ctx, const FirmwareLimits& limits)
+    : read_adc_(read_adc), transmit_(transmit), ctx_(ctx), limits_(limits),
+      adc_period_us_(limits.adc_period_max_us) {}
+
+void McuCore::start(uint32_t now_us) {
+  last_duty_us_ = last_report_us_ = now_us;
+  send_status(now_us);
+}
+
+void McuCore::receive(uint8_t byte, uint32_t now_us) {
+  switch (decoder_.push(byte)) {
+    case kNone:
+      return;
+    case kErrCrc:
+      ++rx_crc_errors_;
+      return;
+    case kErrOversize:
+    case kErrCobs:
+    case kErrShort:
+      ++rx_framing_errors_;
+      return;
+    case kFrameOk:
+      ++rx_frames_;
+      handle_frame(now_us);
+      if (faults_ != status_faults_) send_status(now_us);
+      return;
+  }
+}
+
+void McuCore::poll(uint32_t now_us) {
+  if (configured_ && !(faults_ & kFaultWatchdog) && elapsed(now_us, last_duty_us_) >= limits_.watchdog_us) {
+    pwm_a_ = pwm_b_ = 0;
+    set_faults(faults_ | kFaultWatchdog);
+  }
+  if (configured_ && elapsed(now_us, last_report_us_) >= adc_period_us_) send_report(now_us);
+  if (faults_ != status_faults_ || elapsed(now_us, last_status_us_) >= limits_.status_period_us) {
+    send_status(now_us);
+  }
+}
+
+void McuCore::handle_frame(uint32_t now_us) {
+  const uint8_t* body = decoder_.body();
+  size_t len = decoder_.body_len();
+  Hello hello;
+  Duty duty;
+  Heartbeat heartbeat;
+  if (decoder_.type() == kHello && decode(body, len, &hello)) {
+    on_hello(hello, now_us);
+  } else if (decoder_.type() == kDuty && decode(body, len, &duty)) {
+    on_duty(duty, decoder_.seq(), now_us);
+  } else if (decoder_.type() == kHeartbeat && decode(body, len, &heartbeat)) {
+    HeartbeatAck ack = {heartbeat.host_us, now_us};
+    send(encode(ack, tx_seq_, tx_));
+  } else {
+    ++rx_malformed_;
+  }
+}
+
+void McuCore::on_hello(const Hello& msg, uint32_t now_us) {
+  pwm_a_ = pwm_b_ = 0;
+  if (msg.protocol_version != kProtocolVersion) {
+    configured_ = false;
+    set_faults(kFaultNotConfigured | kFaultBadVersion);
+  } else {
+    configured_ = true;
+    max_duty_ = msg.max_duty < limits_.max_duty ? msg.max_duty : limits_.max_duty;
+    interlock_duty_ = msg.interlock_duty < limits_.interlock_ceiling ? msg.interlock_duty : limits_.interlock_ceiling;
+    uint32_t period = msg.adc_period_us;
+    if (period < limits_.adc_period_min_us) period = limits_.adc_period_min_us;
+    if (period > limits_.adc_period_max_us) period = limits_.adc_period_max_us;
+    adc_period_us_ = period;
+    faults_latched_ = 0;
+    set_faults(0);
+    last_duty_us_ = last_report_us_ = now_us;
+  }
+  HelloAck ack = {kProtocolVersion, kFwMajor, kFwMinor, kFwPatch, kTickHz, limits_.adc_bits,
+                  static_cast<uint16_t>(limits_.watchdog_us / 1000), max_duty_, interlock_duty_, adc_period_us_};
+  send(encode(ack, tx_seq_, tx_));
+}
+
+void McuCore::on_duty(const Duty& msg, uint8_t seq, uint32_t now_us) {
+  duty_seq_ = seq;
+  if (configured_) {
+    uint16_t a = msg.duty_a < max_duty_ ? msg.duty_a : max_duty_;
+    uint16_t b = msg.duty_b < max_duty_ ? msg.duty_b : max_duty_;
+    uint16_t faults = faults_ & ~(kFaultWatchdog | kFaultInterlock | kFaultClamped);
+    if (a != msg.duty_a || b != msg.duty_b) faults |= kFaultClamped;
+    if (a > interlock_duty_ && b > interlock_duty_) {
+      a = b = 0;
+      faults |= kFaultInterlock;
+    }
+    pwm_a_ = a;
+    pwm_b_ = b;
+    set_faults(faults);
+    last_duty_us_ = now_us;
+  }
+  send_report(now_us);
+}
+
+void McuCore::set_faults(uint16_t faults) {
+  faults_ = faults;
+  faults_latched_ |= faults;
+}
+
+void McuCore::send_report(uint32_t now_us) {
+  last_report_us_ = now_us;
+  AdcReport report = {now_us, read_adc_(ctx_), duty_seq_, faults_, pwm_a_, pwm_b_};
+  send(encode(report, tx_seq_, tx_));
+}
+
+void McuCore::send_status(uint32_t now_us) {
+  last_status_us_ = now_us;
+  status_faults_ = faults_;
+  Status status = {now_us, faults_, faults_latched_, rx_frames_, rx_crc_errors_, rx_framing_errors_, rx_malformed_};
+  send(encode(status, tx_seq_, tx_));
+}
+
+void McuCore::send(size_t len) {
+  ++tx_seq_;  // uint8_t: wraps at 256 like the Python Sender
+  transmit_(tx_, len, ctx_);
+}
+
+}  // namespace sma

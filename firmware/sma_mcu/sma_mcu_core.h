@@ -1,0 +1,78 @@
+// Protocol and safety logic of the SMA actuator MCU, free of any hardware API.
+//
+// C++ twin of sma_actuator/hardware/mcu_core.py (the emulator runs the Python one); both
+// replay the "mcu" scenarios of firmware/test_vectors.json to the same bytes.
+// Safety rules:
+//   - Duty frames are ignored until a valid Hello has configured the limits.
+//   - Each channel is clamped to max_duty; both channels above interlock_duty at once
+//     switches both outputs off (kFaultInterlock).
+//   - No valid Duty frame for kWatchdogUs (100 ms): both outputs off (kFaultWatchdog).
+#ifndef SMA_MCU_CORE_H
+#define SMA_MCU_CORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sma_protocol.h"
+
+namespace sma {
+
+const uint8_t kFwMajor = 1, kFwMinor = 0, kFwPatch = 0;
+const uint32_t kTickHz = 1000000;  // ticks are microseconds (Arduino micros())
+
+// Compile-time limits; a Hello can only tighten the duty limits.
+struct FirmwareLimits {
+  uint16_t max_duty = kDutyFullScale;
+  uint16_t interlock_ceiling = 32768;  // highest interlock a Hello may set (0.5)
+  uint32_t watchdog_us = 100000;
+  uint32_t status_period_us = 100000;
+  uint32_t adc_period_min_us = 1000;
+  uint32_t adc_period_max_us = 1000000;
+  uint8_t adc_bits = 12;
+};
+
+class McuCore {
+ public:
+  typedef uint16_t (*ReadAdc)(void* ctx);
+  typedef void (*Transmit)(const uint8_t* data, size_t len, void* ctx);
+
+  McuCore(ReadAdc read_adc, Transmit transmit, void* ctx, const FirmwareLimits& limits = FirmwareLimits());
+
+  void start(uint32_t now_us);                   // at boot: sends the boot Status
+  void receive(uint8_t byte, uint32_t now_us);   // every received byte
+  void poll(uint32_t now_us);                    // watchdog and periodic reports, >= 1 kHz
+
+  uint16_t pwm_a() const { return pwm_a_; }      // duty counts the outputs must apply
+  uint16_t pwm_b() const { return pwm_b_; }
+  uint16_t faults() const { return faults_; }
+
+ private:
+  void handle_frame(uint32_t now_us);
+  void on_hello(const Hello& msg, uint32_t now_us);
+  void on_duty(const Duty& msg, uint8_t seq, uint32_t now_us);
+  void set_faults(uint16_t faults);
+  void send_report(uint32_t now_us);
+  void send_status(uint32_t now_us);
+  void send(size_t len);
+
+  ReadAdc read_adc_;
+  Transmit transmit_;
+  void* ctx_;
+  FirmwareLimits limits_;
+  FrameDecoder decoder_;
+  uint8_t tx_[kMaxWireFrame];
+  uint8_t tx_seq_ = 0;
+  bool configured_ = false;
+  uint16_t max_duty_ = 0, interlock_duty_ = 0;
+  uint32_t adc_period_us_;
+  uint16_t pwm_a_ = 0, pwm_b_ = 0;
+  uint16_t faults_ = kFaultNotConfigured, faults_latched_ = kFaultNotConfigured;
+  int32_t status_faults_ = -1;  // faults as of the last Status sent; -1 forces one
+  uint8_t duty_seq_ = 0;
+  uint32_t rx_frames_ = 0, rx_crc_errors_ = 0, rx_framing_errors_ = 0, rx_malformed_ = 0;
+  uint32_t last_duty_us_ = 0, last_report_us_ = 0, last_status_us_ = 0;
+};
+
+}  // namespace sma
+
+#endif  // SMA_MCU_CORE_H

@@ -1,0 +1,167 @@
+"""The microcontroller's protocol and safety logic, free of hardware and of ROS.
+
+Python twin of ``firmware/sma_mcu/sma_mcu_core.cpp``: both are driven with the same
+scenarios in ``firmware/test_vectors.json`` and must produce the same PWM values, fault
+bits and transmitted bytes. The MCU emulator runs this class against the simulated plant.
+
+Safety rules (see docs/protocol.md):
+- Duty frames are ignored until a valid Hello configured the limits.
+- Each channel is clamped to max_duty; both channels above interlock_duty at once
+  switches both outputs off (FAULT_INTERLOCK) instead of guessing which one was meant.
+- No valid Duty frame for watchdog_us (100 ms): both outputs off (FAULT_WATCHDOG).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from sma_actuator.hardware import protocol as p
+
+FIRMWARE_VERSION = (1, 0, 0)
+TICK_HZ = 1_000_000   # MCU ticks are microseconds
+
+
+@dataclass(frozen=True)
+class FirmwareLimits:
+    """Compile-time constants of the firmware; a Hello can only tighten the duty limits."""
+
+    max_duty: int = p.DUTY_FULL_SCALE     # counts, per channel
+    interlock_ceiling: int = 32768        # counts (0.5): highest interlock a Hello may set
+    watchdog_us: int = 100_000
+    status_period_us: int = 100_000
+    adc_period_min_us: int = 1_000
+    adc_period_max_us: int = 1_000_000
+    adc_bits: int = 12
+
+
+def elapsed_us(now_us: int, then_us: int) -> int:
+    """Microseconds from `then_us` to `now_us` on the wrapping uint32 tick counter."""
+    return (now_us - then_us) & 0xFFFFFFFF
+
+
+class McuCore:
+    """MCU logic: feed received bytes and poll regularly; both return the bytes to send.
+
+    `read_adc()` returns the potentiometer's ADC counts; it is called whenever an
+    AdcReport is built. `pwm_a`/`pwm_b` are the duty counts the outputs must apply.
+    """
+
+    def __init__(self, read_adc: Callable[[], int], limits: FirmwareLimits = FirmwareLimits()):
+        self.read_adc = read_adc
+        self.limits = limits
+        self.decoder = p.FrameDecoder()
+        self.sender = p.Sender()
+        self.configured = False
+        self.max_duty = 0
+        self.interlock_duty = 0
+        self.adc_period_us = limits.adc_period_max_us
+        self.pwm_a = self.pwm_b = 0
+        self.faults = self.faults_latched = p.FAULT_NOT_CONFIGURED
+        self.duty_seq = 0
+        self.rx_frames = self.rx_crc_errors = self.rx_framing_errors = self.rx_malformed = 0
+        self._last_duty_us = self._last_report_us = self._last_status_us = 0
+        self._status_faults = -1   # faults as of the last Status sent; -1 forces one
+
+    def start(self, now_us: int) -> bytes:
+        """Reset the timers at boot; returns the boot Status frame."""
+        self._last_duty_us = self._last_report_us = now_us
+        return self._status(now_us)
+
+    def receive(self, data: bytes, now_us: int) -> bytes:
+        """Process received bytes (all taken to arrive at `now_us`); returns replies."""
+        tx = bytearray()
+        for event in self.decoder.events(data):
+            if isinstance(event, p.FrameError):
+                if event.kind == 'crc':
+                    self.rx_crc_errors += 1
+                else:
+                    self.rx_framing_errors += 1
+                continue
+            self.rx_frames += 1
+            try:
+                msg = p.decode_message(event, p.HOST_TO_MCU)
+            except p.ProtocolError:
+                self.rx_malformed += 1
+                continue
+            tx += self._handle(msg, event.seq, now_us)
+            if self.faults != self._status_faults:
+                tx += self._status(now_us)
+        return bytes(tx)
+
+    def poll(self, now_us: int) -> bytes:
+        """Run the watchdog and the periodic reports; call at least every millisecond."""
+        tx = bytearray()
+        if (self.configured and not self.faults & p.FAULT_WATCHDOG
+                and elapsed_us(now_us, self._last_duty_us) >= self.limits.watchdog_us):
+            self._outputs_off()
+            self._set_faults(self.faults | p.FAULT_WATCHDOG)
+        if self.configured and elapsed_us(now_us, self._last_report_us) >= self.adc_period_us:
+            tx += self._report(now_us)
+        if (self.faults != self._status_faults
+                or elapsed_us(now_us, self._last_status_us) >= self.limits.status_period_us):
+            tx += self._status(now_us)
+        return bytes(tx)
+
+    # --- message handlers ---------------------------------------------------------
+
+    def _handle(self, msg: p.Message, seq: int, now_us: int) -> bytes:
+        if isinstance(msg, p.Hello):
+            return self._hello(msg, now_us)
+        if isinstance(msg, p.Duty):
+            return self._duty(msg, seq, now_us)
+        return self.sender.encode(p.HeartbeatAck(msg.host_us, now_us))
+
+    def _hello(self, msg: p.Hello, now_us: int) -> bytes:
+        self._outputs_off()
+        if msg.protocol_version != p.PROTOCOL_VERSION:
+            self.configured = False
+            self._set_faults(p.FAULT_NOT_CONFIGURED | p.FAULT_BAD_VERSION)
+        else:
+            lim = self.limits
+            self.configured = True
+            self.max_duty = min(msg.max_duty, lim.max_duty)
+            self.interlock_duty = min(msg.interlock_duty, lim.interlock_ceiling)
+            self.adc_period_us = min(max(msg.adc_period_us, lim.adc_period_min_us), lim.adc_period_max_us)
+            self.faults_latched = 0
+            self._set_faults(0)
+            self._last_duty_us = self._last_report_us = now_us
+        return self.sender.encode(p.HelloAck(
+            p.PROTOCOL_VERSION, *FIRMWARE_VERSION, TICK_HZ, self.limits.adc_bits,
+            self.limits.watchdog_us // 1000, self.max_duty, self.interlock_duty, self.adc_period_us))
+
+    def _duty(self, msg: p.Duty, seq: int, now_us: int) -> bytes:
+        self.duty_seq = seq
+        if self.configured:
+            duty_a, duty_b = min(msg.duty_a, self.max_duty), min(msg.duty_b, self.max_duty)
+            faults = self.faults & ~(p.FAULT_WATCHDOG | p.FAULT_INTERLOCK | p.FAULT_CLAMPED)
+            if (duty_a, duty_b) != (msg.duty_a, msg.duty_b):
+                faults |= p.FAULT_CLAMPED
+            if duty_a > self.interlock_duty and duty_b > self.interlock_duty:
+                duty_a = duty_b = 0
+                faults |= p.FAULT_INTERLOCK
+            self.pwm_a, self.pwm_b = duty_a, duty_b
+            self._set_faults(faults)
+            self._last_duty_us = now_us
+        return self._report(now_us)
+
+    # --- helpers ------------------------------------------------------------------
+
+    def _outputs_off(self):
+        self.pwm_a = self.pwm_b = 0
+
+    def _set_faults(self, faults: int):
+        self.faults = faults
+        self.faults_latched |= faults
+
+    def _report(self, now_us: int) -> bytes:
+        self._last_report_us = now_us
+        return self.sender.encode(p.AdcReport(
+            now_us, int(self.read_adc()), self.duty_seq, self.faults, self.pwm_a, self.pwm_b))
+
+    def _status(self, now_us: int) -> bytes:
+        self._last_status_us = now_us
+        self._status_faults = self.faults
+        return self.sender.encode(p.Status(
+            now_us, self.faults, self.faults_latched, self.rx_frames & 0xFFFFFFFF,
+            self.rx_crc_errors & 0xFFFFFFFF, self.rx_framing_errors & 0xFFFFFFFF,
+            self.rx_malformed & 0xFFFFFFFF))
