@@ -1,0 +1,178 @@
+"""Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
+
+All signals are put on one uniform time grid built on the recorder's log time (receive time,
+the one clock every topic shares), starting at the first ``/sma/joint_states`` message:
+
+- ``position`` [rad]: linear interpolation between joint-state samples (a measured,
+  continuous signal);
+- ``duty_a``, ``duty_b`` [0..1]: zero-order hold of ``/sma/duty`` (a command holds until the
+  next one); 0 before the first command, since the amplifiers start switched off;
+- ``setpoint`` [rad]: zero-order hold, NaN before the first setpoint;
+- ``ambient_temperature`` [degC]: zero-order hold, the first reading held backwards to the
+  start (ambient changes slowly, and a NaN would stop the model).
+
+Messages are decoded from the definition stored in the bag (mcap-ros2-support), so this works
+without ROS installed and on bags recorded by rosbag2.
+"""
+from pathlib import Path
+from typing import Dict, Optional, Union
+
+import numpy as np
+from mcap.records import Schema
+from mcap_ros2.decoder import DecoderFactory
+
+from .errors import BagError, MissingTopicError, TruncatedBagError, UnknownTypeError
+from .reader import BagReader
+
+#: role -> (default topic, expected type)
+ROLES = {
+    'joint_states': ('/sma/joint_states', 'sensor_msgs/msg/JointState'),
+    'duty': ('/sma/duty', 'std_msgs/msg/Float64MultiArray'),
+    'setpoint': ('/sma/setpoint', 'std_msgs/msg/Float64'),
+    'ambient_temperature': ('/sma/ambient_temperature', 'sensor_msgs/msg/Temperature'),
+}
+REQUIRED_ROLES = ('joint_states', 'duty')
+JOINT_NAME = 'shaft'
+_NS = 1e-9
+
+
+def _joint_position(msg, path: Path) -> float:
+    names = list(msg.name)
+    if JOINT_NAME in names:
+        index = names.index(JOINT_NAME)
+    elif len(msg.position) == 1:
+        index = 0  # a single unnamed/renamed joint is the shaft
+    else:
+        raise BagError(path, f"joint state without a '{JOINT_NAME}' joint (joints: {names})")
+    return float(msg.position[index])
+
+
+def _duty_pair(msg, path: Path):
+    if len(msg.data) != 2:
+        raise BagError(path, f'/sma/duty message with {len(msg.data)} values (expected '
+                             '[duty_a, duty_b])')
+    return float(msg.data[0]), float(msg.data[1])
+
+
+_EXTRACT = {
+    'joint_states': _joint_position,
+    'duty': _duty_pair,
+    'setpoint': lambda msg, path: float(msg.data),
+    'ambient_temperature': lambda msg, path: float(msg.temperature),
+}
+
+
+def _topic_map(topics: Optional[Dict[str, str]]) -> Dict[str, str]:
+    mapping = {role: default for role, (default, _) in ROLES.items()}
+    unknown = set(topics or {}) - set(ROLES)
+    if unknown:
+        raise ValueError(f'unknown topic roles {sorted(unknown)}; valid roles: {sorted(ROLES)}')
+    mapping.update(topics or {})
+    return mapping
+
+
+def _read_series(reader: BagReader, path: Path, topic_of: Dict[str, str]):
+    """Decode each present role's topic to (log times [ns], values)."""
+    series, decoders, role_of = {}, {}, {}
+    factory = DecoderFactory()
+    for schema_id, (role, topic) in enumerate(topic_of.items(), start=1):
+        info = reader.topics.get(topic)
+        if info is None or info.message_count == 0:
+            if role in REQUIRED_ROLES:
+                raise MissingTopicError(
+                    path, f"required topic '{topic}' ({ROLES[role][1]}) has no messages in the "
+                          f'bag; topics present: {sorted(reader.topics)}')
+            continue
+        expected = ROLES[role][1]
+        if info.type != expected:
+            raise UnknownTypeError(path, f"topic '{topic}' has type '{info.type}', "
+                                         f"expected '{expected}'")
+        if info.schema_encoding != 'ros2msg' or info.serialization_format != 'cdr':
+            raise UnknownTypeError(
+                path, f"topic '{topic}' is stored as {info.schema_encoding or 'no schema'}/"
+                      f"{info.serialization_format}; only ros2msg/cdr can be decoded")
+        # DecoderFactory caches decoders by schema id, so each needs its own id.
+        schema = Schema(id=schema_id, name=info.type, encoding='ros2msg',
+                        data=info.definition.encode())
+        decoders[topic] = factory.decoder_for('cdr', schema)
+        role_of[topic] = role
+        series[role] = ([], [])
+    for msg in reader.messages(topics=list(role_of)):
+        role = role_of[msg.topic]
+        try:
+            decoded = decoders[msg.topic](msg.data)
+        except Exception as err:  # noqa: BLE001 - name the file and message, keep the cause
+            raise BagError(path, f"cannot decode a '{msg.topic}' message logged at "
+                                 f'{msg.log_time_ns} ns: {err}') from err
+        series[role][0].append(msg.log_time_ns)
+        series[role][1].append(_EXTRACT[role](decoded, path))
+    return {role: (np.asarray(t, dtype=np.int64), np.asarray(v, dtype=float))
+            for role, (t, v) in series.items()}
+
+
+def _sorted(times, values):
+    order = np.argsort(times, kind='stable')
+    return times[order], values[order]
+
+
+def zero_order_hold(times_ns, values, grid_ns, before=np.nan):
+    """Sample a piecewise-constant signal on a grid.
+
+    :param times_ns: Sample times [ns], ascending.
+    :param values: Values at those times (1-D or 2-D with samples along axis 0).
+    :param grid_ns: Query times [ns].
+    :param before: Value for grid points before the first sample.
+    :return: The last value at or before each grid time.
+    """
+    index = np.searchsorted(times_ns, grid_ns, side='right') - 1
+    out = np.asarray(values, dtype=float)[np.clip(index, 0, None)]
+    out[index < 0] = before
+    return out
+
+
+def default_rate_hz(times_ns) -> float:
+    """Return the sample rate [Hz] of a series as 1 / median sample interval."""
+    steps = np.diff(times_ns)
+    steps = steps[steps > 0]
+    if steps.size == 0:
+        raise ValueError('cannot infer a rate from fewer than two distinct sample times')
+    return 1.0 / (float(np.median(steps)) * _NS)
+
+
+def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
+             topics: Optional[Dict[str, str]] = None) -> Dict[str, np.ndarray]:
+    """Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
+
+    :param path: Bag directory or ``.mcap`` file (ours or rosbag2's).
+    :param rate_hz: Grid rate [Hz]; default: the joint-state rate (1 / median interval).
+    :param topics: Override topic names by role: ``joint_states``, ``duty``, ``setpoint``,
+        ``ambient_temperature`` (e.g. ``{'joint_states': '/measured/joint_states'}``).
+    :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
+        ``position`` [rad], and when recorded ``ambient_temperature`` [degC], ``setpoint`` [rad].
+    :raises BagError: (a ValueError) naming the file: missing, not MCAP, empty/truncated with
+        nothing recoverable, wrong or unknown types, missing required topics, undecodable data.
+    """
+    path = Path(path)
+    reader = BagReader(path)
+    if reader.message_count == 0 and reader.recoveries:
+        raise TruncatedBagError(path, 'no complete chunk in the file; nothing was recovered')
+    data = _read_series(reader, path, _topic_map(topics))
+    js_t, js_pos = _sorted(*data['joint_states'])
+    if np.unique(js_t).size < 2:
+        raise MissingTopicError(path, 'needs at least two joint states at distinct times')
+    rate = default_rate_hz(js_t) if rate_hz is None else float(rate_hz)
+    if not np.isfinite(rate) or rate <= 0:
+        raise ValueError(f'rate_hz must be a positive number, got {rate_hz!r}')
+    count = int(np.floor((js_t[-1] - js_t[0]) * _NS * rate + 1e-9)) + 1
+    grid = js_t[0] + np.round(np.arange(count) / rate * 1e9).astype(np.int64)
+    duty_t, duty = _sorted(*data['duty'])
+    duty_ab = zero_order_hold(duty_t, duty, grid, before=0.0)
+    out = {'time': (grid - js_t[0]) * _NS,
+           'duty_a': duty_ab[:, 0], 'duty_b': duty_ab[:, 1],
+           'position': np.interp(grid, js_t, js_pos)}
+    if 'ambient_temperature' in data:
+        amb_t, amb = _sorted(*data['ambient_temperature'])
+        out['ambient_temperature'] = zero_order_hold(amb_t, amb, grid, before=amb[0])
+    if 'setpoint' in data:
+        out['setpoint'] = zero_order_hold(*_sorted(*data['setpoint']), grid)
+    return out

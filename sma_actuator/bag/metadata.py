@@ -1,0 +1,146 @@
+"""rosbag2 bag metadata (``metadata.yaml``, version 9 = Jazzy) from plain Python values.
+
+The same mapping (without the ``rosbag2_bagfile_information`` wrapper) is what rosbag2_storage_mcap
+embeds in each MCAP file as a Metadata record named ``rosbag2`` with key ``serialized_metadata``;
+its presence tells rosbag2 that the channel QoS YAML uses version-9 names.
+
+Layout follows ``rosbag2_storage/yaml.hpp``; sequences are indented under their key like
+yaml-cpp emits them, and null is written ``~``.
+"""
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List
+
+import yaml
+
+from .errors import BagError
+from .qos import load_offered_qos_profiles
+
+#: rosbag2 metadata version written (Jazzy).
+METADATA_VERSION = 9
+METADATA_FILE = 'metadata.yaml'
+_ROOT_KEY = 'rosbag2_bagfile_information'
+
+
+@dataclass
+class TopicRecord:
+    """One topic as rosbag2 describes it (``TopicMetadata`` plus its message count)."""
+
+    name: str
+    type: str
+    offered_qos_profiles: str = '[]'  # channel-metadata YAML text, see qos.py
+    type_description_hash: str = ''
+    serialization_format: str = 'cdr'
+    message_count: int = 0
+
+
+@dataclass
+class FileRecord:
+    """One storage file: path relative to the bag directory, times [ns], message count."""
+
+    path: str
+    starting_time_ns: int = 0
+    duration_ns: int = 0
+    message_count: int = 0
+
+
+@dataclass
+class BagRecord:
+    """A whole bag: its files and topics; timings are derived from the files."""
+
+    files: List[FileRecord] = field(default_factory=list)
+    topics: List[TopicRecord] = field(default_factory=list)
+    ros_distro: str = field(default_factory=lambda: os.environ.get('ROS_DISTRO', 'jazzy'))
+    compression_format: str = ''
+    compression_mode: str = ''
+
+    def span_ns(self):
+        """Return ``(starting_time, duration)`` [ns] over all files that hold messages."""
+        spans = [(f.starting_time_ns, f.starting_time_ns + f.duration_ns)
+                 for f in self.files if f.message_count]
+        if not spans:
+            return 0, 0
+        start = min(s for s, _ in spans)
+        return start, max(e for _, e in spans) - start
+
+
+class _Dumper(yaml.SafeDumper):
+    """SafeDumper that indents block sequences under their key and writes null as ``~``."""
+
+    def increase_indent(self, flow=False, indentless=False):
+        return super().increase_indent(flow, False)
+
+
+_Dumper.add_representer(
+    type(None), lambda dumper, _: dumper.represent_scalar('tag:yaml.org,2002:null', '~'))
+
+
+def to_dict(bag: BagRecord) -> Dict[str, Any]:
+    """Return the rosbag2 ``BagMetadata`` mapping (keys in rosbag2's order)."""
+    start, duration = bag.span_ns()
+    return {
+        'version': METADATA_VERSION,
+        'storage_identifier': 'mcap',
+        'duration': {'nanoseconds': duration},
+        'starting_time': {'nanoseconds_since_epoch': start},
+        'message_count': sum(f.message_count for f in bag.files),
+        'topics_with_message_count': [
+            {'topic_metadata': {
+                'name': t.name,
+                'type': t.type,
+                'serialization_format': t.serialization_format,
+                'offered_qos_profiles': load_offered_qos_profiles(t.offered_qos_profiles),
+                'type_description_hash': t.type_description_hash},
+             'message_count': t.message_count}
+            for t in bag.topics],
+        'compression_format': bag.compression_format,
+        'compression_mode': bag.compression_mode,
+        'relative_file_paths': [f.path for f in bag.files],
+        'files': [
+            {'path': f.path,
+             'starting_time': {'nanoseconds_since_epoch': f.starting_time_ns},
+             'duration': {'nanoseconds': f.duration_ns},
+             'message_count': f.message_count}
+            for f in bag.files],
+        'custom_data': None,
+        'ros_distro': bag.ros_distro,
+    }
+
+
+def dump_serialized_metadata(bag: BagRecord) -> str:
+    """Return the YAML stored in the MCAP ``rosbag2`` metadata record (no wrapper key)."""
+    return yaml.dump(to_dict(bag), Dumper=_Dumper, sort_keys=False, default_flow_style=False)
+
+
+def dump_metadata_yaml(bag: BagRecord) -> str:
+    """Return the text of ``metadata.yaml`` for a bag directory."""
+    return yaml.dump({_ROOT_KEY: to_dict(bag)}, Dumper=_Dumper, sort_keys=False,
+                     default_flow_style=False)
+
+
+def write_metadata_yaml(directory: Path, bag: BagRecord) -> Path:
+    """Write ``metadata.yaml`` atomically (temp file + rename) and return its path."""
+    path = Path(directory) / METADATA_FILE
+    tmp = path.with_name(METADATA_FILE + '.tmp')
+    tmp.write_text(dump_metadata_yaml(bag), encoding='utf-8')
+    os.replace(tmp, path)
+    return path
+
+
+def read_metadata_yaml(path: Path) -> Dict[str, Any]:
+    """Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
+
+    :raises BagError: The file is not valid rosbag2 metadata.
+    """
+    try:
+        data = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
+        raise BagError(path, f'cannot read rosbag2 metadata: {err}') from err
+    if not isinstance(data, dict) or not isinstance(data.get(_ROOT_KEY), dict):
+        raise BagError(path, f"not rosbag2 metadata (no '{_ROOT_KEY}' mapping)")
+    info = data[_ROOT_KEY]
+    if info.get('storage_identifier') not in (None, 'mcap'):
+        raise BagError(path, f"storage '{info.get('storage_identifier')}' is not supported "
+                             "(only mcap bags can be read)")
+    return info

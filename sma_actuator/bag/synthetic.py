@@ -1,0 +1,94 @@
+"""ROS-free CDR encoding and made-up runs, for tests, examples and benchmarks.
+
+:func:`cdr_encoder` serialises plain dicts to CDR with mcap-ros2-support's dynamic encoder (the
+one its MCAP writer uses), from the installed message definitions; the bytes equal what rclpy
+puts on the wire for the same values.
+"""
+import functools
+import math
+from pathlib import Path
+from typing import Any, Callable, Dict, Union
+
+from mcap_ros2._dynamic import serialize_dynamic
+
+from .msgdefs import message_definition, normalize_type_name
+from .writer import BagWriter
+
+#: The package's topic contract: topic -> (type, reliability of its publishers).
+SMA_TOPICS = {
+    '/sma/setpoint': ('std_msgs/msg/Float64', 'reliable'),
+    '/sma/duty': ('std_msgs/msg/Float64MultiArray', 'reliable'),
+    '/sma/joint_states': ('sensor_msgs/msg/JointState', 'best_effort'),
+    '/sma/wire_temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
+    '/sma/ambient_temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
+    '/diagnostics': ('diagnostic_msgs/msg/DiagnosticArray', 'reliable'),
+}
+
+
+@functools.lru_cache(maxsize=None)
+def cdr_encoder(type_name: str) -> Callable[[Dict[str, Any]], bytes]:
+    """Return a function serialising a dict (field name -> value) of ``type_name`` to CDR.
+
+    Missing fields take their default (0, '', empty).
+    """
+    full = normalize_type_name(type_name)
+    return serialize_dynamic(full, message_definition(full))[full]
+
+
+def offered_profile(reliability: str, depth: int = 10) -> Dict[str, Any]:
+    """Return a rosbag2 QoS dict as a publisher with this reliability offers it (infinite
+    deadline/lifespan/lease, like Fast DDS reports for default profiles)."""
+    infinite = {'sec': 9223372036, 'nsec': 854775807}
+    return {'history': 'keep_last', 'depth': depth, 'reliability': reliability,
+            'durability': 'volatile', 'deadline': infinite, 'lifespan': infinite,
+            'liveliness': 'automatic', 'liveliness_lease_duration': infinite,
+            'avoid_ros_namespace_conventions': False}
+
+
+def stamp(time_ns: int) -> Dict[str, int]:
+    """Return a builtin_interfaces/Time dict for a time [ns]."""
+    return {'sec': time_ns // 1_000_000_000, 'nanosec': time_ns % 1_000_000_000}
+
+
+def write_demo_run(path: Union[str, Path], *, duration_s: float = 2.0,
+                   joint_state_rate_hz: float = 100.0, duty_rate_hz: float = 50.0,
+                   start_ns: int = 1_700_000_000_000_000_000, overwrite: bool = False) -> Path:
+    """Write a bag of a made-up step response on the contract topics.
+
+    Setpoint steps to 0.2 rad at 10 % of the run; duty_a follows a proportional law, duty_b is 0;
+    the shaft angle is a first-order lag (tau 0.2 s) of 2 rad x duty_a; ambient is 22 degC.
+
+    :return: The bag directory.
+    """
+    enc = {t: cdr_encoder(ty) for t, (ty, _) in SMA_TOPICS.items()}
+    with BagWriter(path, overwrite=overwrite) as bag:
+        for topic, (type_name, reliability) in SMA_TOPICS.items():
+            if topic != '/diagnostics':
+                bag.add_topic(topic, type_name, [offered_profile(reliability)])
+        events = []
+        for k in range(int(duration_s * joint_state_rate_hz) + 1):
+            events.append((int(k * 1e9 / joint_state_rate_hz), 'js'))
+        for k in range(int(duration_s * duty_rate_hz) + 1):
+            events.append((int(k * 1e9 / duty_rate_hz) + 137_000, 'duty'))
+        events.sort()
+        position, duty_a, last_ns = 0.0, 0.0, 0
+        step_ns = int(0.1 * duration_s * 1e9)
+        bag.write('/sma/setpoint', enc['/sma/setpoint']({'data': 0.0}), start_ns)
+        bag.write('/sma/ambient_temperature',
+                  enc['/sma/ambient_temperature']({'temperature': 22.0}), start_ns)
+        setpoint_sent = False
+        for t_ns, kind in events:
+            position += (2.0 * duty_a - position) * (1 - math.exp(-(t_ns - last_ns) * 1e-9 / 0.2))
+            last_ns = t_ns
+            if t_ns >= step_ns and not setpoint_sent:
+                bag.write('/sma/setpoint', enc['/sma/setpoint']({'data': 0.2}), start_ns + t_ns)
+                setpoint_sent = True
+            target = 0.2 if setpoint_sent else 0.0
+            if kind == 'duty':
+                duty_a = min(1.0, max(0.0, 4.0 * (target - position) + 0.5 * target))
+                bag.write('/sma/duty', enc['/sma/duty']({'data': [duty_a, 0.0]}), start_ns + t_ns)
+            else:
+                msg = {'header': {'stamp': stamp(start_ns + t_ns)}, 'name': ['shaft'],
+                       'position': [position], 'velocity': [0.0]}
+                bag.write('/sma/joint_states', enc['/sma/joint_states'](msg), start_ns + t_ns)
+    return Path(path)

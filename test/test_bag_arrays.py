@@ -1,0 +1,197 @@
+"""load_run: aligned arrays with interpolation/ZOH as documented, named errors on bad input."""
+import numpy as np
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
+from rosbags.typesys import Stores, get_typestore
+
+from sma_actuator.bag.arrays import load_run, zero_order_hold
+from sma_actuator.bag.errors import (BagNotFoundError, MissingTopicError, NotMcapError,
+                                     TruncatedBagError, UnknownTypeError)
+from sma_actuator.bag.synthetic import cdr_encoder, stamp
+from sma_actuator.bag.writer import BagWriter
+
+T0 = 1_700_000_000_000_000_000
+MS = 1_000_000
+
+
+def _js(position, names=('shaft',)):
+    return {'header': {'stamp': stamp(T0)}, 'name': list(names),
+            'position': list(position), 'velocity': [0.0] * len(position)}
+
+
+def _events(js_times_ms, position_of_t, duty=(), setpoint=(), ambient=(), js_topic=None):
+    """[(topic, type, message dict, log time ns)] for a run; times in ms from T0."""
+    out = [(js_topic or '/sma/joint_states', 'sensor_msgs/msg/JointState',
+            _js([position_of_t(t * 1e-3)]), T0 + int(round(t * MS))) for t in js_times_ms]
+    out += [('/sma/duty', 'std_msgs/msg/Float64MultiArray', {'data': list(v)},
+             T0 + int(t * MS)) for t, v in duty]
+    out += [('/sma/setpoint', 'std_msgs/msg/Float64', {'data': v}, T0 + int(t * MS))
+            for t, v in setpoint]
+    out += [('/sma/ambient_temperature', 'sensor_msgs/msg/Temperature',
+             {'temperature': v}, T0 + int(t * MS)) for t, v in ambient]
+    return sorted(out, key=lambda e: e[3])
+
+
+def _write(path, events, **options):
+    with BagWriter(path, **options) as bag:
+        for topic, type_name, msg, log in events:
+            bag.add_topic(topic, type_name)
+            bag.write(topic, cdr_encoder(type_name)(msg), log)
+    return path
+
+
+DUTY = [(105, (0.3, 0.1)), (500, (0.0, 0.7))]
+SETPOINT = [(200, 0.25), (700, -0.1)]
+AMBIENT = [(300, 21.5), (600, 22.0)]
+
+
+@pytest.fixture
+def run(tmp_path):
+    events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY, SETPOINT, AMBIENT)
+    return _write(tmp_path / 'run', events)
+
+
+def test_grid_is_uniform_at_the_joint_state_rate_from_the_first_joint_state(run):
+    arrays = load_run(run)
+    assert list(arrays) == ['time', 'duty_a', 'duty_b', 'position', 'ambient_temperature',
+                            'setpoint']
+    np.testing.assert_allclose(arrays['time'], np.arange(101) * 0.01, atol=1e-12)
+    assert all(len(v) == 101 for v in arrays.values())
+
+
+def test_commands_are_held_and_zero_before_the_first(run):
+    a = load_run(run)
+    t = a['time']
+    expected_a = np.where(t < 0.105, 0.0, np.where(t < 0.5, 0.3, 0.0))
+    expected_b = np.where(t < 0.105, 0.0, np.where(t < 0.5, 0.1, 0.7))
+    np.testing.assert_array_equal(a['duty_a'], expected_a)
+    np.testing.assert_array_equal(a['duty_b'], expected_b)
+    assert a['duty_b'][50] == 0.7, 'a command logged exactly at a grid time applies there'
+
+
+def test_setpoint_is_held_and_nan_before_the_first(run):
+    a = load_run(run)
+    t = a['time']
+    assert np.isnan(a['setpoint'][t < 0.2 - 1e-9]).all()
+    np.testing.assert_array_equal(a['setpoint'][t >= 0.2 - 1e-9],
+                                  np.where(t[t >= 0.2 - 1e-9] < 0.7 - 1e-9, 0.25, -0.1))
+
+
+def test_ambient_is_held_and_backfilled(run):
+    a = load_run(run)
+    t = a['time']
+    np.testing.assert_array_equal(a['ambient_temperature'],
+                                  np.where(t < 0.6 - 1e-9, 21.5, 22.0))
+
+
+def test_position_is_linearly_interpolated_between_irregular_samples(tmp_path):
+    rng = np.random.default_rng(3)
+    js_ms = np.cumsum(rng.uniform(3.0, 7.0, size=200))  # ~200 Hz with jitter
+    path = _write(tmp_path / 'jitter', _events(js_ms, lambda t: 2.0 - 0.3 * t, DUTY))
+    a = load_run(path, rate_hz=1000.0)
+    np.testing.assert_allclose(np.diff(a['time']), 1e-3, atol=1e-9)
+    t_abs = js_ms[0] * 1e-3 + a['time']
+    np.testing.assert_allclose(a['position'], 2.0 - 0.3 * t_abs, atol=1e-9)
+    assert a['time'][-1] <= (js_ms[-1] - js_ms[0]) * 1e-3 + 1e-9
+
+
+def test_optional_topics_are_left_out_when_not_recorded(tmp_path):
+    path = _write(tmp_path / 'min', _events(range(0, 100, 10), lambda t: t, DUTY))
+    assert sorted(load_run(path)) == ['duty_a', 'duty_b', 'position', 'time']
+
+
+def test_topics_can_be_renamed_and_the_shaft_joint_is_picked(tmp_path):
+    events = _events(range(0, 100, 10), lambda t: t, DUTY, js_topic='/measured/joint_states')
+    events = [(top, ty, _js([9.0, msg['position'][0]], ('elbow', 'shaft'))
+               if 'joint' in top else msg, log) for top, ty, msg, log in events]
+    path = _write(tmp_path / 'renamed', events)
+    with pytest.raises(MissingTopicError, match=r"'/sma/joint_states'.*topics present"):
+        load_run(path)
+    a = load_run(path, topics={'joint_states': '/measured/joint_states'})
+    np.testing.assert_allclose(a['position'], a['time'])
+
+
+def test_same_arrays_from_an_independent_rosbag2_writer(run, tmp_path):
+    store = get_typestore(Stores.ROS2_JAZZY)
+    events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY, SETPOINT, AMBIENT)
+    path = tmp_path / 'rosbag2_run'
+    with RosbagsWriter(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns = {}
+        for topic, type_name, msg, log in events:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, type_name, typestore=store)
+            # bytes from our encoder, decodable by any CDR reader
+            writer.write(conns[topic], log, cdr_encoder(type_name)(msg))
+    ours, theirs = load_run(run), load_run(path)
+    assert list(ours) == list(theirs)
+    for key in ours:
+        np.testing.assert_array_equal(ours[key], theirs[key])
+
+
+def test_a_cut_recording_loads_what_was_recovered(tmp_path):
+    events = _events(range(0, 5001, 1), lambda t: t, [(0, (0.5, 0.0))])
+    path = _write(tmp_path / 'long', events, chunk_size_bytes=4096)
+    data = (path / 'long_0.mcap').read_bytes()
+    (path / 'metadata.yaml').unlink()
+    (path / 'long_0.mcap').write_bytes(data[:len(data) // 2])
+    a = load_run(path)
+    assert 0.5 < a['time'][-1] < 5.0
+    np.testing.assert_allclose(a['position'], a['time'], atol=1e-9)
+
+
+@pytest.mark.parametrize('make, error, problem', [
+    (lambda p: None, BagNotFoundError, 'no such file'),
+    (lambda p: p.write_bytes(b''), TruncatedBagError, 'empty'),
+    (lambda p: p.write_text('time,duty_a\n0,0\n'), NotMcapError, 'not an MCAP file'),
+])
+def test_unreadable_files_are_named(tmp_path, make, error, problem):
+    path = tmp_path / 'bad.mcap'
+    make(path)
+    with pytest.raises(error, match=problem) as info:
+        load_run(path)
+    assert str(path) in str(info.value)
+
+
+def test_file_with_no_complete_chunk_is_truncated(run, tmp_path):
+    data = (run / 'run_0.mcap').read_bytes()
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(data[:200])
+    with pytest.raises(TruncatedBagError, match='nothing was recovered'):
+        load_run(cut)
+
+
+def test_missing_duty_is_named(tmp_path):
+    path = _write(tmp_path / 'noduty', _events(range(0, 100, 10), lambda t: t))
+    with pytest.raises(MissingTopicError, match=r"noduty.*'/sma/duty'"):
+        load_run(path)
+
+
+def test_wrong_type_on_a_topic_is_named(tmp_path):
+    events = _events(range(0, 100, 10), lambda t: t)
+    events.append(('/sma/duty', 'std_msgs/msg/Float64', {'data': 0.5}, T0 + 5 * MS))
+    path = _write(tmp_path / 'wrongtype', events)
+    with pytest.raises(UnknownTypeError, match=r"'/sma/duty' has type 'std_msgs/msg/Float64'"):
+        load_run(path)
+
+
+def test_duty_with_wrong_length_is_named(tmp_path):
+    path = _write(tmp_path / 'd3', _events(range(0, 100, 10), lambda t: t, [(0, (0.1, 0.2, 0.3))]))
+    with pytest.raises(ValueError, match=r'd3.*3 values'):
+        load_run(path)
+
+
+@pytest.mark.parametrize('kwargs, problem', [
+    ({'rate_hz': 0}, 'rate_hz'),
+    ({'rate_hz': float('nan')}, 'rate_hz'),
+    ({'topics': {'duty_cycle': '/x'}}, 'duty_cycle'),
+])
+def test_bad_arguments_are_rejected(run, kwargs, problem):
+    with pytest.raises(ValueError, match=problem):
+        load_run(run, **kwargs)
+
+
+def test_zero_order_hold_semantics():
+    times = np.array([10, 20, 30])
+    values = np.array([1.0, 2.0, 3.0])
+    held = zero_order_hold(times, values, np.array([5, 10, 15, 20, 35]), before=-1.0)
+    np.testing.assert_array_equal(held, [-1.0, 1.0, 1.0, 2.0, 3.0])
