@@ -1,0 +1,103 @@
+"""Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
+
+Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
+
+  1. shaft   Δy* = (φ* − φ0) / g                      contraction difference (step 4)
+  2. split   Δy* >= 0: y_a* = Δy*, wire b idle;  Δy* < 0: y_b* = −Δy* / s_b, wire a idle
+  3. H^-1    u_j* = H^-1[y_j*] from the wire's current hysteresis state (exact inverse of
+             the modified PI, eq. 6, `core.kernels.play_inverse`), θ_j* = u_j* + σ ŷ_other
+  4. thermal d_j = (θ_j* − θa) / G_j                    static map of eq. (7), clipped
+             or, with horizon_s = h > 0, the exact inverse of the thermal step (7d) over h:
+             the duty that takes the estimated θ̂_j to θ_j* in h seconds,
+             d_j = (θ_j* − θa − (θ̂_j − θa) e^{−h/T}) / (G_j (1 − e^{−h/T})).
+             h → ∞ gives the static map back; a finite h also inverts the thermal lag T
+             (faster reversals, where the passive cooling is the bottleneck).
+
+The inverse is stateful. Its state is not advanced by its own targets but by the
+estimated hysteresis inputs of the wires (`track`, fed from `WireEstimator`), so H^-1 is
+always solved from the branch the wire is actually on, even when the thermal lag or the
+guard kept the wire from reaching the previous target. An idle wire gets zero
+feed-forward: holding it at the temperature where y just reaches 0 would only waste heat.
+"""
+import numpy as np
+
+from ..core import kernels
+from ..core.hysteresis import PlayHysteresis
+from ..core.thermal import thermal_step
+from ..core.validate import finite_scalar
+
+# |Δy*| below this counts as "both wires idle": on the flat cold branch any temperature up
+# to the knee gives y = 0, and the inverse would otherwise pick the knee and heat needlessly
+IDLE_CONTRACTION = 1e-3
+
+
+class InverseFeedforward:
+    """Feed-forward duties (d_a, d_b) for a desired shaft angle, from a model `ActuatorParams`."""
+
+    def __init__(self, params, duty_max=1.0, horizon_s=0.0):
+        self.params = params
+        self.horizon_s = horizon_s
+        self.duty_max = finite_scalar('duty_max', duty_max)
+        h = params.hysteresis
+        if (h.w < 0).any() or h.k1 < 0:
+            raise ValueError('model hysteresis is not invertible (negative weights)')
+        self._plays = [PlayHysteresis.from_dict(h.to_dict()) for _ in range(2)]
+        self.reset()
+
+    def reset(self, theta_c=None):
+        """Both wires' inverse state on the cold (lower) branch at θ (default: model ambient)."""
+        theta = self.params.ambient_c if theta_c is None else finite_scalar('theta_c', theta_c)
+        self._u = [theta, theta]
+        for play in self._plays:
+            play.reset(theta)
+
+    def track(self, hysteresis_inputs):
+        """Advance each wire's inverse state along its estimated hysteresis input [°C]."""
+        for j in range(2):
+            self._u[j] = float(hysteresis_inputs[j])
+            self._plays[j].step(self._u[j])
+
+    def target_contractions(self, angle_rad):
+        """Steps 1-2: (y_a*, y_b*); the idle wire's target is None."""
+        p = self.params
+        dy = (finite_scalar('angle_rad', angle_rad) - p.offset_rad) / p.stroke_rad
+        y_max = p.hysteresis.output_range()[1]
+        if abs(dy) <= IDLE_CONTRACTION:
+            return None, None
+        if dy > 0:
+            return min(dy, y_max), None
+        ratio = p.stroke_ratio_b if p.stroke_ratio_b > 0 else 1.0
+        return None, min(-dy / ratio, y_max)
+
+    def _tau(self, j):
+        p = self.params
+        return p.tau_s * (p.tau_ratio_b if j == 1 else 1.0)
+
+    def _gain(self, j):
+        p = self.params
+        return p.gain_k * (p.gain_ratio_b if j == 1 else 1.0)
+
+    def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None):
+        """Steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+        p = self.params
+        amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
+        h = p.hysteresis
+        duties, temps = [0.0, 0.0], [amb, amb]
+        for j, y_star in enumerate(self.target_contractions(angle_rad)):
+            if y_star is None:
+                continue
+            gain = self._gain(j)
+            u_star, _ = kernels.play_inverse(np.array([y_star]), h.r, h.lo, h.hi, h.w, h.k1,
+                                             h.y0, self._plays[j].state, self._u[j],
+                                             amb - 50.0, amb + gain * self.duty_max)
+            theta = float(u_star[0]) + p.stress_k * float(contraction[1 - j])
+            temps[j] = theta
+            if self.horizon_s > 0 and theta_est is not None:
+                a, _ = thermal_step(float(theta_est[j]), 0.0, amb, 0.0, self.horizon_s,
+                                    self._tau(j), 0.0)
+                b = (1.0 - np.exp(-self.horizon_s / self._tau(j))) * gain
+                d = (theta - a) / b
+            else:
+                d = (theta - amb) / gain
+            duties[j] = float(np.clip(d, 0.0, self.duty_max))
+        return tuple(duties), tuple(temps)

@@ -1,0 +1,48 @@
+"""Validation of incoming setpoints and duties: reject bad values, keep the last valid one."""
+import math
+
+
+def setpoint_problem(value, lower, upper):
+    """Why a setpoint [rad] is unusable (NaN, ±inf, outside [lower, upper]), or None if fine."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return f'setpoint {value!r} is not a number'
+    if not math.isfinite(x):
+        return f'setpoint {x} is not finite'
+    if not lower <= x <= upper:
+        return f'setpoint {x:.4g} rad outside [{lower:.4g}, {upper:.4g}]'
+    return None
+
+
+def duty_problem(values):
+    """Why a duty pair is unusable (wrong length, NaN, ±inf, outside [0, 1]), or None."""
+    values = list(values)
+    if len(values) != 2:
+        return f'duty must have 2 entries [duty_a, duty_b], got {len(values)}'
+    for name, d in zip(('duty_a', 'duty_b'), values):
+        if not math.isfinite(d):
+            return f'{name} {d} is not finite'
+        if not 0.0 <= d <= 1.0:
+            return f'{name} {d:.4g} outside [0, 1]'
+    return None
+
+
+class LastValid:
+    """Holds the last accepted value of an input stream and counts rejections."""
+
+    def __init__(self, check, initial=None):
+        self.check = check          # value -> problem string or None
+        self.value = initial
+        self.rejected = 0
+        self.last_problem = None
+
+    def offer(self, value):
+        """Accept `value` if `check` finds no problem; return the problem (None if accepted)."""
+        problem = self.check(value)
+        if problem is None:
+            self.value = value
+        else:
+            self.rejected += 1
+            self.last_problem = problem
+        return problem

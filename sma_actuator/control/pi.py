@@ -1,0 +1,52 @@
+"""Discrete PI controller with anti-windup (the paper's PI, sampling time 25 ms).
+
+    e(k) = r(k) − y(k)
+    v(k) = u_ff(k) + Kp e(k) + I(k)                      unsaturated command
+    u(k) = clip(v(k), u_min, u_max)                      applied command
+    I(k+1) = I(k) + Ki Ts e(k)   unless u is saturated and e pushes further into the limit
+
+Anti-windup is conditional integration (clamping): the integrator freezes while the
+output sits on a limit and the error would drive it further, and the integrator itself
+is kept inside [u_min − u_ff, u_max − u_ff] so a limit change (thermal guard) cannot leave
+a wound-up state behind. Units: e in rad, u in duty (signed, see `split`), Kp in 1/rad,
+Ki in 1/(rad s).
+"""
+from ..core.validate import finite_scalar
+
+
+class DiscretePI:
+    """PI with conditional-integration anti-windup; limits may change every step."""
+
+    def __init__(self, kp, ki):
+        self.set_gains(kp, ki)
+        self.reset()
+
+    def set_gains(self, kp, ki):
+        """Change Kp [1/rad] and Ki [1/(rad s)]; the integral state is kept (bumpless)."""
+        kp, ki = finite_scalar('kp', kp), finite_scalar('ki', ki)
+        if kp < 0 or ki < 0:
+            raise ValueError(f'gains must be non-negative, got kp={kp}, ki={ki}')
+        self.kp, self.ki = kp, ki
+
+    def reset(self, integral=0.0):
+        """Clear the integrator (to `integral`, in command units)."""
+        self.integral = finite_scalar('integral', integral)
+        self.saturated = False
+
+    def step(self, error, dt, u_min, u_max, feedforward=0.0):
+        """One sample: return u(k) in [u_min, u_max] for error e(k) [rad] held over dt [s]."""
+        error, dt = finite_scalar('error', error), finite_scalar('dt', dt)
+        if dt <= 0:
+            raise ValueError(f'dt must be positive, got {dt}')
+        if u_min > u_max:
+            raise ValueError(f'u_min {u_min} exceeds u_max {u_max}')
+        # a limit that moved (thermal guard) must not strand the integrator outside it
+        self.integral = min(max(self.integral, u_min - feedforward), u_max - feedforward)
+        v = feedforward + self.kp * error + self.integral
+        u = min(max(v, u_min), u_max)
+        self.saturated = u != v
+        pushing_out = (v > u_max and error > 0) or (v < u_min and error < 0)
+        if not pushing_out:
+            self.integral += self.ki * dt * error
+            self.integral = min(max(self.integral, u_min - feedforward), u_max - feedforward)
+        return u

@@ -1,0 +1,24 @@
+"""Antagonistic split of a signed command into the two wire duties (Fig. 14).
+
+u > 0 heats wire a (shaft towards +φ), u < 0 heats wire b: duty_a = clip(u, 0, lim_a),
+duty_b = clip(−u, 0, lim_b). `exclusive` then enforces the invariant that the two wires
+are never both driven above a threshold (two hot wires only fight each other and
+overstress the pair): if both exceed it, the smaller one is cut to the threshold.
+"""
+from ..core.validate import finite_scalar
+
+
+def split(u, limit_a=1.0, limit_b=1.0):
+    """Signed command u [duty] -> (duty_a, duty_b), each in [0, its limit]."""
+    u = finite_scalar('u', u)
+    return min(max(u, 0.0), limit_a), min(max(-u, 0.0), limit_b)
+
+
+def exclusive(duty_a, duty_b, threshold):
+    """Enforce min(duty_a, duty_b) <= threshold by cutting the smaller duty."""
+    if duty_a > threshold and duty_b > threshold:
+        if duty_a >= duty_b:
+            duty_b = threshold
+        else:
+            duty_a = threshold
+    return duty_a, duty_b
