@@ -1,0 +1,55 @@
+"""Recorder logic without ROS: which topics to record and where the bag goes."""
+import fnmatch
+import re
+from datetime import datetime
+from pathlib import Path
+from typing import Iterable, Optional, Union
+
+#: Topics recorded by default: the whole /sma namespace and the diagnostics.
+DEFAULT_TOPICS = ('/sma/*', '/diagnostics')
+#: Default bag directory name: run name plus local start time, like rosbag2's default.
+DEFAULT_NAME_TEMPLATE = '{run_name}_{date:%Y_%m_%d-%H_%M_%S}'
+_SAFE_NAME = re.compile(r'^[A-Za-z0-9._-]+$')
+
+
+class TopicSelector:
+    """Decide which topics to record from names and glob patterns (``/sma/*``).
+
+    :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``.
+    :raises ValueError: No pattern, or a pattern that is not an absolute topic name.
+    """
+
+    def __init__(self, patterns: Iterable[str]):
+        self.patterns = [p.strip() for p in patterns if p and p.strip()]
+        if not self.patterns:
+            raise ValueError('no topics to record: give at least one topic name or pattern')
+        bad = [p for p in self.patterns if not p.startswith('/')]
+        if bad:
+            raise ValueError(f'topic patterns must be absolute (start with /): {bad}')
+
+    def matches(self, topic: str) -> bool:
+        """Return True if ``topic`` is to be recorded."""
+        return any(fnmatch.fnmatchcase(topic, p) for p in self.patterns)
+
+
+def bag_directory(output_dir: Union[str, Path], run_name: str,
+                  name_template: str = DEFAULT_NAME_TEMPLATE,
+                  now: Optional[datetime] = None) -> Path:
+    """Return the bag directory ``output_dir/<name>`` with the name made from a template.
+
+    :param name_template: ``str.format`` template with fields ``run_name`` and ``date`` (a
+        datetime, so ``{date:%Y%m%d}`` works).
+    :param now: Time put in ``date``; default: local now.
+    :raises ValueError: Unknown template field, or a name that is empty or holds characters
+        other than letters, digits, ``.``, ``_`` and ``-`` (keeps names portable and stops a
+        run name from escaping ``output_dir``).
+    """
+    try:
+        name = name_template.format(run_name=run_name, date=now or datetime.now())
+    except (KeyError, IndexError, ValueError) as err:
+        raise ValueError(f"bad bag name template '{name_template}': {err!r} (fields: "
+                         '{run_name}, {date:<strftime format>})') from err
+    if not _SAFE_NAME.match(name) or name in ('.', '..'):
+        raise ValueError(f"bag name '{name}' (from template '{name_template}' and run name "
+                         f"'{run_name}') may only hold letters, digits, '.', '_' and '-'")
+    return Path(output_dir) / name

@@ -1,0 +1,207 @@
+"""recorder node: record topics to a rosbag2-compatible MCAP bag (docs/recording.md).
+
+Subscribes (raw, so the CDR bytes are stored as received) to every topic matching ``topics``
+as soon as it has a publisher, with the QoS rosbag2 would request (reliable/transient_local
+only if all publishers offer it), and writes through :class:`sma_actuator.bag.BagWriter`.
+Log time is the node clock at reception, publish time the publisher's source timestamp.
+SIGINT/SIGTERM close the bag properly; after SIGKILL the file is readable up to the last chunk.
+
+Run: ``recorder --ros-args --params-file config/recorder.yaml -p run_name:=step1``
+Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor, then
+``close()`` (or ``destroy_node()``) when the run ends.
+"""
+import functools
+import sys
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from sma_actuator.bag.errors import BagError
+from sma_actuator.bag.msgdefs import type_description_hash
+from sma_actuator.bag.qos import adapt_request_to_offers
+from sma_actuator.bag.recording import (DEFAULT_NAME_TEMPLATE, DEFAULT_TOPICS, TopicSelector,
+                                        bag_directory)
+from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, diagnostics,
+                                          message_class, parameter_overrides, publisher_offers,
+                                          qos_profile)
+from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
+
+PARAMETERS = {
+    'topics': (list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also matches /)',
+               None),
+    'bag_path': ('', 'Bag directory to write; empty: output_dir/<name from name_template>',
+                 None),
+    'output_dir': ('runs', 'Directory in which the bag directory is created', None),
+    'run_name': ('run', 'Run name used in name_template', None),
+    'name_template': (DEFAULT_NAME_TEMPLATE, 'Bag directory name; fields {run_name}, '
+                      '{date:<strftime>}', None),
+    'overwrite': (False, 'Replace an existing bag at the same path (else refuse to start)',
+                  None),
+    'compression': ('zstd', 'Chunk compression: zstd, lz4 or none', None),
+    'chunk_size_bytes': (256 * 1024, 'Close a chunk at this size [bytes]', (1024, 1 << 30)),
+    'chunk_max_age_s': (1.0, 'Close a chunk at this age [s]: bounds data lost on SIGKILL',
+                        (0.0, 60.0)),
+    'max_file_size_bytes': (0, 'Start a new .mcap file past this size [bytes]; 0: never',
+                            (0, 1 << 50)),
+    'max_file_duration_s': (0.0, 'Start a new .mcap file past this span [s]; 0: never',
+                            (0.0, 1e6)),
+    'queue_depth': (1000, 'Subscription queue depth [messages]', (1, 100000)),
+    'discovery_period_s': (0.5, 'Look for new matching topics every this many seconds [s]',
+                           (0.01, 60.0)),
+    'diagnostics_period_s': (1.0, 'Publish /diagnostics every this many seconds [s]',
+                             (0.1, 60.0)),
+}
+
+
+class RecorderNode(Node):
+    """Record matching topics into a bag; see module doc.
+
+    :param context: rclpy context (tests, embedding); default: the global one.
+    :param params: Parameter values by name (same names as config/recorder.yaml).
+    :raises BagError: The bag cannot be created (exists and not overwrite, bad name...).
+    :raises ValueError: An unknown parameter name or a bad value.
+    """
+
+    def __init__(self, *, context=None, node_name='recorder', **params):
+        super().__init__(node_name, context=context,
+                         parameter_overrides=parameter_overrides(PARAMETERS, params))
+        p = declare_parameters(self, PARAMETERS)
+        if p['compression'] not in COMPRESSIONS:
+            raise ValueError(f"compression '{p['compression']}' is not one of "
+                             f'{sorted(COMPRESSIONS)}')
+        self._selector = TopicSelector(p['topics'])
+        path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
+                                              p['name_template'])
+        self.bag = BagWriter(path, compression=p['compression'],
+                             chunk_size_bytes=p['chunk_size_bytes'],
+                             chunk_max_age_s=p['chunk_max_age_s'],
+                             max_file_size_bytes=p['max_file_size_bytes'],
+                             max_file_duration_s=p['max_file_duration_s'],
+                             overwrite=p['overwrite'])
+        self._depth = p['queue_depth']
+        self._recording_subs = {}
+        self._skipped = {}  # topic -> reason, reported once
+        self._write_errors = 0
+        self._closed = False
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.create_timer(p['discovery_period_s'], self._discover)
+        if p['chunk_max_age_s'] > 0:
+            self.create_timer(p['chunk_max_age_s'] / 2, self.bag.flush_if_due)
+        self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics)
+        self.get_logger().info(f'recording {self._selector.patterns} to {self.bag.path}')
+        self._discover()
+
+    @property
+    def recorded_topics(self):
+        """Topics subscribed so far."""
+        return sorted(self._recording_subs)
+
+    def _discover(self):
+        if self._closed:
+            return
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self._recording_subs or not self._selector.matches(topic):
+                continue
+            if len(types) != 1:
+                self._skip(topic, f'has several types {types}; rosbag2 would not record it')
+                continue
+            offers, type_hash = publisher_offers(self, topic)
+            if not offers:
+                continue  # only subscribers so far: QoS unknown, wait for a publisher
+            try:
+                self._subscribe(topic, types[0], offers, type_hash)
+            except BagError as err:
+                self._skip(topic, str(err))
+
+    def _subscribe(self, topic, type_name, offers, type_hash):
+        msg_type = message_class(type_name)
+        installed = type_description_hash(type_name)
+        if type_hash and type_hash != installed:
+            self.get_logger().warning(f"'{topic}': publishers use type hash {type_hash}, the "
+                                      f'installed {type_name} has {installed}; recording anyway')
+        self.bag.add_topic(topic, type_name, offers, type_hash=type_hash or installed)
+        request = adapt_request_to_offers(offers)
+        self._recording_subs[topic] = self.create_subscription(
+            msg_type, topic, functools.partial(self._on_message, topic),
+            qos_profile(request['reliability'], request['durability'], self._depth), raw=True)
+        self.get_logger().info(f"recording '{topic}' ({type_name}, {request['reliability']})")
+
+    def _skip(self, topic, reason):
+        if self._skipped.get(topic) != reason:
+            self._skipped[topic] = reason
+            self.get_logger().error(f"not recording '{topic}': {reason}")
+
+    def _on_message(self, topic, data, info):
+        if self._closed:
+            return
+        log_time = self.get_clock().now().nanoseconds
+        try:
+            self.bag.write(topic, data, log_time, info.get('source_timestamp') or log_time)
+        except (OSError, BagError) as err:
+            self._write_errors += 1
+            self.get_logger().error(f"cannot write '{topic}' message: {err}",
+                                    throttle_duration_sec=5.0)
+
+    def _publish_diagnostics(self):
+        if self._closed:
+            return
+        if self._write_errors:
+            level, text = ERROR, f'{self._write_errors} messages could not be written'
+        elif not self._recording_subs:
+            level, text = WARN, 'no matching topic with a publisher yet'
+        else:
+            level, text = OK, f'recording {len(self._recording_subs)} topics'
+        values = [('bag', self.bag.path), ('messages', self.bag.message_count),
+                  ('bytes_on_disk', self.bag.bytes_on_disk), ('write_errors', self._write_errors)]
+        values += [(f'count {t}', r.message_count) for t, r in self.bag.topics.items()]
+        values += [(f'skipped {t}', reason) for t, reason in self._skipped.items()]
+        self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: recording', level, text,
+                                           values))
+
+    def close(self):
+        """Stop recording and finish the bag (summary, metadata.yaml); idempotent.
+
+        :return: The bag's metadata record (files, topics, counts).
+        """
+        if not self._closed:
+            self._closed = True
+            # The file first: after a signal the context may be down and destroying fail.
+            record = self.bag.close()
+            for sub in self._recording_subs.values():
+                try:
+                    self.destroy_subscription(sub)
+                except Exception:  # noqa: BLE001 - handle already invalid after shutdown
+                    pass
+            self.get_logger().info(f'closed {self.bag.path}: {self.bag.message_count} messages '
+                                   f'on {len(record.topics)} topics')
+        return self.bag.close()
+
+    def destroy_node(self):
+        """Close the bag, then destroy the node."""
+        self.close()
+        super().destroy_node()
+
+
+def main(args=None):
+    """Console entry point: record until SIGINT/SIGTERM, then close the bag."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = RecorderNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (BagError, ValueError) as err:
+        print(f'recorder: {err}', file=sys.stderr)
+        return 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,48 @@
+"""Recorder logic (ROS-free): topic selection and bag naming."""
+from datetime import datetime
+from pathlib import Path
+
+import pytest
+
+from sma_actuator.bag.recording import DEFAULT_TOPICS, TopicSelector, bag_directory
+
+
+def test_default_selection_is_the_sma_namespace_and_diagnostics():
+    selector = TopicSelector(DEFAULT_TOPICS)
+    for topic in ('/sma/duty', '/sma/joint_states', '/sma/wire_temperature', '/diagnostics',
+                  '/sma/sub/topic'):
+        assert selector.matches(topic), topic
+    for topic in ('/rosout', '/parameter_events', '/clock', '/measured/joint_states',
+                  '/diagnostics_agg', '/smart'):
+        assert not selector.matches(topic), topic
+
+
+def test_exact_names_and_patterns_mix():
+    selector = TopicSelector(['/sma/duty', '/measured/*', ''])
+    assert selector.matches('/sma/duty') and selector.matches('/measured/joint_states')
+    assert not selector.matches('/sma/setpoint')
+
+
+@pytest.mark.parametrize('patterns, problem', [([], 'no topics'), (['', ' '], 'no topics'),
+                                               (['sma/*'], 'absolute')])
+def test_bad_selections_are_rejected(patterns, problem):
+    with pytest.raises(ValueError, match=problem):
+        TopicSelector(patterns)
+
+
+def test_bag_name_comes_from_template_with_date_and_run_name():
+    when = datetime(2025, 3, 4, 5, 6, 7)
+    assert bag_directory('runs', 'step1', now=when) == Path('runs/step1_2025_03_04-05_06_07')
+    assert bag_directory('/data', 'x', '{date:%Y%m%d}-{run_name}', when) == Path(
+        '/data/20250304-x')
+
+
+@pytest.mark.parametrize('run_name, template, problem', [
+    ('../../etc', '{run_name}', 'may only hold'),
+    ('a b', '{run_name}', 'may only hold'),
+    ('ok', '{run}', 'bad bag name template'),
+    ('', '{run_name}', 'may only hold'),
+])
+def test_bad_names_are_rejected(run_name, template, problem):
+    with pytest.raises(ValueError, match=problem):
+        bag_directory('runs', run_name, template)
