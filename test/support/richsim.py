@@ -249,7 +249,7 @@ def simulate_profile(duty_a, duty_b, effect='none', magnitude=1.0, rate_hz=40,
     if cmd.min() < 0 or cmd.max() > 1:
         raise ValueError('duty_a/duty_b must lie in [0, 1]')
     pp = _params(params)
-    dur = (cmd.shape[0] - 1) * pp['cmd_dt_s']
+    dur = cmd.shape[0] * pp['cmd_dt_s']
     m, rate, noise, dur = _check_common(effect, magnitude, rate_hz, noise_rad, dur, seed)
     return _run_commands(pp, effect, m, rate, noise, dur, _streams(seed), False, cmd,
                          np.zeros(cmd.shape[0]))

@@ -76,14 +76,15 @@ def thermal_rhs(p, wire, power, th_heat, th_wire, theta_a):
     """d/dt of (heated node, wire node) [K/s].
 
     One node (tau_fast = 0): C dth/dt = P - Q(th).  Two nodes: C1 dth1/dt = P - G (th1 - th2),
-    C2 dth2/dt = G (th1 - th2) - Q(th2), C1 = f C, C2 = (1-f) C, G = C1 C2 / (C tau_fast).
+    C2 dth2/dt = G (th1 - th2) - Q(th2), C1 = f C, C2 = (1-f) C, G = C1 / tau_fast, so the
+    mean lag of th2 behind P grows by exactly tau_fast (first moment: C/hA + C1/G).
     """
     c = wire[W_C]
     if p.tau_fast_s <= 0.0:
         d = (power - heat_loss(p, wire, th_wire, theta_a)) / c
         return d, d
     c1, c2 = p.fast_cap_frac * c, (1.0 - p.fast_cap_frac) * c
-    g = c1 * c2 / (c * p.tau_fast_s)
+    g = c1 / p.tau_fast_s
     flow = g * (th_heat - th_wire)
     return (power - flow) / c1, (flow - heat_loss(p, wire, th_wire, theta_a)) / c2
 
