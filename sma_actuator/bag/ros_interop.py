@@ -8,9 +8,10 @@ from typing import Any, Dict, Iterable, Tuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .errors import UnknownTypeError
 from .msgdefs import split_type_name
@@ -65,7 +66,10 @@ def declare_parameters(node: Node, specs: Dict[str, ParamSpec]) -> Dict[str, Any
         elif limits is not None and isinstance(default, int) and not isinstance(default, bool):
             descriptor.integer_range = [
                 IntegerRange(from_value=int(limits[0]), to_value=int(limits[1]))]
-        values[name] = node.declare_parameter(name, default, descriptor).value
+        try:
+            values[name] = node.declare_parameter(name, default, descriptor).value
+        except (InvalidParameterValueException, InvalidParameterTypeException) as err:
+            raise ValueError(f"parameter '{name}': {err}") from err
     return values
 
 
@@ -82,6 +86,10 @@ def parameter_overrides(specs: Dict[str, ParamSpec], params: Dict[str, Any]):
         default = specs[name][0]
         if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)  # 2 for a double parameter means 2.0
+        if isinstance(value, (list, tuple)) and not value:
+            # rclpy types an empty list as a byte array; these lists are string lists
+            overrides.append(Parameter(name, Parameter.Type.STRING_ARRAY, []))
+            continue
         overrides.append(Parameter(name, value=list(value) if isinstance(value, tuple) else value))
     return overrides
 

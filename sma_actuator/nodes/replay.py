@@ -1,0 +1,242 @@
+"""replay node: play a bag with its original timing (docs/recording.md).
+
+Publishes the stored CDR bytes (no re-serialisation) of each selected topic, on the topic name
+after ``remap``, with the QoS the original publishers offered (as rosbag2 play). Timing,
+rate, loop and start offset come from :class:`sma_actuator.bag.playback.Player`; with
+``clock`` it also publishes ``/clock`` so other nodes can run on sim time.
+
+Safety: when playback ends, is stopped or interrupted, and the duty topic was being played,
+the node publishes duty ``[0, 0]`` on it, so a replay never leaves a wire heated.
+
+Run: ``replay --ros-args -p bag_path:=runs/step1/bag -p rate:=2.0
+-p "remap:=['/sma/joint_states:=/measured/joint_states']"``
+"""
+import signal
+import sys
+import threading
+
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.duration import Duration
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64MultiArray
+
+from sma_actuator.bag.errors import BagError, UnknownTypeError
+from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings
+from sma_actuator.bag.qos import adapt_offer_to_recorded_offers, load_offered_qos_profiles
+from sma_actuator.bag.reader import BagReader
+from sma_actuator.bag.ros_interop import (ERROR, OK, declare_parameters, diagnostics,
+                                          message_class, parameter_overrides, qos_profile)
+
+PARAMETERS = {
+    'bag_path': ('', 'Bag directory or .mcap file to play (required)', None),
+    'rate': (1.0, 'Speed factor: 2.0 plays twice as fast', (0.01, 100.0)),
+    'loop': (False, 'Start again after the last message', None),
+    'start_offset_s': (0.0, 'Skip this much bag time from the start [s]', (0.0, 1e6)),
+    'topics': (Parameter.Type.STRING_ARRAY, 'Topics to play; unset: all in the bag', None),
+    'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
+    'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
+    'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
+    'delay_s': (0.5, 'Wait before the first message so subscribers are matched [s]',
+                (0.0, 60.0)),
+    'zero_duty_on_stop': (True, 'On end/stop publish duty [0, 0] on the (remapped) duty topic',
+                          None),
+    'duty_topic': ('/sma/duty', 'Bag topic that carries the duty commands', None),
+    'diagnostics_period_s': (1.0, 'Publish /diagnostics every this many seconds [s]',
+                             (0.1, 60.0)),
+}
+DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
+
+
+class ReplayNode(Node):
+    """Play a bag; call :meth:`start`, watch :attr:`finished`, :meth:`stop` to abort.
+
+    :param context: rclpy context (tests, embedding); default: the global one.
+    :param params: Parameter values by name (same names as config/replay.yaml).
+    :raises BagError: The bag cannot be read, or asked-for topics are not in it.
+    :raises ValueError: Unknown parameter, bad remapping or option.
+    """
+
+    def __init__(self, *, context=None, node_name='replay', **params):
+        super().__init__(node_name, context=context,
+                         parameter_overrides=parameter_overrides(PARAMETERS, params))
+        p = declare_parameters(self, PARAMETERS)
+        if not p['bag_path']:
+            raise ValueError('bag_path is required: the bag directory or .mcap file to play')
+        self._reader = BagReader(p['bag_path'])
+        for report in self._reader.recoveries:
+            self.get_logger().warning(str(report))
+        remap = parse_remappings(p['remap'] or [])
+        self._topic_out = {}
+        self._replay_pubs = {}
+        for topic in self._select(p['topics'] or []):
+            self._topic_out[topic] = remap.get(topic, topic)
+            self._replay_pubs[topic] = self._publisher_for(topic, self._topic_out[topic])
+        for source in sorted(set(remap) - set(self._topic_out)):
+            self.get_logger().warning(f"remapping of '{source}' unused: topic not played")
+        self._duty_topic = p['duty_topic'] if p['zero_duty_on_stop'] else None
+        if self._duty_topic in self._topic_out and \
+                self._reader.topics[self._duty_topic].type != DUTY_TYPE:
+            raise UnknownTypeError(self._reader.path, f"duty topic '{self._duty_topic}' is not "
+                                                      f'{DUTY_TYPE}; cannot zero it on stop')
+        options = PlaybackOptions(
+            rate=p['rate'], loop=p['loop'], start_offset_s=p['start_offset_s'],
+            clock_period_s=1.0 / p['clock_frequency_hz'] if p['clock'] else None)
+        self._clock_pub = self.create_publisher(
+            Clock, '/clock', QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) \
+            if p['clock'] else None
+        topics = sorted(self._topic_out)
+        first = next(iter(self._reader.messages(topics)), None)
+        self._player = Player(lambda start: self._reader.messages(topics, start),
+                              first.log_time_ns if first else 0, self._publish, options,
+                              on_clock=self._publish_clock)
+        self._delay_s = p['delay_s']
+        self._stop_event = threading.Event()
+        self._zeroed = threading.Lock()
+        self._zero_sent = False
+        self._error = None
+        self.finished = threading.Event()
+        self._worker = None
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics)
+        self.get_logger().info(f'playing {topics} from {self._reader.path} at rate '
+                               f"{p['rate']}" + (f', remapped {remap}' if remap else ''))
+
+    def _select(self, wanted):
+        topics = self._reader.topics
+        missing = sorted(set(wanted) - set(topics))
+        if missing:
+            raise BagError(self._reader.path, f'topics {missing} are not in the bag; it holds '
+                                              f'{sorted(topics)}')
+        selected = []
+        for name in (wanted or sorted(topics)):
+            info = topics[name]
+            problem = None
+            if info.serialization_format != 'cdr':
+                problem = f"is stored as '{info.serialization_format}', not cdr"
+            else:
+                try:
+                    message_class(info.type)
+                except UnknownTypeError as err:
+                    problem = err.problem
+            if problem and wanted:
+                raise UnknownTypeError(self._reader.path, f"topic '{name}' {problem}")
+            if problem:
+                self.get_logger().warning(f"skipping '{name}': {problem}")
+            elif info.message_count:
+                selected.append(name)
+        return selected
+
+    def _publisher_for(self, topic, out_name):
+        info = self._reader.topics[topic]
+        try:
+            offers = load_offered_qos_profiles(info.offered_qos_profiles)
+        except ValueError as err:
+            self.get_logger().warning(f"'{topic}': unreadable recorded QoS ({err}); "
+                                      'publishing reliable')
+            offers = []
+        offer = adapt_offer_to_recorded_offers(offers)
+        return self.create_publisher(message_class(info.type), out_name,
+                                     qos_profile(offer['reliability'], offer['durability'], 100))
+
+    @property
+    def played_topics(self):
+        """Bag topic -> published topic name."""
+        return dict(self._topic_out)
+
+    @property
+    def stats(self):
+        """The player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
+        return self._player.stats
+
+    def start(self):
+        """Start playback in a background thread (after ``delay_s``)."""
+        if self._worker is None:
+            self._worker = threading.Thread(target=self._run, name='replay', daemon=True)
+            self._worker.start()
+
+    def _run(self):
+        try:
+            if not self._stop_event.wait(self._delay_s):
+                self._player.run(self._stop_event)
+        except Exception as err:  # noqa: BLE001 - report, make safe, never die silently
+            self._error = err
+            self.get_logger().error(f'playback failed: {err}')
+        finally:
+            self._send_zero_duty()
+            self.finished.set()
+
+    def _publish(self, msg):
+        self._replay_pubs[msg.topic].publish(msg.data)
+
+    def _publish_clock(self, bag_time_ns):
+        sec, nanosec = divmod(bag_time_ns, 1_000_000_000)
+        self._clock_pub.publish(Clock(clock=Time(sec=sec, nanosec=nanosec)))
+
+    def _send_zero_duty(self):
+        with self._zeroed:
+            if self._zero_sent or self._duty_topic not in self._replay_pubs:
+                return
+            self._zero_sent = True
+            pub = self._replay_pubs[self._duty_topic]
+            pub.publish(Float64MultiArray(data=[0.0, 0.0]))
+            pub.wait_for_all_acked(Duration(seconds=1.0))
+            self.get_logger().info(f"sent duty [0, 0] on '{self._topic_out[self._duty_topic]}'")
+
+    def stop(self):
+        """Stop playback (if running) and make sure the duty is zeroed; idempotent."""
+        self._stop_event.set()
+        if self._worker is not None:
+            self._worker.join(timeout=5.0)
+        self._send_zero_duty()
+
+    def _publish_diagnostics(self):
+        stats = self._player.stats
+        late = np.asarray(stats.lateness_ns[-1000:], dtype=float) * 1e-6
+        state = 'finished' if self.finished.is_set() else 'playing'
+        level, text = (ERROR, f'failed: {self._error}') if self._error else (OK, state)
+        self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: replay', level, text, [
+            ('bag', self._reader.path), ('published', stats.published), ('loops', stats.loops),
+            ('lateness_p99_ms', f'{np.percentile(late, 99):.3f}' if late.size else 'n/a')]))
+
+    def destroy_node(self):
+        """Stop playback (zeroing the duty), then destroy the node."""
+        self.stop()
+        super().destroy_node()
+
+
+def main(args=None):
+    """Console entry point: play the bag; SIGINT/SIGTERM stop it and zero the duty first."""
+    # Own signal handling: rclpy's would shut the context down before the duty is zeroed.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    interrupted = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: interrupted.set())
+    node, code = None, 0
+    try:
+        node = ReplayNode()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        node.start()
+        while not interrupted.is_set() and not node.finished.is_set():
+            executor.spin_once(timeout_sec=0.05)
+        code = 1 if node._error else 0
+    except (BagError, ValueError) as err:
+        print(f'replay: {err}', file=sys.stderr)
+        code = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,174 @@
+"""ReplayNode: stored bytes on (remapped) topics, filter, /clock, QoS, zero duty on stop."""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile, qos_profile_sensor_data  # noqa: E402
+from rclpy.serialization import deserialize_message  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
+
+from sma_actuator.bag.errors import BagError, BagNotFoundError  # noqa: E402
+from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, stamp  # noqa: E402
+from sma_actuator.bag.writer import BagWriter  # noqa: E402
+from sma_actuator.nodes.replay import ReplayNode  # noqa: E402
+
+T0 = 1_650_000_000_000_000_000
+MS = 1_000_000
+ZERO_DUTY = [0.0, 0.0]
+
+
+def _write_bag(path, count=30, period_ms=10):
+    """Duty (reliable), joint states (best effort) and setpoint; returns stored bytes by topic."""
+    stored = {'/sma/duty': [], '/sma/joint_states': [], '/sma/setpoint': []}
+    with BagWriter(path) as bag:
+        bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray', [offered_profile('reliable')])
+        bag.add_topic('/sma/joint_states', 'sensor_msgs/msg/JointState',
+                      [offered_profile('best_effort')])
+        bag.add_topic('/sma/setpoint', 'std_msgs/msg/Float64', [offered_profile('reliable')])
+        for i in range(count):
+            t = T0 + i * period_ms * MS
+            items = [('/sma/duty', {'data': [0.5 + i * 1e-3, 0.0]}),
+                     ('/sma/joint_states', {'header': {'stamp': stamp(t)}, 'name': ['shaft'],
+                                            'position': [0.01 * i], 'velocity': [0.0]}),
+                     ('/sma/setpoint', {'data': 0.1})]
+            for k, (topic, msg) in enumerate(items):
+                type_name = bag.topics[topic].type
+                data = cdr_encoder(type_name)(msg)
+                bag.write(topic, data, t + k * 1000)
+                stored[topic].append(data)
+    return stored
+
+
+def _spin_until(executor, condition, timeout_s=10.0):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.02)
+        if condition():
+            return True
+    return False
+
+
+@pytest.fixture
+def probe(ros_context):
+    """A node recording what arrives (raw) on the topics a replay may publish."""
+    node = Node('probe', context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    got = {}
+    reliable = QoSProfile(depth=100)
+    for topic, ty, qos in [('/sma/duty', Float64MultiArray, reliable),
+                           ('/measured/joint_states', JointState, qos_profile_sensor_data),
+                           ('/sma/joint_states', JointState, qos_profile_sensor_data),
+                           ('/sma/setpoint', Float64, reliable),
+                           ('/clock', Clock, qos_profile_sensor_data)]:
+        got[topic] = []
+        node.create_subscription(ty, topic, lambda d, t=topic: got[t].append(d), qos, raw=True)
+    extra = []
+    yield node, executor, got, extra
+    for other in extra:
+        other.destroy_node()
+    executor.shutdown()
+    node.destroy_node()
+
+
+def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
+    node, executor, got, extra = probe
+    stored = _write_bag(tmp_path / 'bag')
+    replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'), rate=2.0,
+                        topics=['/sma/duty', '/sma/joint_states'], clock=True,
+                        clock_frequency_hz=50.0, delay_s=0.5,
+                        remap=['/sma/joint_states:=/measured/joint_states'])
+    extra.append(replay)
+    executor.add_node(replay)
+    assert replay.played_topics == {'/sma/duty': '/sma/duty',
+                                    '/sma/joint_states': '/measured/joint_states'}
+    offers = {t: replay.get_publishers_info_by_topic(t)[0].qos_profile.reliability.name
+              for t in ('/sma/duty', '/measured/joint_states')}
+    assert offers == {'/sma/duty': 'RELIABLE', '/measured/joint_states': 'BEST_EFFORT'}
+    replay.start()
+    assert _spin_until(executor, replay.finished.is_set)
+    _spin_until(executor, lambda: len(got['/sma/duty']) > len(stored['/sma/duty']), 2.0)
+
+    assert replay.stats.published == 60
+    assert got['/sma/duty'][:-1] == stored['/sma/duty']
+    assert deserialize_message(got['/sma/duty'][-1], Float64MultiArray).data.tolist() == ZERO_DUTY
+    assert got['/measured/joint_states'] == stored['/sma/joint_states']
+    assert got['/sma/joint_states'] == [] and got['/sma/setpoint'] == []
+    clock = [deserialize_message(c, Clock).clock for c in got['/clock']]
+    times = [c.sec * 1_000_000_000 + c.nanosec for c in clock]
+    assert len(times) >= 3 and times == sorted(times)
+    assert T0 <= times[0] and times[-1] <= T0 + 290 * MS
+
+
+def test_stop_mid_playback_zeroes_the_duty(probe, tmp_path):
+    node, executor, got, extra = probe
+    stored = _write_bag(tmp_path / 'bag', count=200, period_ms=20)
+    replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'), delay_s=0.5,
+                        loop=True)
+    extra.append(replay)
+    executor.add_node(replay)
+    replay.start()
+    assert _spin_until(executor, lambda: len(got['/sma/duty']) >= 5)
+    replay.stop()
+    _spin_until(executor, lambda: False, 0.3)
+    duty = [deserialize_message(d, Float64MultiArray).data.tolist() for d in got['/sma/duty']]
+    assert duty[-1] == ZERO_DUTY
+    assert got['/sma/duty'][:-1] == stored['/sma/duty'][:len(duty) - 1]
+    assert replay.stats.stopped
+
+
+def test_bad_requests_are_named(ros_context, tmp_path):
+    _write_bag(tmp_path / 'bag', count=2)
+    with pytest.raises(BagNotFoundError, match='no such file'):
+        ReplayNode(context=ros_context, bag_path=str(tmp_path / 'missing'))
+    with pytest.raises(ValueError, match='bag_path is required'):
+        ReplayNode(context=ros_context)
+    with pytest.raises(BagError, match=r"\['/sma/other'\] are not in the bag"):
+        ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), topics=['/sma/other'])
+    with pytest.raises(ValueError, match="bad remapping 'joint_states'"):
+        ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), remap=['joint_states'])
+    with pytest.raises(ValueError, match="parameter 'rate'.*out of range"):
+        ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), rate=0.0)
+
+
+def _replay_command():
+    script = Path(sys.prefix) / 'lib' / 'sma_actuator' / 'replay'
+    if script.exists():
+        return [str(script)]
+    found = shutil.which('replay')
+    return [found] if found else [sys.executable, '-m', 'sma_actuator.nodes.replay']
+
+
+def test_console_script_interrupted_zeroes_duty_before_exit(probe, tmp_path):
+    node, executor, got, _ = probe
+    _write_bag(tmp_path / 'bag', count=300, period_ms=20)
+    config = Path(__file__).resolve().parents[1] / 'config' / 'replay.yaml'
+    proc = subprocess.Popen(
+        _replay_command() + ['--ros-args', '--params-file', str(config),
+                             '-p', f'bag_path:={tmp_path / "bag"}', '-p', 'loop:=true',
+                             '-p', "remap:=['/sma/joint_states:=/measured/joint_states']"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=dict(os.environ))
+    try:
+        assert _spin_until(executor, lambda: len(got['/sma/duty']) >= 10, 20.0)
+        assert len(got['/measured/joint_states']) > 0 and got['/sma/joint_states'] == []
+        proc.send_signal(signal.SIGINT)
+        output = proc.communicate(timeout=15)[0].decode()
+        _spin_until(executor, lambda: False, 0.3)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+    assert proc.returncode == 0, output
+    last = deserialize_message(got['/sma/duty'][-1], Float64MultiArray).data.tolist()
+    assert last == ZERO_DUTY, output
