@@ -61,9 +61,11 @@ DEFAULTS = {
     'duty_max': 0.5, 'kp': 0.3, 'ki': 0.1, 'd0': 0.22, 'u_knee': 0.1,
     'hyst_centre_c': 60.0, 'hyst_width_k': 26.0, 'hyst_centre_sd_k': 1.5,
     'hyst_width_sd_k': 3.0,
+    'stress_self_weight': 1.0,   # stress_coupling: weight of a wire's own contraction (1: equal
+                                 # tension on a frictionless pulley, 0: antagonist load only)
 }
 _SIGNED = ('ambient_c', 'phi0_rad', 'hyst_centre_c')   # may be negative
-_ZERO_OK = ('d0', 'ki', 'ambient_noise_c')            # may be zero, others > 0
+_ZERO_OK = ('d0', 'ki', 'ambient_noise_c', 'stress_self_weight')            # may be zero, others > 0
 CSV_COLUMNS = ('time', 'duty_a', 'duty_b', 'position', 'ambient_temperature', 'setpoint')
 _CSV_FMT = {'time': '%.6f', 'duty_a': '%.5f', 'duty_b': '%.5f', 'position': '%.6f',
             'ambient_temperature': '%.4f', 'setpoint': '%.6f'}
@@ -150,7 +152,7 @@ def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None):
         adc_bits=pp['adc_bits'], cmd_dt_s=pp['cmd_dt_s'], kp=pp['kp'], ki=pp['ki'],
         d0=pp['d0'], u_knee=pp['u_knee'], u_max=pp['duty_max'], delay_s=0.0, tau_fast_s=0.0,
         fast_cap_frac=0.5, conv_exp=0.0, conv_ref_k=50.0, emissivity=0.0, rho_phase=0.0,
-        stress_k_per_stroke=0.0, stress_self_weight=1.0, fatigue_loss=0.0, fatigue_elong=0.0,
+        stress_k_per_stroke=0.0, stress_self_weight=pp['stress_self_weight'], fatigue_loss=0.0, fatigue_elong=0.0,
         fatigue_n0=0.0, cl_knee_duty=0.0, cl_sharpness=4.0, sens_gain=0.0, sens_sine=0.8,
         sens_quad=0.4, amb0_c=pp['ambient_c'], amb_ramp_k_per_s=0.0, amb_sine_k=0.0,
         amb_period_s=max(duration_s, 1.0), amb_phase_rad=0.0)

@@ -3,7 +3,8 @@
 Open loop: random multilevel duty sequences that heat one wire at a time (the other wire
 gets 0 or a sub-transformation preheat <= 0.12, so both wires are never above 0.2 duty at
 once), mixing fast pulses, slow ramps and sines, nested partial reversals (minor loops),
-fast antagonist switching and rests.  Closed loop: steps, ramps, sines and random setpoints
+fast antagonist switching, co-contraction (one wire held warm at <= 0.2 while the other
+heats) and rests.  Closed loop: steps, ramps, sines and random setpoints
 within +-0.6 rad.  `hard` in [0, 1] (saturation case) replaces that fraction of segments by
 long full-transformation pulses / out-of-reach setpoints that drive both ends of travel.
 """
@@ -82,6 +83,16 @@ def _switch(rng, dt, duty_max):
     return np.vstack(rows)
 
 
+def _cocontract(rng, dt, duty_max):
+    """Co-contraction: contract one wire fully, hold it warm with a 0.15-0.2 duty (around
+    Ms, so it stays mostly austenitic) while the antagonist heats: both wires pull at once."""
+    w = rng.integers(2)
+    hold, level = rng.uniform(0.15, 0.2), _level(rng, duty_max)
+    return np.vstack([_on(w, rng.uniform(0.4, duty_max), 0.0, _n(rng, 2, 5, dt)),
+                      _on(1 - w, level, hold, _n(rng, 2, 6, dt)),
+                      _on(w, 0.0, 0.0, _n(rng, 1, 5, dt))])
+
+
 def _rest(rng, dt, duty_max):
     return _on(0, _preheat(rng), _preheat(rng), _n(rng, 1, 8, dt))
 
@@ -96,8 +107,8 @@ def _hard(rng, dt, duty_max):
     return np.vstack(rows)
 
 
-_OPEN = ((_pulse, 0.25), (_ramp, 0.12), (_sine, 0.1), (_minor, 0.25), (_switch, 0.13),
-         (_rest, 0.15))
+_OPEN = ((_pulse, 0.23), (_ramp, 0.12), (_sine, 0.1), (_minor, 0.22), (_switch, 0.12),
+         (_cocontract, 0.08), (_rest, 0.13))
 
 
 def open_loop_duty(rng, duration_s, cmd_dt_s=0.025, duty_max=0.5, hard=0.0):
