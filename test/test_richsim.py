@@ -24,7 +24,7 @@ def profile(*segments):
 
 def steady_rise_k(duty, p=richsim.DEFAULTS):
     """Expected steady wire temperature rise [K] of the null model: dT = P / hA with
-    P = d R min(V/R, I_max)^2 and hA = C / tau, C = rho pi d^2/4 L c (independent re-derivation)."""
+    P = d R min(V/R, I_max)^2, hA = C / tau, C = rho pi d^2/4 L c (re-derived independently)."""
     r = p['resistance_ohm_per_m'] * p['wire_length_m']
     power = duty * r * min(p['supply_v'] / r, p['i_max_a']) ** 2
     cap = (p['density_kg_m3'] * math.pi * p['wire_diameter_m'] ** 2 / 4 * p['wire_length_m']
@@ -132,9 +132,10 @@ def test_convection_cools_less_near_ambient_and_more_when_hot(duty, hotter):
 
 
 def test_phase_resistance_lowers_power_in_austenite_only():
-    cold = [run(e, 1.0, (15, 0.1, 0.0))['true_temperature_a'][-1] for e in ('none', 'phase_resistance')]
+    effects = ('none', 'phase_resistance')
+    cold = [run(e, 1.0, (15, 0.1, 0.0))['true_temperature_a'][-1] for e in effects]
     assert cold[1] == pytest.approx(cold[0], abs=1e-6)            # martensite: R = R_M
-    hot = [run(e, 1.0, (15, 0.45, 0.0)) for e in ('none', 'phase_resistance')]
+    hot = [run(e, 1.0, (15, 0.45, 0.0)) for e in effects]
     assert hot[1]['true_austenite_a'][-1] > 0.999
     ratio = [(h['true_temperature_a'][-1] - 22.0) for h in hot]
     assert ratio[1] / ratio[0] == pytest.approx(1 / 1.18, rel=0.01)   # P ~ R in current limit
@@ -171,7 +172,8 @@ def test_sensor_nonlinearity_is_a_monotone_few_percent_error():
 
 def test_fatigue_shrinks_the_stroke_and_drifts_the_rest_position():
     segs = ((5, 0.45, 0.0), (5, 0.0, 0.0)) * 12
-    runs = {e: run(e, 1.0, *segs)['true_position'].reshape(12, -1) for e in ('none', 'fatigue_drift')}
+    runs = {e: run(e, 1.0, *segs)['true_position'].reshape(12, -1)
+            for e in ('none', 'fatigue_drift')}
     strokes = {e: p.max(axis=1) - p.min(axis=1) for e, p in runs.items()}
     assert np.ptp(strokes['none']) < 1e-6 and np.ptp(runs['none'][:, -1]) < 1e-6
     first, last = strokes['fatigue_drift'][[0, -1]]
@@ -183,7 +185,8 @@ def test_fatigue_shrinks_the_stroke_and_drifts_the_rest_position():
 def test_current_limit_saturates_power_at_high_duty():
     rise = {}
     for duty in (0.1, 0.45):
-        t = [run(e, 1.0, (15, duty, 0.0))['true_temperature_a'][-1] - 22 for e in ('none', 'current_limit')]
+        t = [run(e, 1.0, (15, duty, 0.0))['true_temperature_a'][-1] - 22
+             for e in ('none', 'current_limit')]
         rise[duty] = t[1] / t[0]
     assert rise[0.1] > 0.99 and rise[0.45] < 0.85
 

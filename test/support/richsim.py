@@ -64,8 +64,8 @@ DEFAULTS = {
     'stress_self_weight': 1.0,   # stress_coupling: weight of a wire's own contraction (1: equal
                                  # tension on a frictionless pulley, 0: antagonist load only)
 }
-_SIGNED = ('ambient_c', 'phi0_rad', 'hyst_centre_c')   # may be negative
-_ZERO_OK = ('d0', 'ki', 'ambient_noise_c', 'stress_self_weight')            # may be zero, others > 0
+_SIGNED = ('ambient_c', 'phi0_rad', 'hyst_centre_c')                # may be negative
+_ZERO_OK = ('d0', 'ki', 'ambient_noise_c', 'stress_self_weight')   # may be 0; others > 0
 CSV_COLUMNS = ('time', 'duty_a', 'duty_b', 'position', 'ambient_temperature', 'setpoint')
 _CSV_FMT = {'time': '%.6f', 'duty_a': '%.5f', 'duty_b': '%.5f', 'position': '%.6f',
             'ambient_temperature': '%.4f', 'setpoint': '%.6f'}
@@ -108,7 +108,8 @@ def wire_row(pp, length_factor=1.0, strain_factor=1.0, h_factor=1.0, fatigue_kap
     cap = pp['density_kg_m3'] * math.pi * d ** 2 / 4 * length * pp['specific_heat_j_kg_k']
     h = pp['density_kg_m3'] * d / 4 * pp['specific_heat_j_kg_k'] / pp['cooling_tau_s']
     row = np.zeros(N_WIRE_FIELDS)
-    row[W_R], row[W_C], row[W_AREA] = pp['resistance_ohm_per_m'] * length, cap, math.pi * d * length
+    row[W_R] = pp['resistance_ohm_per_m'] * length
+    row[W_C], row[W_AREA] = cap, math.pi * d * length
     row[W_HA], row[W_LEN] = h_factor * h * row[W_AREA], length
     row[W_STROKE] = strain_factor * pp['strain_max'] * length
     row[W_FATIGUE] = fatigue_kappa
@@ -125,7 +126,8 @@ def _effect_settings(effect, m, duration_s, rng):
         'delay': {'delay_s': 0.2 * m},
         'convection': {'conv_exp': 0.25 * m, 'emissivity': min(0.3 * m, 0.9)},
         'ambient_drift': {'amb_ramp_k_per_s': rng.choice([-1.0, 1.0]) * 6.0 * m / duration_s,
-                          'amb_sine_k': 4.0 * m, 'amb_period_s': duration_s * rng.uniform(0.5, 1.0),
+                          'amb_sine_k': 4.0 * m,
+                          'amb_period_s': duration_s * rng.uniform(0.5, 1.0),
                           'amb_phase_rad': rng.uniform(0, 2 * math.pi)},
         'phase_resistance': {'rho_phase': 0.18 * m},
         'stress_coupling': {'stress_k_per_stroke': 10.0 * m},
@@ -152,12 +154,14 @@ def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None):
         adc_bits=pp['adc_bits'], cmd_dt_s=pp['cmd_dt_s'], kp=pp['kp'], ki=pp['ki'],
         d0=pp['d0'], u_knee=pp['u_knee'], u_max=pp['duty_max'], delay_s=0.0, tau_fast_s=0.0,
         fast_cap_frac=0.5, conv_exp=0.0, conv_ref_k=50.0, emissivity=0.0, rho_phase=0.0,
-        stress_k_per_stroke=0.0, stress_self_weight=pp['stress_self_weight'], fatigue_loss=0.0, fatigue_elong=0.0,
+        stress_k_per_stroke=0.0, stress_self_weight=pp['stress_self_weight'],
+        fatigue_loss=0.0, fatigue_elong=0.0,
         fatigue_n0=0.0, cl_knee_duty=0.0, cl_sharpness=4.0, sens_gain=0.0, sens_sine=0.8,
         sens_quad=0.4, amb0_c=pp['ambient_c'], amb_ramp_k_per_s=0.0, amb_sine_k=0.0,
         amb_period_s=max(duration_s, 1.0), amb_phase_rad=0.0)
     base.update(over)
-    wires = np.vstack([wire_row(pp, fatigue_kappa=1.0), wire_row(pp, fatigue_kappa=0.35, **wire_b)])
+    wires = np.vstack([wire_row(pp, fatigue_kappa=1.0),
+                       wire_row(pp, fatigue_kappa=0.35, **wire_b)])
     return Plant(**{k: float(v) for k, v in base.items()}), wires, hard
 
 
@@ -166,7 +170,8 @@ _TABLES = {}
 
 def _everett(pp):
     """Everett table for the hysteresis parameters in pp (memoised: ~7 MB, ~50 ms)."""
-    key = tuple(pp[k] for k in ('hyst_centre_c', 'hyst_width_k', 'hyst_centre_sd_k', 'hyst_width_sd_k'))
+    names = ('hyst_centre_c', 'hyst_width_k', 'hyst_centre_sd_k', 'hyst_width_sd_k')
+    key = tuple(pp[k] for k in names)
     if key not in _TABLES:
         _TABLES[key] = everett_table(*key)
     return _TABLES[key]
@@ -239,7 +244,8 @@ def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, ra
         setp = exc.closed_loop_setpoint(streams['excitation'], dur, dt_cmd, hard=hard,
                                         hard_amplitude=1.1)
         cmd = np.zeros((setp.size, 2))
-    return _run_commands(pp, effect, m, rate, noise, dur, streams, excitation == 'closed', cmd, setp)
+    closed = excitation == 'closed'
+    return _run_commands(pp, effect, m, rate, noise, dur, streams, closed, cmd, setp)
 
 
 def simulate_profile(duty_a, duty_b, effect='none', magnitude=1.0, rate_hz=40,

@@ -37,6 +37,7 @@ def _level(rng, duty_max):
 
 
 def _pulse(rng, dt, duty_max):
+    """One wire on at a random level for 0.5-8 s, then off for 0.5-8 s."""
     w, pre = rng.integers(2), _preheat(rng)
     level = _level(rng, duty_max)
     return np.vstack([_on(w, level, pre, _n(rng, 0.5, 8, dt)),
@@ -44,6 +45,7 @@ def _pulse(rng, dt, duty_max):
 
 
 def _ramp(rng, dt, duty_max):
+    """Slow triangular ramp 0 -> level -> 0 (3-15 s each way): quasi-static major loop."""
     w, level = rng.integers(2), rng.uniform(0.3, duty_max)
     up, down = _n(rng, 3, 15, dt), _n(rng, 3, 15, dt)
     prof = np.concatenate([np.linspace(0, level, up), np.full(_n(rng, 0.5, 3, dt), level),
@@ -94,6 +96,7 @@ def _cocontract(rng, dt, duty_max):
 
 
 def _rest(rng, dt, duty_max):
+    """Both wires off or slightly preheated for 1-8 s."""
     return _on(0, _preheat(rng), _preheat(rng), _n(rng, 1, 8, dt))
 
 
@@ -128,14 +131,17 @@ def open_loop_duty(rng, duration_s, cmd_dt_s=0.025, duty_max=0.5, hard=0.0):
 
 
 def _sp_step(rng, dt, amp, cur):
+    """Constant setpoint for 2-10 s."""
     return np.full(_n(rng, 2, 10, dt), rng.uniform(-amp, amp))
 
 
 def _sp_ramp(rng, dt, amp, cur):
+    """Linear ramp from the current setpoint to a random one over 3-15 s."""
     return np.linspace(cur, rng.uniform(-amp, amp), _n(rng, 3, 15, dt))
 
 
 def _sp_sine(rng, dt, amp, cur):
+    """c + a sin(2 pi f t), f ~ U(0.02, 0.12) Hz, |c| + a <= amp, for 10-30 s."""
     a = rng.uniform(0.1, 0.5 * amp / 0.6)
     c = rng.uniform(-(amp - a), amp - a)
     t = np.arange(_n(rng, 10, 30, dt)) * dt
@@ -143,12 +149,14 @@ def _sp_sine(rng, dt, amp, cur):
 
 
 def _sp_random(rng, dt, amp, cur):
+    """3-7 random levels held 0.5-3 s each."""
     parts = [np.full(_n(rng, 0.5, 3, dt), rng.uniform(-amp, amp))
              for _ in range(int(rng.integers(3, 8)))]
     return np.concatenate(parts)
 
 
 def _sp_zero(rng, dt, amp, cur):
+    """Setpoint 0 (both wires relax) for 2-6 s."""
     return np.zeros(_n(rng, 2, 6, dt))
 
 

@@ -65,9 +65,11 @@ def heat_loss(p, wire, theta, theta_a):
     if p.conv_exp == 0.0:
         q = wire[W_HA] * dt_k
     else:
-        q = wire[W_HA] * p.conv_ref_k * math.copysign(abs(dt_k / p.conv_ref_k) ** (1.0 + p.conv_exp), dt_k)
+        rel = abs(dt_k / p.conv_ref_k) ** (1.0 + p.conv_exp)
+        q = wire[W_HA] * p.conv_ref_k * math.copysign(rel, dt_k)
     if p.emissivity > 0.0:
-        q += p.emissivity * SIGMA_SB * wire[W_AREA] * ((theta + 273.15) ** 4 - (theta_a + 273.15) ** 4)
+        t4 = (theta + 273.15) ** 4 - (theta_a + 273.15) ** 4
+        q += p.emissivity * SIGMA_SB * wire[W_AREA] * t4
     return q
 
 
@@ -102,7 +104,10 @@ def rk4_thermal(p, wire, power, th1, th2, theta_a, dt):
 
 @njit(cache=True)
 def sensor_ideal(p, phi):
-    """Potentiometer reading before noise/ADC [rad]: y = phi + g*FS*(s sin(pi x) + q x^2), x = phi/half."""
+    """Potentiometer reading before noise/ADC [rad].
+
+    y = phi + g FS (s sin(pi x) + q x^2), x = phi/half, FS = 2 half (g = 0: ideal).
+    """
     if p.sens_gain == 0.0:
         return phi
     x = phi / p.adc_half_range_rad
@@ -112,7 +117,7 @@ def sensor_ideal(p, phi):
 
 @njit(cache=True)
 def adc(p, y):
-    """Clip to +-half range and quantise with 2^bits mid-tread codes: y_q = (code + 1/2) LSB - half."""
+    """Clip to +-half and quantise: y_q = (code + 1/2) LSB - half, LSB = 2 half / 2^bits."""
     half = p.adc_half_range_rad
     n_codes = 2.0 ** p.adc_bits
     lsb = 2.0 * half / n_codes
