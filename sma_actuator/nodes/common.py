@@ -1,0 +1,105 @@
+"""Helpers shared by the nodes: topic names, QoS, parameter descriptors, diagnostics, config."""
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType)
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+# topic names (issue 3); kept in one place so nodes, tests and the demo agree
+SETPOINT = '/sma/setpoint'
+DUTY = '/sma/duty'
+JOINT_STATES = '/sma/joint_states'
+WIRE_TEMPERATURE = '/sma/wire_temperature'
+AMBIENT_TEMPERATURE = '/sma/ambient_temperature'
+DIAGNOSTICS = '/diagnostics'
+CLOCK = '/clock'
+JOINT_NAME = 'shaft'
+WIRE_FRAMES = ('wire_a', 'wire_b')
+
+# feedback streams: newest sample wins, a lost one is not worth a retransmission
+SENSOR_QOS = qos_profile_sensor_data
+# commands: every setpoint and duty must arrive (a lost "zero duty" would leave heat on)
+COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+
+OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
+
+
+def declare_float(node, name, default, description, lo=None, hi=None, read_only=False):
+    """Declare a double parameter with a described range [lo, hi]; return its value."""
+    d = ParameterDescriptor(description=description, type=ParameterType.PARAMETER_DOUBLE,
+                            read_only=read_only)
+    if lo is not None:
+        d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi))]
+    return node.declare_parameter(name, float(default), d).value
+
+
+def declare_int(node, name, default, description, lo, hi, read_only=False):
+    """Declare an integer parameter with a range [lo, hi]; return its value."""
+    d = ParameterDescriptor(description=description, type=ParameterType.PARAMETER_INTEGER,
+                            read_only=read_only,
+                            integer_range=[IntegerRange(from_value=int(lo), to_value=int(hi))])
+    return node.declare_parameter(name, int(default), d).value
+
+
+def declare_bool(node, name, default, description, read_only=False):
+    """Declare a bool parameter; return its value."""
+    d = ParameterDescriptor(description=description, type=ParameterType.PARAMETER_BOOL,
+                            read_only=read_only)
+    return node.declare_parameter(name, bool(default), d).value
+
+
+def declare_str(node, name, default, description, choices=None, read_only=False):
+    """Declare a string parameter (choices listed in the description); return its value."""
+    if choices:
+        description = f'{description} One of: {", ".join(choices)}.'
+    d = ParameterDescriptor(description=description, type=ParameterType.PARAMETER_STRING,
+                            read_only=read_only, additional_constraints=(
+                                f'one of {list(choices)}' if choices else ''))
+    value = node.declare_parameter(name, str(default), d).value
+    if choices and value not in choices:
+        raise ValueError(f'parameter {name}={value!r} must be one of {list(choices)}')
+    return value
+
+
+def stamp_to_s(stamp):
+    """builtin_interfaces/Time -> seconds (float)."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def config_path(name):
+    """Path of a file in the package's config/: the installed share dir, else the source tree."""
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        p = Path(get_package_share_directory('sma_actuator')) / 'config' / name
+        if p.exists():
+            return p
+    except Exception:   # not on an ament index (plain venv): fall back to the source tree
+        pass
+    return Path(__file__).resolve().parents[2] / 'config' / name
+
+
+class Diagnostics:
+    """Publishes one DiagnosticStatus (`<node>: <name>`) on /diagnostics."""
+
+    def __init__(self, node, name, hardware_id='sma_actuator'):
+        self.node = node
+        self.name = f'{node.get_name()}: {name}'
+        self.hardware_id = hardware_id
+        self.pub = node.create_publisher(DiagnosticArray, DIAGNOSTICS, DIAGNOSTICS_QOS)
+
+    def publish(self, level, message, values=None, stamp=None):
+        """Send level (OK/WARN/ERROR), message and key values (str() of each value)."""
+        msg = DiagnosticArray()
+        msg.header.stamp = stamp or self.node.get_clock().now().to_msg()
+        status = DiagnosticStatus(level=level, name=self.name, message=message,
+                                  hardware_id=self.hardware_id)
+        status.values = [KeyValue(key=k, value=_fmt(v)) for k, v in (values or {}).items()]
+        msg.status = [status]
+        self.pub.publish(msg)
+
+
+def _fmt(v):
+    return f'{v:.6g}' if isinstance(v, float) else str(v)

@@ -1,0 +1,221 @@
+"""controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
+
+The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
+sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
+plant publishes at 40 Hz), and publishes /sma/duty at once, so the output lags the
+feedback by the computation only. The `period_s` timer on the node clock (sim time
+with use_sim_time) is the watchdog: no valid joint state for `feedback_timeout_s` ->
+zero duty on every tick + diagnostics ERROR until feedback returns.
+
+Setpoints that are NaN/inf/outside [setpoint_min_rad, setpoint_max_rad] are rejected
+(log + diagnostics WARN) and the last valid setpoint is kept. Mode, gains and limits are
+parameters that can be changed at runtime (validated; an invalid set is refused).
+"""
+import time
+from collections import deque
+from dataclasses import fields
+
+import rclpy
+import yaml
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rcl_interfaces.msg import SetParametersResult
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64, Float64MultiArray
+
+from ..control.core import MODES, ControllerCore, ControllerSettings
+from ..control.inputs import LastValid, setpoint_problem
+from ..core.actuator import ActuatorParams
+from . import common as c
+
+# runtime-tunable settings: (name, range or None, description)
+TUNABLE = (
+    ('kp', 0.0, 100.0, 'Proportional gain [duty/rad].'),
+    ('ki', 0.0, 100.0, 'Integral gain [duty/(rad s)].'),
+    ('duty_max', 0.0, 1.0, 'Per-wire duty limit.'),
+    ('both_threshold', 0.0, 1.0, 'The two duties are never both above this.'),
+    ('max_temp_c', 30.0, 200.0, 'Thermal guard: estimated wire temperature limit [°C].'),
+    ('guard_horizon_s', 0.05, 10.0, 'Thermal guard look-ahead [s].'),
+    ('on_off_band_rad', 0.0, 1.0, 'on_off: relay half-band on the setpoint [rad].'),
+    ('on_off_duty', 0.0, 1.0, 'on_off: duty of the heated wire.'),
+    ('ff_horizon_s', 0.0, 10.0, 'pi_inverse: thermal inverse horizon [s]; 0 = static map.'),
+)
+
+
+class Controller(Node):
+    """Controller node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('controller', **kwargs)
+        d = ControllerSettings()
+        mode = c.declare_str(self, 'mode', d.mode, 'Control mode.', MODES)
+        values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
+                  for name, lo, hi, desc in TUNABLE}
+        self.period_s = c.declare_float(self, 'period_s', 0.025, 'Control period and watchdog '
+                                        'timer [s].', 0.001, 1.0, read_only=True)
+        self.feedback_timeout_s = c.declare_float(
+            self, 'feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR.',
+            0.01, 10.0)
+        self.sp_min = c.declare_float(self, 'setpoint_min_rad', -1.0, 'Lowest accepted '
+                                      'setpoint [rad].', -3.2, 3.2, read_only=True)
+        self.sp_max = c.declare_float(self, 'setpoint_max_rad', 1.0, 'Highest accepted '
+                                      'setpoint [rad].', -3.2, 3.2, read_only=True)
+        initial = c.declare_float(self, 'initial_setpoint_rad', 0.0, 'Setpoint until one '
+                                  'arrives [rad].', -3.2, 3.2, read_only=True)
+        model_file = c.declare_str(self, 'model_file', '', 'Identified model YAML (Actuator'
+                                   'Params.to_dict); empty: config/controller_model.yaml.',
+                                   read_only=True)
+        self.use_ambient_topic = c.declare_bool(self, 'use_ambient_topic', False, 'Feed '
+                                                '/sma/ambient_temperature to the model.',
+                                                read_only=True)
+        self.model_path = model_file or str(c.config_path('controller_model.yaml'))
+        with open(self.model_path) as f:
+            model = ActuatorParams.from_dict(yaml.safe_load(f))
+        self.core = ControllerCore(model, ControllerSettings(mode=mode, **values))
+        self.setpoint = LastValid(lambda v: setpoint_problem(v, self.sp_min, self.sp_max), initial)
+        if setpoint_problem(initial, self.sp_min, self.sp_max):
+            raise ValueError('initial_setpoint_rad outside [setpoint_min_rad, setpoint_max_rad]')
+        self.ambient_c = None
+        self.last_feedback = None     # node-clock time [s] of the last valid joint state
+        self.last_sample = None       # header stamp [s] of the last sample used for control
+        self.last_step = None
+        self.stale = False
+        self.rejected_feedback = 0
+        # measurement hooks read by the latency benchmark (steady clock, seconds)
+        self.latencies = deque(maxlen=100000)
+        self.tick_intervals = deque(maxlen=100000)
+        self._last_tick_wall = None
+
+        self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        self.diag = c.Diagnostics(self, 'controller')
+        self.create_subscription(Float64, c.SETPOINT, self.on_setpoint, c.COMMAND_QOS)
+        self.create_subscription(JointState, c.JOINT_STATES, self.on_joint_state, c.SENSOR_QOS)
+        if self.use_ambient_topic:
+            self.create_subscription(Temperature, c.AMBIENT_TEMPERATURE, self.on_ambient,
+                                     c.SENSOR_QOS)
+        self.add_on_set_parameters_callback(self.on_set_parameters)
+        self.create_timer(self.period_s, self.on_watchdog)
+        self.create_timer(1.0, self.publish_status)
+        self.get_logger().info(f'controller mode {mode}, model {self.model_path}')
+
+    def now_s(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # inputs ---------------------------------------------------------------------------
+    def on_setpoint(self, msg):
+        problem = self.setpoint.offer(msg.data)
+        if problem:
+            self.get_logger().warn(f'rejected setpoint: {problem}; keeping '
+                                   f'{self.setpoint.value:.4g} rad')
+            self.diag.publish(c.WARN, f'rejected setpoint: {problem}', self._status())
+
+    def on_ambient(self, msg):
+        if -40.0 <= msg.temperature <= 80.0:    # NaN fails both comparisons
+            self.ambient_c = msg.temperature
+
+    def on_joint_state(self, msg):
+        arrival = time.perf_counter()
+        try:
+            position = msg.position[list(msg.name).index(c.JOINT_NAME)]
+        except (ValueError, IndexError):
+            position = float('nan')
+        if not -3.2 <= position <= 3.2:          # also rejects NaN/inf
+            self.rejected_feedback += 1
+            self.get_logger().warn(f'rejected joint state (shaft position {position})',
+                                   throttle_duration_sec=1.0)
+            return
+        self.last_feedback = self.now_s()
+        stamp = c.stamp_to_s(msg.header.stamp)
+        if self.last_sample is not None and stamp - self.last_sample < 0.75 * self.period_s:
+            return                                # faster feedback than the control period
+        dt = self.period_s if self.last_sample is None else stamp - self.last_sample
+        self.last_sample = stamp
+        dt = min(max(dt, 0.25 * self.period_s), self.feedback_timeout_s)
+        if self.stale:
+            self.stale = False
+            self.get_logger().info('feedback back: control resumed')
+        out = self.core.step(self.setpoint.value, position, dt, self.ambient_c)
+        self.last_step = out
+        self.duty_pub.publish(Float64MultiArray(data=[out.duty_a, out.duty_b]))
+        self.latencies.append(time.perf_counter() - arrival)
+
+    # watchdog -------------------------------------------------------------------------
+    def on_watchdog(self):
+        wall = time.perf_counter()
+        if self._last_tick_wall is not None:
+            self.tick_intervals.append(wall - self._last_tick_wall)
+        self._last_tick_wall = wall
+        now = self.now_s()
+        if self.last_feedback is not None and now - self.last_feedback <= self.feedback_timeout_s:
+            return
+        first = not self.stale
+        self.stale = True
+        self.last_sample = None
+        self.last_step = self.core.idle(self.period_s, self.ambient_c)
+        self.duty_pub.publish(Float64MultiArray(data=[0.0, 0.0]))
+        if first:
+            self._report_stale()
+
+    def _report_stale(self):
+        if self.last_feedback is None:
+            self.diag.publish(c.WARN, 'waiting for joint states: zero duty', self._status())
+        else:
+            self.get_logger().error(f'no joint state for > {self.feedback_timeout_s:g} s: '
+                                    'zero duty')
+            self.diag.publish(c.ERROR, 'stale feedback: zero duty', self._status())
+
+    def publish_status(self):
+        if self.stale:
+            self._report_stale()
+        else:
+            self.diag.publish(c.OK, f'mode {self.core.settings.mode}', self._status())
+
+    def _status(self):
+        s = self.last_step
+        out = {'mode': self.core.settings.mode, 'setpoint_rad': float(self.setpoint.value),
+               'rejected_setpoints': self.setpoint.rejected,
+               'rejected_joint_states': self.rejected_feedback}
+        if s is not None:
+            out.update(duty_a=s.duty_a, duty_b=s.duty_b, error_rad=s.error,
+                       theta_est_a_c=float(s.theta_est_c[0]),
+                       theta_est_b_c=float(s.theta_est_c[1]),
+                       limit_a=float(s.limits[0]), limit_b=float(s.limits[1]),
+                       guard_active=s.guard_active)
+        return out
+
+    # parameters -----------------------------------------------------------------------
+    def on_set_parameters(self, params):
+        names = {f.name for f in fields(ControllerSettings)}
+        changes = {p.name: p.value for p in params if p.name in names}
+        for p in params:
+            if p.name == 'feedback_timeout_s':
+                self.feedback_timeout_s = p.value   # range checked by its descriptor
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            self.core.configure(**changes)
+        except (ValueError, TypeError) as e:
+            return SetParametersResult(successful=False, reason=str(e))
+        self.get_logger().info(f'settings changed: {changes}')
+        return SetParametersResult(successful=True)
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = Controller()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            # last word on the duty topic: heat off (the plant's timeout is the backstop)
+            if rclpy.ok():
+                node.duty_pub.publish(Float64MultiArray(data=[0.0, 0.0]))
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

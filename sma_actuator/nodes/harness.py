@@ -1,0 +1,123 @@
+"""In-process closed loop for the demo, the benchmarks and the tests.
+
+`run_closed_loop` puts plant_sim (accelerated: it owns time and publishes /clock),
+controller and setpoint (both on use_sim_time) plus a `TraceProbe` on one executor, spins
+until `duration_s` of sim time have passed and returns the probe's `Trace`. The nodes
+talk only over the real topics. `attach` hooks let a caller add more nodes (e.g. a bag
+recorder) to the same executor for the run.
+"""
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64, Float64MultiArray
+
+from . import common as c
+from .controller import Controller
+from .plant_sim import PlantSim
+from .setpoint import Setpoint
+
+
+@dataclass
+class Trace:
+    """Samples seen on the topics, on the plant's (sim) time axis [s]."""
+    time_s: list = field(default_factory=list)       # joint-state stamps
+    position: list = field(default_factory=list)     # measured shaft angle [rad]
+    setpoint: list = field(default_factory=list)     # latest setpoint at that stamp [rad]
+    duty: list = field(default_factory=list)         # latest duty pair at that stamp
+    theta: list = field(default_factory=list)        # latest plant wire temperatures [°C]
+
+    def arrays(self):
+        """Dict of numpy arrays (duty and theta as (n, 2))."""
+        return {k: np.asarray(getattr(self, k), dtype=float).reshape(len(self.time_s), -1)
+                .squeeze() if k in ('time_s', 'position', 'setpoint')
+                else np.asarray(getattr(self, k), dtype=float).reshape(-1, 2)
+                for k in ('time_s', 'position', 'setpoint', 'duty', 'theta')}
+
+
+class TraceProbe(Node):
+    """Listens to setpoint, duty, wire temperatures and joint states; one row per joint state."""
+
+    def __init__(self, **kwargs):
+        super().__init__('trace_probe', **kwargs)
+        self.trace = Trace()
+        self.setpoint = None
+        self.duty = (0.0, 0.0)
+        self.theta = [float('nan'), float('nan')]
+        self.create_subscription(Float64, c.SETPOINT, self._sp, c.COMMAND_QOS)
+        self.create_subscription(Float64MultiArray, c.DUTY, self._duty, c.COMMAND_QOS)
+        self.create_subscription(Temperature, c.WIRE_TEMPERATURE, self._temp, c.SENSOR_QOS)
+        self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
+
+    def _sp(self, msg):
+        self.setpoint = msg.data
+
+    def _duty(self, msg):
+        self.duty = tuple(msg.data)
+
+    def _temp(self, msg):
+        if msg.header.frame_id in c.WIRE_FRAMES:
+            self.theta[c.WIRE_FRAMES.index(msg.header.frame_id)] = msg.temperature
+
+    def _js(self, msg):
+        if self.setpoint is None:      # the loop starts with the first setpoint
+            return
+        t = self.trace
+        t.time_s.append(c.stamp_to_s(msg.header.stamp))
+        t.position.append(msg.position[0])
+        t.setpoint.append(self.setpoint)
+        t.duty.append(self.duty)
+        t.theta.append(tuple(self.theta))
+
+    def sim_time(self):
+        return self.trace.time_s[-1] - self.trace.time_s[0] if self.trace.time_s else 0.0
+
+
+def _overrides(d):
+    return [Parameter(k, value=v) for k, v in (d or {}).items()]
+
+
+def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20.0,
+                    plant=None, controller=None, setpoint=None, attach=(), wall_timeout_s=None):
+    """Run one closed-loop experiment; return the `Trace`.
+
+    profile: dict of setpoint parameters (profile, amplitude, offset, period_s, delay_s...);
+    plant / controller / setpoint: extra parameter overrides of each node; attach:
+    callables node_factory(context) -> Node added to the executor for this run (and
+    destroyed after it).
+    """
+    sim = [Parameter('use_sim_time', value=True)]
+    # no parameter services: nothing sets parameters during a run, and 6 services per node
+    # would double the executor's wait set (its rebuild is most of the per-step cost)
+    kw = dict(context=context, start_parameter_services=False)
+    nodes = []
+    executor = SingleThreadedExecutor(context=context)
+    try:
+        probe = TraceProbe(**kw, parameter_overrides=sim)
+        nodes.append(probe)
+        nodes.append(Controller(**kw, parameter_overrides=sim + _overrides(
+            {'mode': mode, **(controller or {})})))
+        nodes.append(Setpoint(**kw, parameter_overrides=sim + _overrides(
+            {**profile, **(setpoint or {})})))
+        nodes.extend(factory(context) for factory in attach)
+        nodes.append(PlantSim(**kw, parameter_overrides=_overrides(
+            {'accelerated': True, 'lockstep': True,
+             'real_time_factor': float(real_time_factor), **(plant or {})})))
+        for n in nodes:
+            executor.add_node(n)
+        limit = wall_timeout_s or 10.0 + 5.0 * duration_s / real_time_factor
+        deadline = time.monotonic() + limit
+        while probe.sim_time() < duration_s:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f'closed loop reached {probe.sim_time():.1f} of '
+                                   f'{duration_s:g} sim s in {limit:.0f} wall s')
+            executor.spin_once(timeout_sec=0.05)
+        return probe.trace
+    finally:
+        executor.shutdown()
+        for n in nodes:
+            n.destroy_node()

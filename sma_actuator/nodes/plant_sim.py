@@ -1,0 +1,238 @@
+"""plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
+
+Publishes /sma/joint_states (joint `shaft`: position = potentiometer + ADC reading,
+velocity = finite difference of consecutive *sensed* positions, as a real pot/ADC chain
+would give), /sma/wire_temperature (wire_a, wire_b: simulated, not sensed) and
+/diagnostics. Every physical effect of `ActuatorParams` is a read-only parameter.
+
+Time: normally the node clock (wall, or /clock with use_sim_time). With `accelerated`
+the plant owns time: it steps sim time by 1/rate_hz on a wall-clock timer running
+`real_time_factor` times faster and publishes /clock; the other nodes use use_sim_time.
+With `lockstep` it also waits (up to `lockstep_timeout_s` wall time) for the duty reply
+to its last joint state before the next step, so the loop sees the same one-sample
+delay on any host instead of whatever the executor's scheduling gives.
+
+Safety: a duty that is NaN/inf/outside [0, 1] is rejected (log + WARN) and the last valid
+one kept; if no valid duty arrived for `duty_timeout_s` (plant time) zero duty is applied,
+so a dead controller never leaves a wire heated.
+"""
+import math
+import time
+
+import numpy as np
+import rclpy
+import yaml
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64MultiArray, Header
+
+from ..control.inputs import LastValid, duty_problem
+from ..core.actuator import ActuatorParams, AntagonisticActuator
+from ..core.sensor import Potentiometer
+from . import common as c
+
+# (parameter, range, description) for every switchable effect of ActuatorParams
+EFFECTS = (
+    ('tau_fast_s', 0.0, 2.0, 'fast dynamics: lag on the heat input [s] (Fig. 13 tau)'),
+    ('delay_s', 0.0, 1.0, 'transport delay of the measured position [s]'),
+    ('convection_beta_per_k', 0.0, 0.05, 'convection: hA(θ) = hA0 (1 + β (θ − θa)) [1/K]'),
+    ('ambient_gain', 0.0, 2.0, 'weight of measured ambient deviations'),
+    ('phase_kappa', 0.0, 1.0, 'phase resistance: heating factor 1 + κ (1 − y)'),
+    ('stress_k', 0.0, 50.0, 'stress coupling: hysteresis shift per unit antagonist contraction [K]'),
+    ('gain_ratio_b', 0.5, 2.0, 'asymmetric wires: heating gain of wire b relative to a'),
+    ('tau_ratio_b', 0.5, 2.0, 'asymmetric wires: time constant of wire b relative to a'),
+    ('stroke_ratio_b', 0.5, 2.0, 'asymmetric wires: stroke of wire b relative to a'),
+    ('sensor_c2_rad', -0.2, 0.2, 'potentiometer quadratic term [rad at 1 rad]'),
+    ('sensor_c3_rad', -0.2, 0.2, 'potentiometer cubic term [rad at 1 rad]'),
+    ('fatigue_offset_rad_per_h', -0.1, 0.1, 'fatigue: zero drift per hour of operation [rad/h]'),
+    ('fatigue_stroke_per_h', 0.0, 0.1, 'fatigue: stroke loss fraction per hour of operation'),
+    ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
+)
+
+
+class PlantSim(Node):
+    """Simulated actuator node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('plant_sim', **kwargs)
+        self.rate_hz = c.declare_float(self, 'rate_hz', 40.0, 'Publication and step rate [Hz].',
+                                       1.0, 1000.0, read_only=True)
+        self.accelerated = c.declare_bool(
+            self, 'accelerated', False, 'Own the time: step sim time on a wall timer and '
+            'publish /clock (other nodes: use_sim_time).', read_only=True)
+        self.rtf = c.declare_float(self, 'real_time_factor', 10.0, 'Sim seconds per wall '
+                                   'second in accelerated mode.', 0.1, 1000.0, read_only=True)
+        self.lockstep = c.declare_bool(
+            self, 'lockstep', False, 'Accelerated mode: advance only after the duty reply to '
+            'the last joint state arrived (or lockstep_timeout_s wall seconds passed), so the '
+            'loop delay does not depend on the host speed.', read_only=True)
+        self.lockstep_timeout_s = c.declare_float(
+            self, 'lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
+            0.001, 10.0, read_only=True)
+        self.duty_timeout_s = c.declare_float(
+            self, 'duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero '
+            'duty.', 0.01, 10.0)
+        model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
+                                   'to_dict) for the plant; the effect parameters override it.',
+                                   read_only=True)
+        ambient = c.declare_float(self, 'ambient_c', 22.0, 'Nominal ambient temperature [°C].',
+                                  -40.0, 80.0, read_only=True)
+        self.use_ambient_topic = c.declare_bool(
+            self, 'use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
+            read_only=True)
+        bits = c.declare_int(self, 'adc_bits', 12, 'ADC resolution [bit].', 4, 24, read_only=True)
+        noise = c.declare_float(self, 'noise_rad', 0.001, 'Potentiometer noise std [rad].',
+                                0.0, 0.1, read_only=True)
+        seed = c.declare_int(self, 'seed', 0, 'Noise seed.', 0, 2 ** 31 - 1, read_only=True)
+        base = ActuatorParams()
+        if model_file:
+            with open(model_file) as f:
+                base = ActuatorParams.from_dict(yaml.safe_load(f))
+        effects = {name: c.declare_float(self, name, getattr(base, name), desc, lo, hi,
+                                         read_only=True)
+                   for name, lo, hi, desc in EFFECTS}
+        self.params = base.with_changes(ambient_c=ambient, **effects)
+        self.actuator = AntagonisticActuator(self.params)
+        self.pot = Potentiometer(bits, -1.2, 1.2, noise)
+        self.rng = np.random.default_rng(seed)
+
+        self.duty = LastValid(duty_problem, initial=(0.0, 0.0))
+        self.ambient_c = ambient
+        self.applied = (0.0, 0.0)
+        self.last_duty_time = None     # plant time [s] of the last valid duty
+        self.last_position = None
+        self.sim_time = 0.0
+        self.last_tick = None
+        self.was_stale = True
+        self.awaiting_since = None     # wall time of the joint state awaiting a duty (lockstep)
+
+        self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
+        self.temp_pub = self.create_publisher(Temperature, c.WIRE_TEMPERATURE, c.SENSOR_QOS)
+        self.diag = c.Diagnostics(self, 'plant')
+        self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
+        if self.use_ambient_topic:
+            self.create_subscription(Temperature, c.AMBIENT_TEMPERATURE, self.on_ambient,
+                                     c.SENSOR_QOS)
+        period = 1.0 / self.rate_hz
+        if self.accelerated:
+            self.clock_pub = self.create_publisher(ClockMsg, c.CLOCK, c.CLOCK_QOS)
+            self.timer = self.create_timer(period / self.rtf, self.on_tick,
+                                           clock=Clock(clock_type=ClockType.STEADY_TIME))
+        else:
+            self.timer = self.create_timer(period, self.on_tick)
+        self.steps_per_diag = max(1, int(round(self.rate_hz)))
+        self.steps = 0
+        self.get_logger().info(
+            f'plant_sim at {self.rate_hz:g} Hz, {"accelerated x%g" % self.rtf if self.accelerated else "node clock"}'
+            f', duty timeout {self.duty_timeout_s:g} s')
+
+    # time -----------------------------------------------------------------------------
+    def now_s(self):
+        """Plant time [s]: own sim time in accelerated mode, else the node clock."""
+        if self.accelerated:
+            return self.sim_time
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def stamp(self):
+        if self.accelerated:
+            return Time(nanoseconds=int(round(self.sim_time * 1e9))).to_msg()
+        return self.get_clock().now().to_msg()
+
+    # inputs ---------------------------------------------------------------------------
+    def on_duty(self, msg):
+        self.awaiting_since = None
+        problem = self.duty.offer(tuple(msg.data))
+        if problem:
+            self.get_logger().warn(f'rejected duty: {problem}; keeping {self.duty.value}')
+            self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
+                              self.stamp())
+            return
+        self.last_duty_time = self.now_s()
+
+    def on_ambient(self, msg):
+        t = msg.temperature
+        if not (math.isfinite(t) and -40.0 <= t <= 80.0):
+            self.get_logger().warn(f'rejected ambient temperature {t}')
+            self.diag.publish(c.WARN, f'rejected ambient temperature {t}', self._status(),
+                              self.stamp())
+            return
+        self.ambient_c = t
+
+    # step -----------------------------------------------------------------------------
+    def on_tick(self):
+        if self.accelerated:
+            if (self.lockstep and self.awaiting_since is not None
+                    and time.monotonic() - self.awaiting_since < self.lockstep_timeout_s):
+                return
+            dt = 1.0 / self.rate_hz
+            self.sim_time += dt
+            self.clock_pub.publish(ClockMsg(clock=self.stamp()))
+        else:
+            now = self.now_s()
+            dt = 1.0 / self.rate_hz if self.last_tick is None else now - self.last_tick
+            self.last_tick = now
+            if dt <= 0:   # sim clock not running yet, or went backwards
+                return
+        stale = self.duty_stale()
+        self.applied = (0.0, 0.0) if stale else self.duty.value
+        if stale and not self.was_stale and self.last_duty_time is not None:
+            self.get_logger().warn(f'no valid duty for {self.duty_timeout_s:g} s: zero duty')
+            self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(),
+                              self.stamp())
+        self.was_stale = stale
+        angle = self.actuator.step(*self.applied, dt,
+                                   self.ambient_c if self.use_ambient_topic else None)
+        position = self.pot.angle(self.pot.counts(angle, self.rng))
+        velocity = 0.0 if self.last_position is None else (position - self.last_position) / dt
+        self.last_position = position
+        stamp = self.stamp()
+        self.js_pub.publish(JointState(name=[c.JOINT_NAME], position=[position],
+                                       velocity=[velocity], header=_header(stamp, '')))
+        self.awaiting_since = time.monotonic()
+        for frame, theta in zip(c.WIRE_FRAMES, self.actuator.temperature_c):
+            self.temp_pub.publish(Temperature(header=_header(stamp, frame),
+                                              temperature=float(theta), variance=0.0))
+        self.steps += 1
+        if self.steps % self.steps_per_diag == 0:
+            if stale and self.last_duty_time is not None:
+                self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(), stamp)
+            else:
+                self.diag.publish(c.OK, 'running' if not stale else 'no duty yet (zero applied)',
+                                  self._status(), stamp)
+
+    def duty_stale(self):
+        """No valid duty for duty_timeout_s of plant time (or never)."""
+        return (self.last_duty_time is None
+                or self.now_s() - self.last_duty_time > self.duty_timeout_s)
+
+    def _status(self):
+        th = self.actuator.temperature_c
+        return {'applied_duty_a': float(self.applied[0]), 'applied_duty_b': float(self.applied[1]),
+                'theta_a_c': float(th[0]), 'theta_b_c': float(th[1]),
+                'rejected_duties': self.duty.rejected, 'sim_time_s': float(self.now_s())}
+
+
+def _header(stamp, frame):
+    return Header(stamp=stamp, frame_id=frame)
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = PlantSim()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,117 @@
+"""setpoint: publishes /sma/setpoint [rad] from a profile (step, ramp, sine, square, chirp).
+
+The profile (`sma_actuator.profiles.Profile`) runs on the node clock (sim time with
+use_sim_time) from the first timer tick; profile parameters can be changed at runtime.
+`one_shot`: wait for a subscriber, publish `offset` once, wait until it is acknowledged,
+exit (for users without the ros2 CLI):
+
+    setpoint --ros-args -p one_shot:=true -p offset:=0.3
+"""
+import sys
+import time
+from dataclasses import fields, replace
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rcl_interfaces.msg import SetParametersResult
+from std_msgs.msg import Float64
+
+from ..profiles import PROFILES, Profile
+from . import common as c
+
+PROFILE_PARAMS = (
+    ('amplitude', -3.0, 3.0, 'Profile amplitude A [rad].'),
+    ('offset', -3.0, 3.0, 'Profile offset r0 [rad] (the one-shot value).'),
+    ('period_s', 0.01, 3600.0, 'Period P (ramp duration, sine/square period, chirp 1/f0) [s].'),
+    ('delay_s', 0.0, 3600.0, 'Time at r0 before the profile starts [s].'),
+    ('chirp_end_hz', 0.001, 20.0, 'Chirp end frequency f1 [Hz].'),
+    ('chirp_duration_s', 0.1, 3600.0, 'Chirp sweep duration D [s].'),
+)
+
+
+class Setpoint(Node):
+    """Setpoint source node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('setpoint', **kwargs)
+        d = Profile()
+        kind = c.declare_str(self, 'profile', d.kind, 'Setpoint profile.', PROFILES)
+        values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
+                  for name, lo, hi, desc in PROFILE_PARAMS}
+        self.profile = Profile(kind, **values)
+        rate = c.declare_float(self, 'rate_hz', 40.0, 'Publication rate [Hz].', 0.1, 1000.0,
+                               read_only=True)
+        self.duration_s = c.declare_float(self, 'duration_s', 0.0, 'Stop publishing after this '
+                                          'long [s]; 0 = never.', 0.0, 1e6, read_only=True)
+        self.one_shot = c.declare_bool(self, 'one_shot', False, 'Publish `offset` once and exit.',
+                                       read_only=True)
+        self.pub = self.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
+        self.add_on_set_parameters_callback(self.on_set_parameters)
+        self.t0 = None
+        self.done = False
+        if not self.one_shot:
+            self.timer = self.create_timer(1.0 / rate, self.on_tick)
+
+    def on_tick(self):
+        now = self.get_clock().now().nanoseconds * 1e-9
+        if now <= 0.0:          # use_sim_time and no /clock yet
+            return
+        if self.t0 is None:
+            self.t0 = now
+        t = now - self.t0
+        if self.duration_s > 0 and t > self.duration_s:
+            self.done = True
+            self.timer.cancel()
+            return
+        self.pub.publish(Float64(data=float(self.profile(t))))
+
+    def publish_once(self, wait_s=5.0):
+        """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement."""
+        deadline = time.monotonic() + wait_s
+        while self.pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if self.pub.get_subscription_count() == 0:
+            self.get_logger().error(f'no subscriber on {c.SETPOINT} within {wait_s:g} s')
+            return False
+        self.pub.publish(Float64(data=self.profile.offset))
+        acked = self.pub.wait_for_all_acked(rclpy.duration.Duration(seconds=wait_s))
+        self.get_logger().info(f'published setpoint {self.profile.offset:g} rad'
+                               f'{"" if acked else " (not acknowledged)"}')
+        return acked
+
+    def on_set_parameters(self, params):
+        names = {f.name for f in fields(Profile)}
+        changes = {('kind' if p.name == 'profile' else p.name): p.value for p in params
+                   if p.name in names or p.name == 'profile'}
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            self.profile = replace(self.profile, **changes)
+        except (ValueError, TypeError) as e:
+            return SetParametersResult(successful=False, reason=str(e))
+        return SetParametersResult(successful=True)
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node, ok = None, True
+    try:
+        node = Setpoint()
+        if node.one_shot:
+            ok = node.publish_once()
+        else:
+            while rclpy.ok() and not node.done:
+                rclpy.spin_once(node, timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    if not ok:
+        sys.exit(1)
+
+
+if __name__ == '__main__':
+    main()

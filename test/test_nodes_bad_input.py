@@ -1,0 +1,104 @@
+"""Bad input through real topics: NaN / inf / out-of-range setpoint and duty are rejected
+with a diagnostics WARN and the last valid value is kept."""
+import math
+import time
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
+
+from sma_actuator.nodes import common as c  # noqa: E402
+from sma_actuator.nodes.controller import Controller  # noqa: E402
+from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
+
+
+class TopicProbe:
+    """A node that publishes setpoints/duties and collects diagnostics, duties, joint states."""
+
+    def __init__(self, context):
+        self.node = rclpy.create_node('tester', context=context)
+        self.sp = self.node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
+        self.duty_pub = self.node.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        self.diags, self.duties, self.positions = [], [], []
+        self.node.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
+                                      lambda m: self.diags.extend(m.status), c.DIAGNOSTICS_QOS)
+        self.node.create_subscription(Float64MultiArray, c.DUTY,
+                                      lambda m: self.duties.append(tuple(m.data)), c.COMMAND_QOS)
+        self.node.create_subscription(JointState, c.JOINT_STATES,
+                                      lambda m: self.positions.append(m.position[0]),
+                                      c.SENSOR_QOS)
+
+    def warnings(self, node_name, text):
+        return [s for s in self.diags if s.name.startswith(node_name) and
+                s.level == DiagnosticStatus.WARN and text in s.message]
+
+
+def spin_until(executor, condition, timeout_s):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.01)
+        if condition():
+            return True
+    return False
+
+
+@pytest.fixture
+def loop(ros_context):
+    """Plant (wall clock, 40 Hz) + controller + tester on one executor."""
+    ex = SingleThreadedExecutor(context=ros_context)
+    plant = PlantSim(context=ros_context)
+    ctrl = Controller(context=ros_context, parameter_overrides=[Parameter('mode', value='pi')])
+    tester = TopicProbe(ros_context)
+    for n in (plant, ctrl, tester.node):
+        ex.add_node(n)
+    try:
+        yield ex, plant, ctrl, tester
+    finally:
+        ex.shutdown()
+        for n in (plant, ctrl, tester.node):
+            n.destroy_node()
+
+
+def test_bad_setpoints_are_rejected_and_last_valid_kept(loop):
+    ex, plant, ctrl, tester = loop
+    assert spin_until(ex, lambda: tester.sp.get_subscription_count() > 0, 5)
+    tester.sp.publish(Float64(data=0.3))
+    assert spin_until(ex, lambda: len(tester.positions) > 40 and tester.positions[-1] > 0.2, 10)
+    for k, bad in enumerate([math.nan, math.inf, -math.inf, 5.0, -1.5], start=1):
+        tester.sp.publish(Float64(data=bad))
+        assert spin_until(ex, lambda: len(tester.warnings('controller', 'rejected setpoint'))
+                          >= k, 3), f'no WARN for setpoint {bad}'
+    n0 = len(tester.positions)
+    spin_until(ex, lambda: len(tester.positions) > n0 + 40, 3)      # one more second
+    assert ctrl.setpoint.value == 0.3
+    assert abs(tester.positions[-1] - 0.3) < 0.05                  # still holding 0.3
+    assert all(math.isfinite(d) for pair in tester.duties for d in pair)
+
+
+def test_bad_duties_are_rejected_by_the_plant_and_last_valid_kept(ros_context):
+    ex = SingleThreadedExecutor(context=ros_context)
+    plant = PlantSim(context=ros_context, parameter_overrides=[
+        Parameter('duty_timeout_s', value=5.0)])
+    tester = TopicProbe(ros_context)
+    for n in (plant, tester.node):
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: tester.duty_pub.get_subscription_count() > 0, 5)
+        tester.duty_pub.publish(Float64MultiArray(data=[0.4, 0.0]))
+        assert spin_until(ex, lambda: plant.applied == (0.4, 0.0), 3)
+        for k, bad in enumerate([[math.nan, 0.0], [0.2, math.inf], [1.5, 0.0], [0.0, -0.1],
+                                 [0.1]], start=1):
+            tester.duty_pub.publish(Float64MultiArray(data=bad))
+            assert spin_until(ex, lambda: len(tester.warnings('plant_sim', 'rejected duty'))
+                              >= k, 3), f'no WARN for duty {bad}'
+        spin_until(ex, lambda: False, 0.2)
+        assert plant.applied == (0.4, 0.0)
+    finally:
+        ex.shutdown()
+        for n in (plant, tester.node):
+            n.destroy_node()

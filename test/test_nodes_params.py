@@ -1,0 +1,107 @@
+"""Node parameters: the config YAMLs load with --params-file, runtime changes are validated,
+and the setpoint one-shot mode publishes one value and exits."""
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+rclpy = pytest.importorskip('rclpy')
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from sma_actuator.core.actuator import ActuatorParams  # noqa: E402
+from sma_actuator.nodes import common as c  # noqa: E402
+from sma_actuator.nodes.controller import Controller  # noqa: E402
+from sma_actuator.nodes.plant_sim import EFFECTS, PlantSim  # noqa: E402
+from sma_actuator.nodes.setpoint import Setpoint  # noqa: E402
+
+CONFIG = Path(__file__).resolve().parents[1] / 'config'
+NODES = {'plant_sim': PlantSim, 'controller': Controller, 'setpoint': Setpoint}
+
+
+@pytest.mark.parametrize('name', sorted(NODES))
+def test_config_yaml_loads_with_params_file_and_sets_every_declared_value(name, ros_domain_id):
+    path = CONFIG / f'{name}.yaml'
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros_domain_id,
+               args=['--ros-args', '--params-file', str(path)])
+    try:
+        node = NODES[name](context=context)
+        try:
+            expected = yaml.safe_load(path.read_text())['/**']['ros__parameters']
+            for key, value in expected.items():
+                assert node.get_parameter(key).value == value, key
+            declared = set(node._parameters) - {'use_sim_time', 'start_type_description_service'}
+            assert declared == set(expected), 'YAML and declared parameters differ'
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_every_actuator_effect_is_a_plant_parameter():
+    physical = {'length_m', 'resistance_ohm_per_m', 'supply_v', 'current_limit_a',
+                'heat_capacity_j_per_k', 'conductance_w_per_k', 'ambient_c', 'stroke_rad',
+                'offset_rad', 'hysteresis'}
+    effects = set(ActuatorParams.__dataclass_fields__) - physical
+    assert effects == {name for name, *_ in EFFECTS}
+
+
+def test_plant_effect_parameters_reach_the_model(ros_context):
+    plant = PlantSim(context=ros_context, parameter_overrides=[
+        Parameter('delay_s', value=0.3), Parameter('gain_ratio_b', value=1.4)])
+    try:
+        assert plant.params.delay_s == 0.3 and plant.params.gain_ratio_b == 1.4
+        assert plant.actuator.params is plant.params
+        with pytest.raises(Exception):   # out of its declared range
+            PlantSim(context=ros_context, parameter_overrides=[
+                Parameter('phase_kappa', value=5.0)])
+    finally:
+        plant.destroy_node()
+
+
+def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_context):
+    ctrl = Controller(context=ros_context)
+    try:
+        ok = ctrl.set_parameters([Parameter('mode', value='pi_inverse'),
+                                  Parameter('kp', value=5.0)])
+        assert all(r.successful for r in ok)
+        assert ctrl.core.settings.mode == 'pi_inverse' and ctrl.core.pi.kp == 5.0
+        bad = ctrl.set_parameters([Parameter('mode', value='bang_bang')])
+        assert not bad[0].successful and ctrl.core.settings.mode == 'pi_inverse'
+        out_of_range = ctrl.set_parameters([Parameter('kp', value=-1.0)])
+        assert not out_of_range[0].successful and ctrl.core.pi.kp == 5.0
+        read_only = ctrl.set_parameters([Parameter('period_s', value=0.01)])
+        assert not read_only[0].successful
+    finally:
+        ctrl.destroy_node()
+
+
+def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain_id):
+    node = rclpy.create_node('listener', context=ros_context)
+    got = []
+    node.create_subscription(Float64, c.SETPOINT, lambda m: got.append(m.data), c.COMMAND_QOS)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    proc = subprocess.Popen([sys.executable, '-m', 'sma_actuator.nodes.setpoint', '--ros-args',
+                             '-p', 'one_shot:=true', '-p', 'offset:=0.3'],
+                            env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 20
+        while proc.poll() is None and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        for _ in range(10):
+            ex.spin_once(timeout_sec=0.05)
+        assert proc.returncode == 0
+        assert got == [0.3]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        ex.shutdown()
+        node.destroy_node()
