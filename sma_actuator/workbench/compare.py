@@ -1,0 +1,455 @@
+"""Where the model fails: error by regime and residual correlation tests.
+
+The residual is e = measured − model [rad for dynamic data, output units for static].
+
+Regimes (dynamic record), each a partition of the samples:
+
+* ``thermal``   heating wire a / heating wire b / cooling / steady, from the sign of the
+  model wire temperatures' rates dθ/dt (a wire heats when its rate exceeds
+  `STEADY_RATE_K_PER_S`); without model temperatures a first-order thermal proxy of the
+  duties (T = 2 s) stands in;
+* ``direction`` rising / falling / holding measured output (rate of the smoothed output
+  against `HOLD_RATE_FRACTION` of the measured range per second);
+* ``loops``     major / minor: each monotone excursion between reversals of the smoothed
+  output is major if it spans at least `MAJOR_LOOP_FRACTION` of the measured range;
+* ``travel``    low end / middle / high end: measured output within the outer
+  `END_FRACTION` of the measured range on either side;
+* ``input_rate`` slow / fast input: total variation per second of the setpoint (or of
+  duty_a − duty_b without a setpoint) over a 2 s window, split at its median;
+* ``time``      quartiles Q1..Q4 of the record.
+
+Static curves use ``thermal`` (input rising = heating), ``direction``, ``loops`` (a curve is
+major if its input spans >= 90 % of the full input range), ``travel`` and ``curves``.
+
+Residual tests: the sample autocorrelation of e at lags 1..L and its cross-correlation
+with each signal u at lags −L..L, r(k) = Σ ẽ(t) ũ(t − k) / N on standardised signals
+(dynamic: duties, model temperatures, ambient, position, end proximity |y − mid| / half
+range, position rate, time; static: input, output, end proximity)
+(k > 0: u leads the residual). Under a white residual independent of u, |r| stays within
+the 99 % band ±2.576/√N; lags beyond it are flagged. (The band assumes a white
+residual: a strongly coloured residual exceeds it on many signals, so the strength
+max|r| / band ranks them.)
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import lfilter
+
+from ..core.identification import scores
+from .data import is_static
+
+Z99 = 2.576
+STEADY_RATE_K_PER_S = 0.1
+HOLD_RATE_FRACTION = 0.02      # of the measured range per second
+MAJOR_LOOP_FRACTION = 0.6
+END_FRACTION = 0.1
+PROXY_TAU_S = 2.0
+SMOOTH_S = 0.25
+RATE_WINDOW_S = 2.0
+MAX_LAG_S = 2.0
+CONCENTRATION_RATIO = 1.5      # regime RMSE / overall RMSE flagged as "error concentrates"
+MIN_SHARE = 0.05               # ... if the regime holds at least this fraction of samples
+
+
+@dataclass
+class Comparison:
+    """Result of `compare`; `to_json()` gives the plain-data form printed by the CLI."""
+    kind: str                       # 'dynamic' | 'static'
+    measured: np.ndarray
+    predicted: np.ndarray
+    scores: dict                    # 'all', 'train', 'validation' -> scores() dict or None
+    regimes: dict                   # group -> list of row dicts (see `breakdown`)
+    concentrated: list              # rows where the error concentrates, worst first
+    correlations: dict              # see `residual_tests`
+    axis: np.ndarray = None         # time [s] (dynamic) or sample index (static)
+    train_mask: np.ndarray = None
+    signals: dict = field(default_factory=dict)   # for plots: dynamic theta_a, theta_b,
+    #   proxy, duty_diff; static input, curve
+
+    @property
+    def residual(self):
+        """e = measured − model."""
+        return self.measured - self.predicted
+
+    def to_json(self):
+        """Plain-data (JSON-able) summary without the sample arrays."""
+        corr = self.correlations
+        return {'kind': self.kind, 'scores': self.scores, 'regimes': self.regimes,
+                'concentrated': [f"{r['group']}: {r['label']}" for r in self.concentrated],
+                'residual_tests': {
+                    'band': corr['band'], 'max_lag': corr['max_lag'],
+                    'lag_unit': corr['lag_unit'],
+                    'autocorrelation': _summary_json(corr['autocorrelation']),
+                    'cross_correlation': {k: _summary_json(v)
+                                          for k, v in corr['cross'].items()},
+                    'untested': corr['untested'],
+                    'flagged': corr['flagged']}}
+
+
+def _summary_json(test):
+    return {k: v for k, v in test.items() if k not in ('lags', 'r')}
+
+
+def compare(data, prediction, signals=None, split=None):
+    """Compare measured `data` with a model `prediction`: scores, regimes, residual tests.
+
+    data: DynamicData or StaticData. prediction: array over the record (dynamic) or a list of
+    (curve_id, array) (static). signals: model signals (dict with 'theta_a', 'theta_b' [°C]).
+    split: dynamic: index where validation starts (default 70 % of the record); static: list
+    of validation curve ids (default: odd ids).
+    """
+    if is_static(data):
+        return _compare_static(data, prediction, split)
+    return _compare_dynamic(data, prediction, signals or {}, split)
+
+
+def _compare_dynamic(data, prediction, signals, split):
+    y = data.position
+    y_hat = np.asarray(prediction, float)
+    if y_hat.shape != y.shape:
+        raise ValueError(f'prediction has {y_hat.size} samples, the record {y.size}')
+    split = int(round(0.7 * len(y))) if split is None else int(split)
+    train = np.arange(len(y)) < split
+    temps = thermal_signals(data, signals)
+    masks = dynamic_regimes(data, temps)
+    tests = residual_tests(y - y_hat, correlation_signals(data, temps), data.dt, 's')
+    plane = dict(temps, duty_diff=data.duty_a - data.duty_b)
+    return _assemble('dynamic', data.time - data.time[0], y, y_hat, train, masks, tests, plane)
+
+
+def _compare_static(data, prediction, split):
+    y = np.asarray(data.output, float)
+    y_hat = flat_static_prediction(data, prediction)
+    ids = np.unique(data.curve)
+    val_ids = [c for c in ids if c % 2 == 1] if split is None else list(split)
+    train = ~np.isin(data.curve, val_ids)
+    masks = static_regimes(data, val_ids)
+    signals = {'input': np.asarray(data.input, float), 'output': y,
+               'end proximity': end_proximity(y)}
+    tests = residual_tests(y - y_hat, signals, 1.0, 'samples')
+    plane = {'input': signals['input'], 'curve': np.asarray(data.curve)}
+    return _assemble('static', np.arange(len(y), dtype=float), y, y_hat, train, masks, tests,
+                     plane)
+
+
+def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
+    span = float(np.ptp(y))
+    sc = {'all': scores(y, y_hat),
+          'train': scores(y[train], y_hat[train]) if train.any() else None,
+          'validation': scores(y[~train], y_hat[~train]) if (~train).any() else None}
+    rows = breakdown(y - y_hat, masks, span)
+    return Comparison(kind, y, y_hat, _finite(sc), rows, concentrations(rows, sc['all']['rmse']),
+                      tests, axis, train, signals)
+
+
+def flat_static_prediction(data, prediction):
+    """Static prediction [(curve_id, array), ...] laid out like data.output (by curve id)."""
+    out = np.full(len(data.output), np.nan)
+    for cid, values in prediction:
+        mask = np.asarray(data.curve) == cid
+        values = np.asarray(values, float)
+        if values.size != mask.sum():
+            raise ValueError(f'prediction for curve {cid} has {values.size} points, the data '
+                             f'{mask.sum()}')
+        out[mask] = values
+    if np.isnan(out).any():
+        raise ValueError('prediction misses some curves of the data')
+    return out
+
+
+# ------------------------------------------------------------------------------ regimes
+def thermal_signals(data, signals):
+    """Model wire temperatures [°C] {'theta_a', 'theta_b'}, or a duty proxy if absent."""
+    if signals.get('theta_a') is not None and signals.get('theta_b') is not None:
+        return {'theta_a': np.asarray(signals['theta_a'], float),
+                'theta_b': np.asarray(signals['theta_b'], float), 'proxy': False}
+    a = np.exp(-data.dt / PROXY_TAU_S)
+    proxy = {k: lfilter([1 - a], [1, -a], getattr(data, 'duty_' + k[-1]), zi=[0.0])[0]
+             for k in ('theta_a', 'theta_b')}
+    # a proxy in "duty" units: scale to a nominal 100 K rise so thresholds keep their meaning
+    return {k: 100.0 * v for k, v in proxy.items()} | {'proxy': True}
+
+
+def smooth(x, n):
+    """Centred moving average over n samples (edges: nearest value)."""
+    return uniform_filter1d(np.asarray(x, float), max(1, int(n)), mode='nearest')
+
+
+def dynamic_regimes(data, temps):
+    """group -> {label: boolean mask} for a dynamic record (see module doc)."""
+    y, dt = data.position, data.dt
+    span = max(float(np.ptp(y)), 1e-12)
+    ys = smooth(y, round(SMOOTH_S / dt))
+    ra = np.gradient(temps['theta_a'], dt)
+    rb = np.gradient(temps['theta_b'], dt)
+    heat_a = (ra > STEADY_RATE_K_PER_S) & (ra >= rb)
+    heat_b = (rb > STEADY_RATE_K_PER_S) & ~heat_a
+    cooling = ~heat_a & ~heat_b & ((ra < -STEADY_RATE_K_PER_S) | (rb < -STEADY_RATE_K_PER_S))
+    rate = np.gradient(ys, dt)
+    hold = HOLD_RATE_FRACTION * span
+    speed = input_rate(data)
+    fast = speed > np.median(speed)
+    n = len(y)
+    quart = np.minimum((4 * np.arange(n)) // n, 3)
+    return {
+        'thermal': {'heating wire a': heat_a, 'heating wire b': heat_b, 'cooling': cooling,
+                    'steady': ~(heat_a | heat_b | cooling)},
+        'direction': {'rising': rate > hold, 'falling': rate < -hold,
+                      'holding': np.abs(rate) <= hold},
+        'loops': loop_masks(ys, span),
+        'travel': travel_masks(y),
+        'input_rate': {'slow': ~fast, 'fast': fast},
+        'time': {f'Q{q + 1}': quart == q for q in range(4)},
+    }
+
+
+def input_rate(data):
+    """Total variation per second of the setpoint (or duty_a − duty_b) over a 2 s window."""
+    sp = data.setpoint
+    u = sp if sp is not None and np.ptp(sp) > 0 else data.duty_a - data.duty_b
+    du = np.abs(np.diff(u, prepend=u[0])) / data.dt
+    return smooth(du, round(RATE_WINDOW_S / data.dt))
+
+
+def reversals(y, threshold):
+    """Indices of the turning points of y: extremes after which y moves back by > threshold."""
+    turns, direction, lo, hi, extreme = [], 0, 0, 0, 0
+    for k in range(1, len(y)):
+        if direction == 0:   # until the first move larger than the threshold
+            lo = k if y[k] < y[lo] else lo
+            hi = k if y[k] > y[hi] else hi
+            if y[hi] - y[lo] > threshold:
+                direction = 1 if hi > lo else -1
+                start, extreme = (lo, hi) if direction > 0 else (hi, lo)
+                if start > 0:
+                    turns.append(start)
+        elif (y[k] - y[extreme]) * direction > 0:
+            extreme = k
+        elif (y[extreme] - y[k]) * direction > threshold:
+            turns.append(extreme)
+            direction, extreme = -direction, k
+    return turns
+
+
+def loop_masks(ys, span):
+    """{'major', 'minor'}: excursions between reversals spanning >= MAJOR_LOOP_FRACTION of span."""
+    turns = [0] + reversals(ys, 0.05 * span) + [len(ys) - 1]
+    major = np.zeros(len(ys), bool)
+    for a, b in zip(turns[:-1], turns[1:]):
+        if abs(ys[b] - ys[a]) >= MAJOR_LOOP_FRACTION * span:
+            major[a:b + 1] = True
+    return {'major': major, 'minor': ~major}
+
+
+def travel_masks(y):
+    """{'low end', 'middle', 'high end'}: outer END_FRACTION of the measured range."""
+    lo, hi = float(np.min(y)), float(np.max(y))
+    edge = END_FRACTION * (hi - lo)
+    low, high = y <= lo + edge, y >= hi - edge
+    return {'low end': low, 'middle': ~low & ~high, 'high end': high & ~low}
+
+
+def static_regimes(data, val_ids):
+    """group -> {label: mask} for static curves (see module doc)."""
+    u = np.asarray(data.input, float)
+    y = np.asarray(data.output, float)
+    curve = np.asarray(data.curve)
+    du, dy = np.zeros_like(u), np.zeros_like(y)
+    major = np.zeros(len(u), bool)
+    u_span = max(float(np.ptp(u)), 1e-12)
+    curves = {}
+    for cid in np.unique(curve):
+        m = curve == cid
+        du[m] = np.gradient(u[m])
+        dy[m] = np.gradient(y[m])
+        major[m] = np.ptp(u[m]) >= 0.9 * u_span
+        curves[f'curve {cid} ({"validation" if cid in val_ids else "train"})'] = m
+    flat_y = np.abs(dy) <= 1e-3 * max(float(np.ptp(y)), 1e-12)
+    return {
+        'thermal': {'heating (input rising)': du > 0, 'cooling (input falling)': du < 0,
+                    'hold': du == 0},
+        'direction': {'rising': (dy > 0) & ~flat_y, 'falling': (dy < 0) & ~flat_y,
+                      'flat': flat_y},
+        'loops': {'major': major, 'minor': ~major},
+        'travel': travel_masks(y),
+        'curves': curves,
+    }
+
+
+def breakdown(residual, masks, span):
+    """group -> rows {group, label, samples, fraction, rmse, nrmse, bias, error_share}.
+
+    nrmse = regime RMSE / measured range; bias = mean residual; error_share = the regime's
+    share of the total squared error. Empty regimes have None figures.
+    """
+    e = np.asarray(residual, float)
+    total = float(np.sum(e ** 2)) or 1.0
+    out = {}
+    for group, labels in masks.items():
+        rows = []
+        for label, m in labels.items():
+            k = int(np.count_nonzero(m))
+            row = {'group': group, 'label': label, 'samples': k, 'fraction': k / len(e)}
+            if k:
+                rmse = float(np.sqrt(np.mean(e[m] ** 2)))
+                row.update(rmse=rmse, nrmse=rmse / span if span > 0 else None,
+                           bias=float(np.mean(e[m])),
+                           error_share=float(np.sum(e[m] ** 2)) / total)
+            else:
+                row.update(rmse=None, nrmse=None, bias=None, error_share=None)
+            rows.append(row)
+        out[group] = rows
+    return out
+
+
+def concentrations(rows_by_group, rmse_all):
+    """Rows whose RMSE is >= CONCENTRATION_RATIO x overall and hold >= MIN_SHARE of samples."""
+    hits = [r for rows in rows_by_group.values() for r in rows
+            if r['rmse'] is not None and r['fraction'] >= MIN_SHARE and rmse_all > 0
+            and r['rmse'] >= CONCENTRATION_RATIO * rmse_all]
+    return sorted(hits, key=lambda r: -r['rmse'])
+
+
+# ------------------------------------------------------------------------------ residual tests
+def correlation_signals(data, temps):
+    """Signals the residual is tested against: inputs, temperatures, ambient, position, rate, time."""
+    out = {'duty_a': data.duty_a, 'duty_b': data.duty_b}
+    label = ' (proxy)' if temps.get('proxy') else ''
+    out[f'theta_a{label}'] = temps['theta_a']
+    out[f'theta_b{label}'] = temps['theta_b']
+    if data.ambient is not None:
+        out['ambient'] = data.ambient
+    out['position'] = data.position
+    out['end proximity'] = end_proximity(data.position)
+    out['position rate'] = np.gradient(smooth(data.position, round(SMOOTH_S / data.dt)), data.dt)
+    out['time'] = data.time
+    return out
+
+
+def end_proximity(y):
+    """|y − mid-travel| / half the measured range: 0 in the middle, 1 at either end."""
+    y = np.asarray(y, float)
+    half = 0.5 * float(np.ptp(y))
+    mid = float(np.min(y)) + half
+    return np.abs(y - mid) / half if half > 0 else np.zeros_like(y)
+
+
+def standardise(x):
+    """(x − mean) / std, or None if x is constant."""
+    x = np.asarray(x, float)
+    sd = float(np.std(x))
+    return None if sd == 0 or not np.isfinite(sd) else (x - x.mean()) / sd
+
+
+def cross_correlation(e, u, max_lag):
+    """r(k) = Σ_t e(t) u(t − k) / N for k = −max_lag..max_lag (inputs standardised)."""
+    n = len(e)
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    c = np.fft.irfft(np.fft.rfft(e, nfft) * np.conj(np.fft.rfft(u, nfft)), nfft) / n
+    return np.concatenate([c[nfft - max_lag:], c[:max_lag + 1]])
+
+
+def _lag_test(lags, r, band, step, unit):
+    over = np.abs(r) > band
+    k = int(np.argmax(np.abs(r)))
+    return {'lags': lags, 'r': r, 'max_abs': float(abs(r[k])), 'at_lag': float(lags[k] * step),
+            'strength': float(abs(r[k]) / band), 'exceeds': bool(over.any()),
+            'fraction_over': float(over.mean()), 'lags_over': _runs(lags[over] * step),
+            'unit': unit}
+
+
+def _runs(values, limit=10):
+    """Contiguous runs of flagged lags as [from, to] pairs (at most `limit`)."""
+    if values.size == 0:
+        return []
+    runs, start, prev = [], values[0], values[0]
+    step = np.min(np.diff(values)) if values.size > 1 else 1.0
+    for v in values[1:]:
+        if v - prev > 1.5 * step:
+            runs.append([float(start), float(prev)])
+            start = v
+        prev = v
+    runs.append([float(start), float(prev)])
+    return runs[:limit]
+
+
+def residual_tests(residual, signals, dt, unit, max_lag=None):
+    """Autocorrelation of the residual and its cross-correlation with each signal.
+
+    dt: lag step in `unit` ('s' for time, 'samples' for static curves); max_lag in samples
+    (default: MAX_LAG_S of lags, at least 10, at most N/4). Returns {band, max_lag, lag_unit,
+    autocorrelation: test, cross: {name: test}, untested: [constant signals], flagged:
+    [names exceeding the band, strongest first]}, a test holding lags, r, max_abs, at_lag,
+    strength (max_abs / band), exceeds, fraction_over and lags_over (runs of flagged lags).
+    """
+    n = len(residual)
+    if max_lag is None:
+        max_lag = int(round(MAX_LAG_S / dt)) if unit == 's' else 20
+        max_lag = max(10, min(max_lag, n // 4))
+    band = Z99 / np.sqrt(n)
+    e = standardise(residual)
+    out = {'band': float(band), 'max_lag': max_lag * dt, 'lag_unit': unit, 'cross': {},
+           'untested': [], 'flagged': []}
+    if e is None:   # a perfect (or constant-offset) model: nothing to correlate
+        zero = np.zeros(max_lag)
+        out['autocorrelation'] = _lag_test(np.arange(1, max_lag + 1), zero, band, dt, unit)
+        out['untested'] = list(signals)
+        return out
+    lags = np.arange(-max_lag, max_lag + 1)
+    auto = cross_correlation(e, e, max_lag)[max_lag + 1:]
+    out['autocorrelation'] = _lag_test(lags[max_lag + 1:], auto, band, dt, unit)
+    for name, u in signals.items():
+        us = standardise(u)
+        if us is None:
+            out['untested'].append(name)
+            continue
+        out['cross'][name] = _lag_test(lags, cross_correlation(e, us, max_lag), band, dt, unit)
+    flagged = [(k, v['strength']) for k, v in out['cross'].items() if v['exceeds']]
+    out['flagged'] = [k for k, _ in sorted(flagged, key=lambda kv: -kv[1])]
+    return out
+
+
+def _finite(obj):
+    """Replace non-finite floats by None (JSON has no NaN/inf), recursively."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def summary_lines(comparison, top=5):
+    """Short text summary: scores, where the error concentrates, strongest residual links."""
+    sc = comparison.scores
+    lines = []
+    for part in ('train', 'validation', 'all'):
+        s = sc.get(part)
+        if s:
+            lines.append(f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}  '
+                         f'fit {_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}')
+    if comparison.concentrated:
+        lines.append('error concentrates in: ' + ', '.join(
+            f"{r['group']} {r['label']} (RMSE x{r['rmse'] / sc['all']['rmse']:.1f})"
+            for r in comparison.concentrated[:top]))
+    else:
+        lines.append('error is spread evenly over the regimes')
+    corr = comparison.correlations
+    auto = corr['autocorrelation']
+    lines.append(f"residual autocorrelation: max |r| {auto['max_abs']:.2f} "
+                 f"(99 % band ±{corr['band']:.3f}){' - not white' if auto['exceeds'] else ''}")
+    if corr['flagged']:
+        lines.append('residual correlates with: ' + ', '.join(
+            f"{k} (|r| {corr['cross'][k]['max_abs']:.2f} at lag {corr['cross'][k]['at_lag']:g} "
+            f"{corr['lag_unit']})" for k in corr['flagged'][:top]))
+    return lines
+
+
+def _pct(x):
+    return 'n/a' if x is None else f'{100 * x:.2f} %'
+
+
+def _num(x):
+    return 'n/a' if x is None else f'{x:.1f}'

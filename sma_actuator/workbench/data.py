@@ -1,0 +1,307 @@
+"""Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
+
+Formats (header row first; lines starting with '#' and blank lines are skipped, column
+names are case-insensitive, column order is free, extra columns are ignored):
+
+* dynamic CSV  ``time,duty_a,duty_b,position[,ambient_temperature][,setpoint]``
+  time [s] strictly increasing at a steady rate (steps within 1 % of the median),
+  duties [0, 1], position [rad], ambient temperature [°C], setpoint [rad];
+* static CSV   ``input,output[,curve]`` or ``curve,voltage,deflection`` (quasi-static
+  loops, e.g. the morphing-wing data: voltage [V] -> deflection [mm]); curve ids are
+  integers, all rows belong to curve 0 without a curve column;
+* MCAP bag     a ``.mcap`` file or a bag directory with the package's topics, read by
+  `sma_actuator.bag.arrays.load_run`.
+
+Every problem raises `DataError` (a ValueError) whose message names the file and, where
+there is one, the line (1-based, as an editor shows it) and the column.
+"""
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ..core.identification import DynamicData
+
+DYNAMIC_REQUIRED = ('time', 'duty_a', 'duty_b', 'position')
+DYNAMIC_OPTIONAL = ('ambient_temperature', 'setpoint')
+#: accepted static layouts: file column -> StaticData field
+STATIC_LAYOUTS = ({'input': 'input', 'output': 'output'},
+                  {'voltage': 'input', 'deflection': 'output'})
+FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
+                '[,ambient_temperature][,setpoint]; a static CSV input,output[,curve] or '
+                'curve,voltage,deflection')
+MIN_SAMPLES = 10
+MCAP_MAGIC = b'\x89MCAP'
+STEADY_RATE_TOLERANCE = 0.01   # relative deviation of a time step from the median step
+
+
+class DataError(ValueError):
+    """DATA cannot be used as given; the message names file, line and column."""
+
+
+def load_data(path, rate_hz=None):
+    """Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or an engine `StaticData`.
+
+    rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
+    Raises `DataError` with a clear message on any problem.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DataError(f'{path}: no such file or directory')
+    if is_bag(path):
+        return load_bag(path, rate_hz)
+    if path.is_dir():
+        raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
+                        'or an MCAP bag)')
+    header, rows, lines = read_csv_table(path)
+    if 'time' in header:
+        return dynamic_from_table(path, header, rows, lines)
+    if any(name in header for layout in STATIC_LAYOUTS for name in layout):
+        return static_from_table(path, header, rows, lines)
+    raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
+                    f'{FORMATS_HELP}')
+
+
+def is_bag(path):
+    """True if `path` is an MCAP file (by suffix or magic bytes) or a directory holding one."""
+    path = Path(path)
+    if path.is_dir():
+        return any(path.glob('*.mcap'))
+    if path.suffix.lower() == '.mcap':
+        return True
+    try:
+        with open(path, 'rb') as fh:
+            return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except OSError as err:
+        raise DataError(f'{path}: cannot read: {err.strerror}') from None
+
+
+# ------------------------------------------------------------------------------ CSV
+def read_csv_table(path):
+    """Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
+
+    Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
+    duplicated or empty column name, a row with the wrong number of fields, or a field
+    that is not a finite number.
+    """
+    try:
+        with open(path, encoding='utf-8-sig', newline='') as fh:
+            text = fh.read()
+    except UnicodeDecodeError:
+        raise DataError(f'{path}: not a text CSV file (it is not UTF-8)') from None
+    except OSError as err:
+        raise DataError(f'{path}: cannot read: {err.strerror}') from None
+    numbered = [(i + 1, line) for i, line in enumerate(text.splitlines())
+                if line.strip() and not line.lstrip().startswith('#')]
+    if not numbered:
+        raise DataError(f'{path}: empty file (no header row); {FORMATS_HELP}')
+    header_line, header_text = numbered[0]
+    header = [h.strip().lower() for h in next(csv.reader([header_text]))]
+    _check_header(path, header_line, header)
+    rows, lines = [], []
+    for line_no, fields in zip((n for n, _ in numbered[1:]),
+                               csv.reader([t for _, t in numbered[1:]])):
+        rows.append(_parse_row(path, line_no, header, fields))
+        lines.append(line_no)
+    if not rows:
+        raise DataError(f'{path}: no data rows after the header (line {header_line})')
+    return header, np.array(rows, float), np.array(lines)
+
+
+def _check_header(path, line_no, header):
+    if any(not h for h in header):
+        raise DataError(f'{path}: line {line_no}: empty column name in the header')
+    if all(_is_number(h) for h in header):
+        raise DataError(f'{path}: line {line_no}: the first row holds numbers, not column '
+                        f'names; {FORMATS_HELP}')
+    seen = set()
+    for h in header:
+        if h in seen:
+            raise DataError(f"{path}: line {line_no}: column '{h}' appears twice in the header")
+        seen.add(h)
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _parse_row(path, line_no, header, fields):
+    if len(fields) != len(header):
+        raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
+                        f'{len(header)} ({",".join(header)})')
+    values = []
+    for name, field in zip(header, fields):
+        text = field.strip()
+        if not text:
+            raise DataError(f"{path}: line {line_no}, column '{name}': empty value")
+        try:
+            value = float(text)
+        except ValueError:
+            raise DataError(f"{path}: line {line_no}, column '{name}': {text!r} is not a "
+                            'number') from None
+        if not np.isfinite(value):
+            raise DataError(f"{path}: line {line_no}, column '{name}': {text} (NaN or "
+                            'infinite values are not allowed; drop or fill the row)')
+        values.append(value)
+    return values
+
+
+def _columns(path, header, rows, needed, optional=()):
+    """dict name -> column for the needed (error if missing) and present optional names."""
+    missing = [c for c in needed if c not in header]
+    if missing:
+        raise DataError(f'{path}: missing column(s) {", ".join(missing)} (found '
+                        f'{", ".join(header)}); {FORMATS_HELP}')
+    return {c: rows[:, header.index(c)] for c in (*needed, *optional) if c in header}
+
+
+def dynamic_from_table(path, header, rows, lines):
+    """`DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line."""
+    cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
+    if len(rows) < MIN_SAMPLES:
+        raise DataError(f'{path}: {len(rows)} data row(s); a dynamic record needs at least '
+                        f'{MIN_SAMPLES}')
+    check_time(path, cols['time'], lines)
+    for name in ('duty_a', 'duty_b'):
+        bad = np.flatnonzero((cols[name] < 0) | (cols[name] > 1))
+        if bad.size:
+            k = bad[0]
+            raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
+                            'outside [0, 1] (duty is a fraction, not a percentage)')
+    return make_dynamic(path, cols)
+
+
+def check_time(path, time, lines):
+    """Raise `DataError` unless time [s] rises strictly at a steady rate; names the line."""
+    steps = np.diff(time)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        k = bad[0] + 1
+        what = 'repeats' if steps[bad[0]] == 0 else 'goes back from'
+        raise DataError(f"{path}: line {lines[k]}, column 'time': {time[k]:g} {what} "
+                        f'{time[k - 1]:g} on line {lines[k - 1]} (time must increase strictly)')
+    median = float(np.median(steps))
+    off = np.flatnonzero(np.abs(steps - median) > STEADY_RATE_TOLERANCE * median)
+    if off.size:
+        k = off[0] + 1
+        raise DataError(f"{path}: line {lines[k]}, column 'time': step {steps[k - 1]:g} s "
+                        f'differs from the median step {median:g} s by more than '
+                        f'{100 * STEADY_RATE_TOLERANCE:g} % (the record must be sampled at a '
+                        'steady rate; resample it)')
+
+
+def make_dynamic(source, cols):
+    """`DynamicData` from a dict with the dynamic column names; errors name `source`."""
+    try:
+        return DynamicData(cols['time'], cols['duty_a'], cols['duty_b'], cols['position'],
+                           ambient=cols.get('ambient_temperature'),
+                           setpoint=cols.get('setpoint'))
+    except ValueError as err:
+        raise DataError(f'{source}: {err}') from None
+
+
+def static_from_table(path, header, rows, lines):
+    """Engine `StaticData` from a parsed static CSV (either layout), curve ids checked."""
+    layout = next((lay for lay in STATIC_LAYOUTS if all(c in header for c in lay)), None)
+    if layout is None:
+        want = ' or '.join(','.join(lay) for lay in STATIC_LAYOUTS)
+        raise DataError(f'{path}: missing column(s): a static CSV needs {want} (found '
+                        f'{", ".join(header)})')
+    cols = _columns(path, header, rows, tuple(layout), ('curve',))
+    values = {field: cols[name] for name, field in layout.items()}
+    if 'curve' in cols:
+        curve = cols['curve']
+        bad = np.flatnonzero((curve != np.round(curve)) | (curve < 0))
+        if bad.size:
+            k = bad[0]
+            raise DataError(f"{path}: line {lines[k]}, column 'curve': {curve[k]:g} is not a "
+                            'curve number (non-negative integer)')
+        curve = curve.astype(int)
+    else:
+        curve = np.zeros(len(rows), int)
+    return make_static(path, values['input'], values['output'], curve)
+
+
+def make_static(source, u, y, curve):
+    """Engine `StaticData(input, output, curve)`; needs an even (training) curve."""
+    from .engine import StaticData
+    if not (curve % 2 == 0).any():
+        raise DataError(f'{source}: no even-numbered curve to train on (curves train on even '
+                        'ids and validate on odd ones)')
+    for cid in np.unique(curve):
+        if np.count_nonzero(curve == cid) < 2:
+            raise DataError(f'{source}: curve {cid} has a single point (a curve needs at '
+                            'least two)')
+    try:
+        return StaticData(u, y, curve)
+    except ValueError as err:
+        raise DataError(f'{source}: {err}') from None
+
+
+# ------------------------------------------------------------------------------ bags
+def load_bag(path, rate_hz=None):
+    """`DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
+
+    The setpoint before the first setpoint message (NaN in load_run) is filled with the
+    first setpoint; a bag without any setpoint message has none.
+    """
+    try:
+        from ..bag.arrays import load_run
+        arrays = load_run(path, rate_hz=rate_hz)
+    except ImportError as err:
+        raise DataError(f'{path}: cannot read MCAP bags here ({err})') from None
+    except ValueError as err:   # BagError and friends name the file already
+        text = str(err)
+        raise DataError(text if str(path) in text else f'{path}: {text}') from None
+    except OSError as err:
+        raise DataError(f'{path}: cannot read: {err.strerror or err}') from None
+    setpoint = arrays.get('setpoint')
+    if setpoint is not None:
+        known = np.flatnonzero(np.isfinite(setpoint))
+        if known.size == 0:
+            arrays.pop('setpoint')
+        else:
+            arrays['setpoint'] = np.where(np.isfinite(setpoint), setpoint, setpoint[known[0]])
+    if len(arrays['time']) < MIN_SAMPLES:
+        raise DataError(f'{path}: {len(arrays["time"])} samples after resampling; a dynamic '
+                        f'record needs at least {MIN_SAMPLES}')
+    return make_dynamic(path, arrays)
+
+
+# ------------------------------------------------------------------------------ checks
+def is_static(data):
+    """True for static curve data (no time axis), False for a `DynamicData`."""
+    return not isinstance(data, DynamicData)
+
+
+def check_excitation(data, source='DATA'):
+    """Raise `DataError` if the record cannot identify the model: constant output or input."""
+    if is_static(data):
+        pairs = (('output', data.output, 0.0), ('input', data.input, 0.0))
+    else:
+        if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+            raise DataError(f'{source}: too little excitation: duty_a and duty_b hardly vary '
+                            f'(ranges {np.ptp(data.duty_a):.3g}, {np.ptp(data.duty_b):.3g}), '
+                            'the thermal and hysteresis parameters cannot be identified')
+        pairs = (('position', data.position, 0.0),)
+    for name, values, floor in pairs:
+        if np.ptp(values) <= floor:
+            raise DataError(f'{source}: too little excitation: {name} is constant '
+                            f'({values[0]:g}); nothing to identify')
+
+
+def describe(data):
+    """One line saying what was loaded, e.g. 'dynamic record: 2400 samples at 40 Hz (60 s)'."""
+    if is_static(data):
+        curves = np.unique(data.curve)
+        return (f'static curves: {len(data.input)} points on {curves.size} curve(s) '
+                f'(train: even ids, validate: odd ids)')
+    extras = [name for name, v in (('ambient', data.ambient), ('setpoint', data.setpoint))
+              if v is not None]
+    span = data.time[-1] - data.time[0]
+    return (f'dynamic record: {len(data)} samples at {1.0 / data.dt:.4g} Hz ({span:.4g} s)'
+            + (f', with {" and ".join(extras)}' if extras else ''))

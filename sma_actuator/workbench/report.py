@@ -1,0 +1,322 @@
+"""HTML report with PNG figures (matplotlib Agg, no display needed).
+
+Files written into the report directory (nothing else is touched):
+
+* ``index.html``      scores, figures, error by regime, residual tests, diagnosis
+* ``time.png``        measured vs model over time, train/validation split marked
+                      (static data: ``curves.png``, input-output plane per curve)
+* ``residual.png``    residual over time (static: over the sample index, per curve)
+* ``hysteresis.png``  hysteresis plane: measured and model position vs model wire
+                      temperature difference θa − θb (or duty_a − duty_b) – dynamic only
+* ``regimes.png``     error (NRMSE) by regime, one panel per regime group
+* ``correlation.png`` residual autocorrelation and cross-correlations with 99 % bands
+"""
+import html
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+REPORT_FILES = ('index.html', 'time.png', 'curves.png', 'residual.png', 'hysteresis.png',
+                'regimes.png', 'correlation.png')
+DPI = 90
+MAX_CROSS_PANELS = 8
+
+
+class ReportError(ValueError):
+    """The report directory cannot be used; the message names it."""
+
+
+def check_report_dir(directory, force=False):
+    """Raise `ReportError` if `directory` is a file or already holds report files (no force)."""
+    directory = Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise ReportError(f'{directory}: exists and is not a directory')
+    present = [f for f in REPORT_FILES if (directory / f).exists()]
+    if present and not force:
+        raise ReportError(f'{directory}: already holds a report ({", ".join(present)}); use '
+                          '--force to overwrite it')
+    if not directory.exists() and not directory.parent.is_dir():
+        raise ReportError(f'{directory}: parent directory {directory.parent} does not exist')
+
+
+def write_report(directory, comparison, title, *, data_line='', model=None, diagnosis=None,
+                 alternative=None, force=False):
+    """Write the report; returns the path of index.html.
+
+    comparison: `compare.Comparison`. model: {'effects', 'kind', 'parameters'} shown in the
+    summary. diagnosis: `diagnose(...).to_json()` dict, shown as a ranked table.
+    alternative: (label, prediction over the record) drawn next to the model, e.g. the
+    model with the missing effect added. force: overwrite an existing report.
+    """
+    check_report_dir(directory, force)
+    directory = Path(directory)
+    directory.mkdir(exist_ok=True)
+    figures = []
+    if comparison.kind == 'dynamic':
+        figures.append(('time.png', 'Measured vs model over time',
+                        plot_time(comparison, alternative)))
+    else:
+        figures.append(('curves.png', 'Input-output plane per curve (measured dots, model '
+                        'lines; dashed: validation curves)', plot_curves(comparison)))
+    figures.append(('residual.png', 'Residual e = measured − model', plot_residual(comparison)))
+    if comparison.kind == 'dynamic':
+        figures.append(('hysteresis.png', 'Hysteresis plane: measured and model',
+                        plot_hysteresis(comparison)))
+    figures.append(('regimes.png', 'Where the error concentrates (NRMSE by regime)',
+                    plot_regimes(comparison)))
+    figures.append(('correlation.png', 'Residual tests with 99 % bands',
+                    plot_correlations(comparison)))
+    for name, _, fig in figures:
+        save(fig, directory / name)
+    page = render_html(comparison, title, data_line, model, diagnosis, figures)
+    index = directory / 'index.html'
+    index.write_text(page, encoding='utf-8')
+    return index
+
+
+def save(fig, path):
+    """Render a matplotlib Figure to PNG with the Agg canvas."""
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=DPI)
+
+
+def _figure(w=10, h=4, rows=1, cols=1, **kw):
+    fig = Figure(figsize=(w, h), layout='constrained')
+    axes = fig.subplots(rows, cols, squeeze=False, **kw)
+    return fig, axes
+
+
+def _mark_split(ax, comparison):
+    train = comparison.train_mask
+    if train is None or train.all() or not train.any():
+        return
+    x = comparison.axis
+    start = x[np.flatnonzero(~train)[0]]
+    ax.axvspan(start, x[-1], color='0.92', zorder=0)
+    ax.axvline(start, color='0.4', lw=1, ls='--')
+    ax.text(start, 1.0, '  validation', transform=ax.get_xaxis_transform(), va='top',
+            fontsize=8, color='0.3')
+    ax.text(x[0], 1.0, 'train', transform=ax.get_xaxis_transform(), va='top', fontsize=8,
+            color='0.3')
+
+
+def plot_time(comparison, alternative=None):
+    """Measured and model position over time [s], validation part shaded."""
+    fig, axes = _figure()
+    ax = axes[0, 0]
+    t = comparison.axis
+    ax.plot(t, comparison.measured, color='k', lw=0.8, label='measured')
+    ax.plot(t, comparison.predicted, color='tab:red', lw=0.9, label='model')
+    if alternative is not None:
+        label, pred = alternative
+        ax.plot(t, pred, color='tab:blue', lw=0.9, label=label)
+    _mark_split(ax, comparison)
+    ax.set(xlabel='time [s]', ylabel='position [rad]')
+    ax.legend(loc='lower right', fontsize=8)
+    return fig
+
+
+def plot_residual(comparison):
+    """Residual over time (or over the sample index for static curves)."""
+    fig, axes = _figure(h=3)
+    ax = axes[0, 0]
+    ax.plot(comparison.axis, comparison.residual, color='tab:purple', lw=0.7)
+    ax.axhline(0, color='0.5', lw=0.8)
+    _mark_split(ax, comparison)
+    static = comparison.kind == 'static'
+    ax.set(xlabel='sample (curves in file order)' if static else 'time [s]',
+           ylabel='measured − model' + ('' if static else ' [rad]'))
+    return fig
+
+
+def plot_hysteresis(comparison):
+    """Measured and model position vs model temperature difference (or duty difference)."""
+    fig, axes = _figure(w=6, h=5)
+    ax = axes[0, 0]
+    sig = comparison.signals
+    if not sig.get('proxy'):
+        x, xlabel = sig['theta_a'] - sig['theta_b'], 'model wire temperature θa − θb [°C]'
+    else:
+        x, xlabel = sig['duty_diff'], 'duty_a − duty_b'
+    ax.plot(x, comparison.measured, color='k', lw=0.5, alpha=0.7, label='measured')
+    ax.plot(x, comparison.predicted, color='tab:red', lw=0.6, alpha=0.8, label='model')
+    ax.set(xlabel=xlabel, ylabel='position [rad]')
+    ax.legend(fontsize=8)
+    return fig
+
+
+def plot_curves(comparison):
+    """Static data: output vs input per curve, measured dots and model lines."""
+    fig, axes = _figure(w=7, h=5)
+    ax = axes[0, 0]
+    u, curve = comparison.signals['input'], comparison.signals['curve']
+    ids = list(dict.fromkeys(curve.tolist()))
+    colours = [f'C{i % 10}' for i in range(len(ids))]
+    for cid, colour in zip(ids, colours):
+        m = curve == cid
+        ls = '--' if cid % 2 == 1 else '-'
+        ax.plot(u[m], comparison.measured[m], '.', color=colour, ms=3)
+        ax.plot(u[m], comparison.predicted[m], ls, color=colour, lw=1, label=f'curve {cid}')
+    ax.set(xlabel='input', ylabel='output')
+    ax.legend(fontsize=7, ncol=2)
+    return fig
+
+
+def plot_regimes(comparison):
+    """Bar chart of NRMSE [%] per regime label, one panel per group; dashed: overall."""
+    groups = comparison.regimes
+    cols = 3
+    rows = int(np.ceil(len(groups) / cols))
+    fig, axes = _figure(w=11, h=2.6 * rows, rows=rows, cols=cols)
+    overall = comparison.scores['all']['nrmse']
+    for ax, (group, items) in zip(axes.ravel(), groups.items()):
+        labels = [r['label'] for r in items]
+        values = [100 * (r['nrmse'] or 0.0) for r in items]
+        hot = [r in comparison.concentrated for r in items]
+        ax.bar(range(len(items)), values, color=['tab:red' if h else 'tab:gray' for h in hot])
+        if overall is not None:
+            ax.axhline(100 * overall, color='k', ls='--', lw=0.8)
+        ax.set_xticks(range(len(items)), labels, rotation=30, ha='right', fontsize=7)
+        ax.set_title(group, fontsize=9)
+        ax.set_ylabel('NRMSE [%]', fontsize=8)
+    for ax in axes.ravel()[len(groups):]:
+        ax.set_visible(False)
+    return fig
+
+
+def plot_correlations(comparison):
+    """Residual autocorrelation and the strongest cross-correlations with ±band."""
+    corr = comparison.correlations
+    cross = sorted(corr['cross'].items(), key=lambda kv: -kv[1]['strength'])[:MAX_CROSS_PANELS]
+    panels = [('residual autocorrelation', corr['autocorrelation'])] + \
+        [(f'residual x {k}', v) for k, v in cross]
+    cols = 3
+    rows = int(np.ceil(len(panels) / cols))
+    fig, axes = _figure(w=11, h=2.4 * rows, rows=rows, cols=cols)
+    band = corr['band']
+    step = corr['max_lag'] / max(1, np.max(np.abs(corr['autocorrelation']['lags'])))
+    for ax, (name, test) in zip(axes.ravel(), panels):
+        lags = np.asarray(test['lags']) * step
+        ax.axhspan(-band, band, color='tab:blue', alpha=0.15, lw=0)
+        ax.plot(lags, test['r'], color='tab:red' if test['exceeds'] else 'k', lw=0.9)
+        ax.axhline(0, color='0.5', lw=0.5)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel(f"lag [{corr['lag_unit']}]", fontsize=8)
+    for ax in axes.ravel()[len(panels):]:
+        ax.set_visible(False)
+    return fig
+
+
+# ------------------------------------------------------------------------------ HTML
+STYLE = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
+table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;
+padding:3px 8px;text-align:right}th{background:#f0f0f0}td.l,th.l{text-align:left}
+tr.hot td{background:#fde0dc}img{max-width:100%;border:1px solid #ddd}
+.note{color:#555;font-size:90%}"""
+
+
+def _f(x, fmt='{:.4g}'):
+    return 'n/a' if x is None else fmt.format(x)
+
+
+def _pct(x):
+    return 'n/a' if x is None else f'{100 * x:.2f} %'
+
+
+def _table(header, rows, left=1, hot=None):
+    head = ''.join(f'<th class="l">{html.escape(h)}</th>' if i < left
+                   else f'<th>{html.escape(h)}</th>' for i, h in enumerate(header))
+    body = []
+    for k, row in enumerate(rows):
+        cells = ''.join(f'<td class="l">{html.escape(str(c))}</td>' if i < left
+                        else f'<td>{html.escape(str(c))}</td>' for i, c in enumerate(row))
+        cls = ' class="hot"' if hot and hot[k] else ''
+        body.append(f'<tr{cls}>{cells}</tr>')
+    return f'<table><tr>{head}</tr>{"".join(body)}</table>'
+
+
+def _scores_html(comparison):
+    rows = [[part, _pct(s['nrmse']), _f(s['rmse']), _f(s['fit_percent'], '{:.1f}'),
+             _f(s['max_error'])] for part, s in comparison.scores.items() if s]
+    return _table(['part', 'NRMSE', 'RMSE', 'fit %', 'max error'], rows)
+
+
+def _model_html(model):
+    if not model:
+        return ''
+    effects = ', '.join(model.get('effects') or []) or 'none (paper base model)'
+    out = [f'<p>Model: <b>{html.escape(str(model.get("kind") or ""))}</b> base, effects: '
+           f'<b>{html.escape(effects)}</b></p>']
+    params = model.get('parameters') or {}
+    scalars = [[k, _f(v)] for k, v in params.items() if isinstance(v, (int, float))]
+    if scalars:
+        out.append(_table(['parameter', 'value'], scalars))
+    return ''.join(out)
+
+
+def _regimes_html(comparison):
+    out = []
+    for group, items in comparison.regimes.items():
+        rows = [[r['label'], r['samples'], _pct(r['fraction']), _pct(r['nrmse']), _f(r['rmse']),
+                 _f(r['bias']), _pct(r['error_share'])] for r in items]
+        out.append(f'<h3>{html.escape(group)}</h3>')
+        out.append(_table(['regime', 'samples', 'share of samples', 'NRMSE', 'RMSE',
+                           'mean error', 'share of squared error'], rows,
+                          hot=[r in comparison.concentrated for r in items]))
+    return ''.join(out)
+
+
+def _tests_html(comparison):
+    corr = comparison.correlations
+    unit = corr['lag_unit']
+    tests = [('residual (autocorrelation)', corr['autocorrelation'])] + list(corr['cross'].items())
+    rows = [[name, f"{t['max_abs']:.3f}", f"{t['at_lag']:g}", f"{t['strength']:.1f}",
+             _pct(t['fraction_over']), 'yes' if t['exceeds'] else 'no'] for name, t in tests]
+    note = (f'<p class="note">99 % band ±{corr["band"]:.4f} (±2.576/√N); lags up to '
+            f'{corr["max_lag"]:g} {unit}; positive lag: the signal leads the residual. '
+            'The band assumes a white residual; strength = max|r| / band ranks the signals.'
+            + (f' Constant, not tested: {html.escape(", ".join(corr["untested"]))}.'
+               if corr['untested'] else '') + '</p>')
+    return note + _table(['signal', 'max |r|', f'at lag [{unit}]', 'strength',
+                          'lags over band', 'exceeds band'], rows,
+                         hot=[t['exceeds'] for _, t in tests])
+
+
+def _diagnosis_html(diagnosis):
+    if not diagnosis:
+        return ''
+    base = diagnosis['baseline']
+    missing = diagnosis.get('missing_effect')
+    head = (f'<p>Baseline effects: <b>{html.escape(", ".join(base["effects"]) or "none")}'
+            f'</b>, validation NRMSE {_pct(base["validation_nrmse"])}. Missing effect: '
+            f'<b>{html.escape(missing) if missing else "none found (no candidate is significant)"}'
+            '</b></p>')
+    rows = [[c['effect'], _pct(c['validation_nrmse']), _pct(c['improvement']),
+             'yes' if c['significant'] else 'no', c.get('explanation', '')]
+            for c in diagnosis['candidates']]
+    return '<h2>Diagnosis: candidate effects, best first</h2>' + head + _table(
+        ['effect', 'validation NRMSE', 'improvement', 'significant', 'explanation'], rows,
+        hot=[c['significant'] for c in diagnosis['candidates']])
+
+
+def render_html(comparison, title, data_line, model, diagnosis, figures):
+    """The report page as a string (figures: [(file, caption, fig)])."""
+    imgs = ''.join(f'<h3>{html.escape(cap)}</h3><img src="{name}" alt="{html.escape(cap)}">'
+                   for name, cap, _ in figures)
+    parts = [f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}'
+             f'</title><style>{STYLE}</style></head><body>',
+             f'<h1>{html.escape(title)}</h1>',
+             f'<p>{html.escape(data_line)}</p>' if data_line else '',
+             _model_html(model),
+             '<h2>Scores (free-run simulation)</h2>', _scores_html(comparison),
+             '<p class="note">NRMSE = RMSE / range of the measured output; fit % = 100 (1 − '
+             '‖e‖/‖y − ȳ‖).</p>',
+             _diagnosis_html(diagnosis),
+             '<h2>Figures</h2>', imgs,
+             '<h2>Error by regime</h2><p class="note">Highlighted: RMSE at least 1.5 x the '
+             'overall RMSE on at least 5 % of the samples.</p>', _regimes_html(comparison),
+             '<h2>Residual tests</h2>', _tests_html(comparison),
+             '</body></html>']
+    return '\n'.join(p for p in parts if p)
