@@ -4,7 +4,7 @@ Small helpers shared by the recorder and replay nodes: message classes by type n
 profiles from rosbag2 policy names, parameter declaration with descriptors, diagnostics.
 """
 import importlib
-from typing import Any, Dict, Iterable, Tuple
+from typing import Any, Dict, Iterable, Iterator, Tuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
@@ -53,6 +53,26 @@ def publisher_offers(node: Node, topic: str):
     type_hash = hashes.pop() if len(hashes) == 1 else ''
     return [profile_to_dict(i.qos_profile) for i in infos], (
         type_hash if type_hash.startswith('RIHS01_') else '')
+
+
+def take_pending(subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
+    """Yield ``(message, info)`` for every message already queued on a subscription.
+
+    rclpy's executors take one message per subscription per wait cycle, which caps a node at
+    roughly ten thousand messages per second and lets bursts overflow the queue. Called from
+    the subscription's own callback, this takes the rest of the queue at once, through the
+    same ``handle.take_message`` call the executor uses. If that call is not available it
+    yields nothing and the executor takes the messages one by one as usual.
+    """
+    handle = getattr(subscription, 'handle', None)
+    if handle is None or not hasattr(handle, 'take_message'):
+        return
+    while True:
+        with handle:
+            taken = handle.take_message(subscription.msg_type, subscription.raw)
+        if taken is None:
+            return
+        yield taken
 
 
 def declare_parameters(node: Node, specs: Dict[str, ParamSpec]) -> Dict[str, Any]:

@@ -11,12 +11,15 @@ Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor,
 ``close()`` (or ``destroy_node()``) when the run ends.
 """
 import functools
+import signal
 import sys
+import threading
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from sma_actuator.bag.errors import BagError
 from sma_actuator.bag.msgdefs import type_description_hash
@@ -25,7 +28,7 @@ from sma_actuator.bag.recording import (DEFAULT_NAME_TEMPLATE, DEFAULT_TOPICS, T
                                         bag_directory)
 from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, diagnostics,
                                           message_class, parameter_overrides, publisher_offers,
-                                          qos_profile)
+                                          qos_profile, take_pending)
 from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
 
 PARAMETERS = {
@@ -53,6 +56,8 @@ PARAMETERS = {
     'diagnostics_period_s': (1.0, 'Publish /diagnostics every this many seconds [s]',
                              (0.1, 60.0)),
 }
+# executor cycles after SIGINT/SIGTERM to take messages that already arrived
+DRAIN_CYCLES = 10
 
 
 class RecorderNode(Node):
@@ -134,6 +139,12 @@ class RecorderNode(Node):
             self.get_logger().error(f"not recording '{topic}': {reason}")
 
     def _on_message(self, topic, data, info):
+        self._write(topic, data, info)
+        # take the rest of the queue now, not one message per executor cycle (see take_pending)
+        for data, info in take_pending(self._recording_subs[topic]):
+            self._write(topic, data, info)
+
+    def _write(self, topic, data, info):
         if self._closed:
             return
         log_time = self.get_clock().now().nanoseconds
@@ -185,22 +196,30 @@ class RecorderNode(Node):
 
 
 def main(args=None):
-    """Console entry point: record until SIGINT/SIGTERM, then close the bag."""
-    rclpy.init(args=args)
-    node = None
+    """Console entry point: record until SIGINT/SIGTERM, take what is queued, close the bag."""
+    # Own signal handling: rclpy's would shut the context down at once, dropping messages
+    # that already arrived but were not taken yet.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    interrupted = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: interrupted.set())
+    node, code = None, 0
     try:
         node = RecorderNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not interrupted.is_set():
+            executor.spin_once(timeout_sec=0.1)
+        for _ in range(DRAIN_CYCLES):
+            executor.spin_once(timeout_sec=0.02)
     except (BagError, ValueError) as err:
         print(f'recorder: {err}', file=sys.stderr)
-        return 1
+        code = 1
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return code
 
 
 if __name__ == '__main__':
