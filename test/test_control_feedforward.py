@@ -9,6 +9,7 @@ import pytest
 from sma_actuator.control.estimator import WireEstimator
 from sma_actuator.control.feedforward import InverseFeedforward
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator
+from sma_actuator.core.hysteresis import PlayHysteresis
 
 
 def open_loop(params, targets, seconds_each, horizon_s=0.0, dt=0.025):
@@ -56,3 +57,16 @@ def test_idle_wire_and_zero_target_get_no_heat():
 def test_duty_is_capped_by_duty_max():
     ff = InverseFeedforward(ActuatorParams(), duty_max=0.3)
     assert ff.duties(0.99)[0][0] <= 0.3
+
+
+def test_overshoot_on_a_rising_target_holds_the_temperature_instead_of_flipping_branch():
+    """Wire past its target while the target rises: hold θ; once the target falls: cool."""
+    p = ActuatorParams()
+    ff = InverseFeedforward(p)
+    ff.track([72.0, 22.0])                          # wire a part-way up its heating branch
+    y_now = PlayHysteresis.from_dict(p.hysteresis.to_dict()).simulate([22.0, 72.0])[-1]
+    ff.duties(y_now - 0.05)
+    _, (theta_hold, _) = ff.duties(y_now - 0.04)    # rising target, still below the wire
+    assert theta_hold == pytest.approx(72.0)
+    _, (theta_cool, _) = ff.duties(y_now - 0.06)    # the target reverses: cooling branch
+    assert theta_cool < 72.0 - 10.0

@@ -13,6 +13,16 @@ Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
              h → ∞ gives the static map back; a finite h also inverts the thermal lag T
              (faster reversals, where the passive cooling is the bottleneck).
 
+Branch holding: the exact inverse jumps to the other branch, a loop width (~2r, 26 K for
+Flexinol) away, for any error of the wire against its target however small. Driven from
+the estimated wire state, any overshoot on a rising reference (thermal lag, the PI's
+share) would then flip it to the cooling branch and back, and a fast thermal inverse
+chatters and walks the shaft in steps. So a wire's target that lies on the far side of
+its present contraction *against* the direction its target is moving is met by holding
+the present temperature: the reference comes back to the wire instead of the wire
+cycling 2r around it. Only a real reversal of the reference selects the other branch
+(before the target has moved at all, the exact inverse decides).
+
 The inverse is stateful. Its state is not advanced by its own targets but by the
 estimated hysteresis inputs of the wires (`track`, fed from `WireEstimator`), so H^-1 is
 always solved from the branch the wire is actually on, even when the thermal lag or the
@@ -48,14 +58,18 @@ class InverseFeedforward:
         """Both wires' inverse state on the cold (lower) branch at θ (default: model ambient)."""
         theta = self.params.ambient_c if theta_c is None else finite_scalar('theta_c', theta_c)
         self._u = [theta, theta]
-        for play in self._plays:
+        self._y = [0.0, 0.0]
+        self._last_target = [None, None]   # y_j* of the previous call (None: wire was idle)
+        self._direction = [0, 0]           # +1 target rising, -1 falling, 0 not moved yet
+        for j, play in enumerate(self._plays):
             play.reset(theta)
+            self._y[j] = play.step(theta)
 
     def track(self, hysteresis_inputs):
         """Advance each wire's inverse state along its estimated hysteresis input [°C]."""
         for j in range(2):
             self._u[j] = float(hysteresis_inputs[j])
-            self._plays[j].step(self._u[j])
+            self._y[j] = self._plays[j].step(self._u[j])
 
     def target_contractions(self, angle_rad):
         """Steps 1-2: (y_a*, y_b*); the idle wire's target is None."""
@@ -85,12 +99,20 @@ class InverseFeedforward:
         duties, temps = [0.0, 0.0], [amb, amb]
         for j, y_star in enumerate(self.target_contractions(angle_rad)):
             if y_star is None:
+                self._last_target[j], self._direction[j] = None, 0
                 continue
             gain = self._gain(j)
-            u_star, _ = kernels.play_inverse(np.array([y_star]), h.r, h.lo, h.hi, h.w, h.k1,
-                                             h.y0, self._plays[j].state, self._u[j],
-                                             amb - 50.0, amb + gain * self.duty_max)
-            theta = float(u_star[0]) + p.stress_k * float(contraction[1 - j])
+            last, self._last_target[j] = self._last_target[j], y_star
+            if last is not None and y_star != last:
+                self._direction[j] = 1 if y_star > last else -1
+            ahead = self._y[j] - y_star            # > 0: the wire is past its target going up
+            if ahead * self._direction[j] > 0:
+                u_star = self._u[j]       # hold: see "branch holding" in the module doc
+            else:
+                u_star = float(kernels.play_inverse(
+                    np.array([y_star]), h.r, h.lo, h.hi, h.w, h.k1, h.y0, self._plays[j].state,
+                    self._u[j], amb - 50.0, amb + gain * self.duty_max)[0][0])
+            theta = u_star + p.stress_k * float(contraction[1 - j])
             temps[j] = theta
             if self.horizon_s > 0 and theta_est is not None:
                 a, _ = thermal_step(float(theta_est[j]), 0.0, amb, 0.0, self.horizon_s,

@@ -82,13 +82,15 @@ def _overrides(d):
 
 
 def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20.0,
-                    plant=None, controller=None, setpoint=None, attach=(), wall_timeout_s=None):
+                    plant=None, controller=None, setpoint=None, attach=(), warmup_s=None,
+                    wall_timeout_s=None):
     """Run one closed-loop experiment; return the `Trace`.
 
     profile: dict of setpoint parameters (profile, amplitude, offset, period_s, delay_s...);
     plant / controller / setpoint: extra parameter overrides of each node; attach:
-    callables node_factory(context) -> Node added to the executor for this run (and
-    destroyed after it).
+    callables factory(context) -> Node added to the executor for this run (and destroyed
+    after it), e.g. a bag recorder. The plant's clock is held for `warmup_s` wall seconds
+    (default 0.3, 1.0 with attachments) so discovery completes before sim time starts.
     """
     sim = [Parameter('use_sim_time', value=True)]
     # no parameter services: nothing sets parameters during a run, and 6 services per node
@@ -103,13 +105,20 @@ def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20
             {'mode': mode, **(controller or {})})))
         nodes.append(Setpoint(**kw, parameter_overrides=sim + _overrides(
             {**profile, **(setpoint or {})})))
-        nodes.extend(factory(context) for factory in attach)
-        nodes.append(PlantSim(**kw, parameter_overrides=_overrides(
+        plant_node = PlantSim(**kw, parameter_overrides=_overrides(
             {'accelerated': True, 'lockstep': True,
-             'real_time_factor': float(real_time_factor), **(plant or {})})))
+             'real_time_factor': float(real_time_factor), **(plant or {})}))
+        plant_node.timer.cancel()             # sim time starts after the warm-up
+        nodes.append(plant_node)
+        nodes.extend(factory(context) for factory in attach)
         for n in nodes:
             executor.add_node(n)
-        limit = wall_timeout_s or 10.0 + 5.0 * duration_s / real_time_factor
+        warmup_s = (1.0 if attach else 0.3) if warmup_s is None else warmup_s
+        end = time.monotonic() + warmup_s
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        plant_node.timer.reset()
+        limit = wall_timeout_s or 10.0 + 5.0 * duration_s / min(real_time_factor, 5.0)
         deadline = time.monotonic() + limit
         while probe.sim_time() < duration_s:
             if time.monotonic() > deadline:
@@ -119,5 +128,5 @@ def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20
         return probe.trace
     finally:
         executor.shutdown()
-        for n in nodes:
+        for n in reversed(nodes):
             n.destroy_node()
