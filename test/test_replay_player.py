@@ -1,9 +1,10 @@
 """Replay schedule (ROS-free): original timing, rate, offset, loop, /clock ticks, remapping."""
 import threading
+import time
 
 import pytest
 
-from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings
+from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings, read_ahead
 from sma_actuator.bag.reader import BagMessage
 
 S = 1_000_000_000
@@ -124,3 +125,42 @@ def test_bad_remappings_name_the_entry(entry):
 def test_a_topic_cannot_be_remapped_twice():
     with pytest.raises(ValueError, match='remapped twice'):
         parse_remappings(['/a:=/b', '/a:=/c'])
+
+
+def test_read_ahead_keeps_order_and_ends():
+    stop = threading.Event()
+    items = list(read_ahead(iter(range(1000)), stop, max_items=7))
+    assert items == list(range(1000))
+
+
+def test_read_ahead_passes_reader_errors_on():
+    def broken():
+        yield 1
+        raise ValueError('chunk damaged')
+
+    got = []
+    with pytest.raises(ValueError, match='chunk damaged'):
+        for item in read_ahead(broken(), threading.Event()):
+            got.append(item)
+    assert got == [1]
+
+
+def test_read_ahead_reader_stops_with_the_consumer():
+    produced = []
+
+    def endless():
+        i = 0
+        while True:
+            produced.append(i)
+            yield i
+            i += 1
+
+    stop = threading.Event()
+    for item in read_ahead(endless(), stop, max_items=3):
+        if item == 5:
+            break
+    stop.set()
+    time.sleep(0.3)  # give the reader thread time to notice
+    count = len(produced)
+    time.sleep(0.2)
+    assert len(produced) == count <= 5 + 3 + 2

@@ -6,10 +6,11 @@ after the last message. Optional clock ticks report the bag time every ``clock_p
 time (for ``/clock``). Time is read and waited on through injected functions, so the schedule is
 tested with a fake clock and the node uses the monotonic clock.
 """
+import queue
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Iterable, List, Optional
+from typing import Callable, Dict, Iterable, Iterator, List, Optional
 
 from .reader import BagMessage
 
@@ -32,6 +33,47 @@ def parse_remappings(entries: Iterable[str]) -> Dict[str, str]:
             raise ValueError(f"topic '{source}' is remapped twice")
         mapping[source] = target
     return mapping
+
+
+def read_ahead(messages: Iterable[BagMessage], stop: threading.Event,
+               max_items: int = 5000) -> Iterator[BagMessage]:
+    """Iterate ``messages`` through a background thread that reads up to ``max_items`` ahead.
+
+    Reading a bag goes chunk by chunk (decompress, parse thousands of records at once); done
+    inline it would hold up every message due meanwhile. The reader thread stops when the
+    consumer stops iterating or ``stop`` is set; its exceptions are re-raised here.
+    """
+    items: queue.Queue = queue.Queue(maxsize=max_items)
+    done = object()
+    quit_reader = threading.Event()
+
+    def fill():
+        try:
+            for msg in messages:
+                while not (stop.is_set() or quit_reader.is_set()):
+                    try:
+                        items.put(msg, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                else:
+                    return
+            items.put(done)
+        except Exception as err:  # noqa: BLE001 - handed to the consumer below
+            items.put(err)
+
+    reader = threading.Thread(target=fill, name='bag-read-ahead', daemon=True)
+    reader.start()
+    try:
+        while True:
+            item = items.get()
+            if item is done:
+                return
+            if isinstance(item, Exception):
+                raise item
+            yield item
+    finally:
+        quit_reader.set()
 
 
 @dataclass
@@ -108,7 +150,7 @@ class Player:
             wall_start = self._now_ns()
             next_tick = wall_start
             played_any = False
-            for msg in self._messages(self._start_ns):
+            for msg in read_ahead(self._messages(self._start_ns), stop):
                 due = wall_start + int((msg.log_time_ns - self._start_ns) / self._options.rate)
                 while period_ns is not None and next_tick <= due:
                     if self._sleep_until(next_tick, stop):
