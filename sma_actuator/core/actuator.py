@@ -74,7 +74,8 @@ def flexinol_hysteresis(n_widths=4, n_centres=4):
 class ActuatorParams:
     """Physical parameters of the antagonistic actuator and its switchable effects.
 
-    Every effect parameter's default is its neutral value (effect off).
+    Every effect parameter's default is its neutral value (effect off), except
+    ambient_gain = 1: a simulated wire feels the ambient it is given.
     """
     # wire and amplifier (Flexinol 150 um LT, 250 mm; see module comment for sources)
     length_m: float = 0.25
@@ -92,6 +93,7 @@ class ActuatorParams:
     delay_s: float = 0.0             # delay: transport delay of the measured position [s]
     convection_beta_per_k: float = 0.0   # convection: hA(θ) = hA0 (1 + β (θ − θa))
     ambient_gain: float = 1.0        # ambient_drift: weight of measured ambient deviations
+                                     # (1 = physical; the workbench base model uses 0)
     phase_kappa: float = 0.0         # phase_resistance: power factor 1 + κ (1 − y)
     stress_k: float = 0.0            # stress_coupling: shift [K] per unit antagonist contraction
     gain_ratio_b: float = 1.0        # asymmetric_wires: heating gain of wire b relative to a
@@ -169,12 +171,18 @@ KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_beta_
 
 
 @njit(cache=True)
-def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state):
+def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state,
+                   feat_a, feat_b, u_a, u_b):
     """Steps 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
-    duty_*, ambient [°C], disturbance [K]: length-n inputs (held over each dt).
+    duty_*, ambient [°C], disturbance [K]: length-n inputs, sample k held over
+    [t_k, t_k + dt). Outputs follow the sampled-data convention: sample k is the state at
+    t_k, before duty k acts (a measurement taken when the command is sent).
     p: `ActuatorParams.kernel_vector()`; r, lo, hi, w, k1, y0: the shared hysteresis.
-    state (updated in place): [θ_a, θ_b, q_a, q_b, y_a, y_b, s_a (N), s_b (N)].
+    state (updated in place, ends at t_n): [θ_a, θ_b, q_a, q_b, y_a, y_b, s_a (N), s_b (N),
+    u_a, u_b] with u the hysteresis inputs.
+    feat_a/feat_b (n, N) and u_a/u_b (n,): filled with the element states and hysteresis
+    inputs when they have n rows (the regressors of identification), else ignored.
     """
     n = duty_a.shape[0]
     m = r.shape[0]
@@ -184,7 +192,18 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     out_yb = np.empty(n)
     out_ta = np.empty(n)
     out_tb = np.empty(n)
+    want = feat_a.shape[0] == n
+    iu = 6 + 2 * m
     for k in range(n):
+        # record the state at t_k
+        out_ta[k], out_tb[k], out_ya[k], out_yb[k] = state[0], state[1], state[4], state[5]
+        if want:
+            for i in range(m):
+                feat_a[k, i] = state[6 + i]
+                feat_b[k, i] = state[6 + m + i]
+            u_a[k] = state[iu]
+            u_b[k] = state[iu + 1]
+        # advance to t_k + dt
         th_amb = amb0 + k_amb * (ambient[k] - amb0)
         y_prev_a = state[4]
         y_prev_b = state[5]
@@ -205,6 +224,7 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
             state[j] = theta
             state[2 + j] = q
             u = theta + disturbance[k] - sigma * y_other
+            state[iu + j] = u
             acc = y0 + k1 * u
             base = 6 + j * m
             for i in range(m):
@@ -213,13 +233,10 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
                 state[base + i] = v
                 acc += w[i] * v
             state[4 + j] = acc
-            if j == 0:
-                out_ya[k] = acc
-                out_ta[k] = theta
-            else:
-                out_yb[k] = acc
-                out_tb[k] = theta
     return out_ya, out_yb, out_ta, out_tb
+
+
+NO_FEATURES = (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0))
 
 
 def initial_state(params, theta_c=None):
@@ -228,7 +245,7 @@ def initial_state(params, theta_c=None):
     theta = params.ambient_c if theta_c is None else finite_scalar('theta_c', theta_c)
     s = h.initial_state(theta)
     y = h.y0 + h.k1 * theta + float(h.w @ s)
-    return np.concatenate([[theta, theta, 0.0, 0.0, y, y], s, s])
+    return np.concatenate([[theta, theta, 0.0, 0.0, y, y], s, s, [theta, theta]])
 
 
 def shaft_angle(params, y_a, y_b):
@@ -286,7 +303,7 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
     h = params.hysteresis
     st = initial_state(params) if state is None else state
     ya, yb, ta, tb = simulate_wires(duty_a, duty_b, amb, dist, dt, params.kernel_vector(),
-                                    h.r, h.lo, h.hi, h.w, h.k1, h.y0, st)
+                                    h.r, h.lo, h.hi, h.w, h.k1, h.y0, st, *NO_FEATURES)
     phi = shaft_angle(params, ya, yb)
     phi = sensor_map(params, phi, np.arange(n) * dt)
     return Trajectory(delay_signal(phi, dt, params.delay_s), ta, tb, ya, yb)
@@ -337,12 +354,12 @@ class AntagonisticActuator:
         dist = finite_scalar('disturbance_k', disturbance_k)
         n_sub = max(1, int(np.ceil(dt / self.max_substep_s)))
         h = self.params.hysteresis
-        ya, yb, _, _ = simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
+        simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
                                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
                                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
-                                      h.y0, self._state)
+                                      h.y0, self._state, *NO_FEATURES)
         self._time += dt
-        self._history.append((self._time, self._measured(ya[-1], yb[-1])))
+        self._history.append((self._time, self._measured(self._state[4], self._state[5])))
         return self._delayed()
 
     def _delayed(self):

@@ -27,8 +27,8 @@ class PlayHysteresis:
     r: play half-widths [input units] (>= 0); lo, hi: saturation bands (use -inf/+inf for
     none); w: weights [output/input units]; k1: linear slope; y0: offset.
     Streaming `step(u)` keeps state; `simulate(u)` runs a batch from the reset state.
-    The reset state is the lower branch (as if the input had risen from far below): for
-    an SMA wire, cold and fully martensitic.
+    The reset state (`initial_state`) is the lower branch for saturated elements (an SMA
+    wire cold and fully martensitic) and the virgin state for unsaturated ones.
     """
 
     def __init__(self, r, lo, hi, w, k1=0.0, y0=0.0):
@@ -52,8 +52,16 @@ class PlayHysteresis:
         return self.r.shape[0]
 
     def initial_state(self, u0):
-        """State on the lower (rising) branch at input u0: s = clip(u0 - r, lo, hi)."""
-        return np.clip(finite_scalar('u0', u0) - self.r, self.lo, self.hi)
+        """Reset state at input u0.
+
+        Saturated elements start on the lower branch, s = clip(u0 - r, lo, hi) (cold, fully
+        martensitic wire). Unsaturated (classical, eq. 5) elements start from the virgin
+        state z = 0 of Prandtl-Ishlinskii theory, s = clip(0, u0 - r, u0 + r).
+        """
+        u0 = finite_scalar('u0', u0)
+        lower = np.clip(u0 - self.r, self.lo, self.hi)
+        virgin = np.clip(0.0, u0 - self.r, u0 + self.r)
+        return np.where(np.isfinite(self.lo) | np.isfinite(self.hi), lower, virgin)
 
     def reset(self, u0=0.0):
         """Reset the streaming state to the lower branch at input u0."""

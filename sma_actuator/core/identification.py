@@ -1,0 +1,470 @@
+"""Identification of the hysteresis and thermal parameters (the paper's section 2.2-2.3 tuning).
+
+* Scores (`scores`): free-run simulation error, RMSE, NRMSE = RMSE / range(y),
+  fit % = 100 (1 − ‖e‖ / ‖y − ȳ‖), max |e|.
+* Static (`fit_static`): input -> output curves with no time axis (quasi-static loops).
+  Weights of the play operators by non-negative least squares, the paper's "least mean
+  squares" tuning, on a grid of thresholds designed from the input range.
+* Preisach (`fit_preisach`): relay weights mu >= 0 by NNLS on the relay states.
+* Dynamic (`fit_dynamic`): (duty_a, duty_b, position[, ambient]) time series. Variable
+  projection: the outer nonlinear least squares (scipy.optimize.least_squares) adjusts
+  the thermal time constant and any free effect parameters; for each trial the wire
+  temperatures are simulated with the exact step (7d), the play-operator states of both
+  wires are the regressors, and the weights follow by NNLS (position is linear in them:
+  φ = φ0 + Σ_i v_i (s_i^a − s_b s_i^b) + k1 (θ_a − s_b θ_b)). Two stages: a coarse grid
+  over the whole temperature range finds the time constant and where the wire transforms,
+  then a fine grid over that active range gives the final weights. Effects that feed the
+  output back into the regressors (phase resistance, stress coupling) use the previous
+  round's hysteresis in the feedback path, alternating until the weights settle; the
+  sensor polynomial is handled by regressing on p^-1(measured position). Train on the
+  first `train_fraction` of time; score the free-run simulation of the rest.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares, nnls
+
+from . import actuator as act
+from . import kernels
+from .hysteresis import PlayHysteresis, PreisachModel
+from .validate import finite_array, same_length
+
+# parameters that feed the hysteresis output back into its own regressors
+FEEDBACK_PARAMS = ('phase_kappa', 'stress_k')
+SENSOR_PARAMS = ('sensor_c2_rad', 'sensor_c3_rad')
+
+
+def scores(y, y_hat):
+    """Error figures of a prediction y_hat of measured y: rmse, nrmse, fit_percent, max_error."""
+    y = np.asarray(y, float)
+    e = y - np.asarray(y_hat, float)
+    rmse = float(np.sqrt(np.mean(e ** 2)))
+    span = float(np.ptp(y))
+    dev = float(np.linalg.norm(y - y.mean()))
+    return {'rmse': rmse,
+            'nrmse': rmse / span if span > 0 else float('inf'),
+            'fit_percent': 100.0 * (1.0 - np.linalg.norm(e) / dev) if dev > 0 else float('-inf'),
+            'max_error': float(np.max(np.abs(e)))}
+
+
+def play_grid(u_min, u_max, kind='modified', n_widths=6, n_centres=8):
+    """Threshold grid of play operators covering inputs in [u_min, u_max].
+
+    classical: widths r_j = j/(n−1) · span/2 (unsaturated, eq. 5); modified: every width
+    combined with n_centres saturation bands of half-width span/(2 n_centres) whose
+    centres tile the span shifted by the width (eq. 6 elements centred across the range).
+    Weights start at zero.
+    """
+    span = float(u_max - u_min)
+    if not np.isfinite(span) or span <= 0:
+        raise ValueError(f'input range must be finite and positive, got [{u_min}, {u_max}]')
+    if kind == 'classical':
+        r = np.linspace(0.0, 0.5 * span, n_widths + 4)
+        inf = np.full(r.size, np.inf)
+        return PlayHysteresis(r, -inf, inf, np.zeros(r.size))
+    if kind != 'modified':
+        raise ValueError(f"kind must be 'classical' or 'modified', got {kind!r}")
+    widths = np.linspace(0.0, 0.4 * span, n_widths)
+    band = 0.5 * span / n_centres
+    rows = []
+    for r in widths:
+        # the element rises over [c - band + r, c + band + r]: tile that over the range
+        centres = np.linspace(u_min + band - r, u_max - band - r, n_centres)
+        rows += [(r, c - band, c + band) for c in centres]
+    r, lo, hi = np.array(rows).T
+    return PlayHysteresis(r, lo, hi, np.zeros(r.size))
+
+
+def _nnls_with_offset(X, y, free_cols=0):
+    """min ‖X b − y‖ with b >= 0 except the last `free_cols` columns (sign-free, split ±).
+
+    Solved on the Cholesky factor R of the (scaled) Gram matrix, ‖R b − R^-T X^T y‖ having
+    the same minimiser as ‖X b − y‖, so the active-set NNLS works on an m x m system
+    instead of n x m (n samples >> m regressors).
+    """
+    if free_cols:
+        X = np.hstack([X, -X[:, -free_cols:]])
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    G = Xs.T @ Xs
+    G[np.diag_indices_from(G)] += 1e-10 * np.trace(G) / len(G)   # ± column pairs are collinear
+    R = np.linalg.cholesky(G).T
+    z = np.linalg.solve(R.T, Xs.T @ y)
+    b, _ = nnls(R, z, maxiter=50 * X.shape[1])
+    b = b / scale
+    if free_cols:
+        b = np.concatenate([b[:-2 * free_cols], b[-2 * free_cols:-free_cols] - b[-free_cols:]])
+    return b
+
+
+@dataclass
+class StaticFit:
+    """Result of `fit_static`: the fitted operator and its scores (train/validation)."""
+    model: PlayHysteresis
+    train: dict
+    validation: dict
+    prediction: list = field(default_factory=list)
+
+
+def _curve_list(u, y, curve):
+    u = finite_array('input', u)
+    y = finite_array('output', y)
+    same_length(input=u, output=y)
+    curve = np.zeros(len(u), int) if curve is None else np.asarray(curve).astype(int)
+    same_length(input=u, curve=curve)
+    ids = list(dict.fromkeys(curve.tolist()))
+    return [(c, u[curve == c], y[curve == c]) for c in ids]
+
+
+def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8, n_centres=10,
+               nonneg=True):
+    """Fit a (classical or modified) PI operator to quasi-static input/output curves.
+
+    Each curve is simulated from the reset state (cold, lower branch at its first input),
+    as measured first-order reversal curves are. With validate_odd, even-numbered curves
+    train and odd ones validate (the workbench convention); otherwise all train.
+    nonneg=True constrains the weights to be non-negative (an invertible operator);
+    nonneg=False is plain least squares.
+    """
+    curves = _curve_list(u, y, curve)
+    train = [c for c in curves if not validate_odd or c[0] % 2 == 0]
+    val = [c for c in curves if validate_odd and c[0] % 2 == 1]
+    if not train:
+        raise ValueError('no training curves (need curve ids with even numbers)')
+    u_all = np.concatenate([c[1] for c in curves])
+    grid = play_grid(u_all.min(), u_all.max(), kind, n_widths, n_centres)
+    X = np.vstack([np.column_stack([grid.features(cu, grid.initial_state(u_all.min())),
+                                    cu, np.ones_like(cu)]) for _, cu, _ in train])
+    yt = np.concatenate([cy for _, _, cy in train])
+    b = _nnls_with_offset(X, yt, free_cols=1) if nonneg else np.linalg.lstsq(X, yt, rcond=None)[0]
+    model = PlayHysteresis(grid.r, grid.lo, grid.hi, b[:-2], b[-2], b[-1])
+    pred = [(c, model.simulate(cu, model.initial_state(u_all.min()))) for c, cu, _ in curves]
+    by_id = dict(pred)
+
+    def score(cs):
+        if not cs:
+            return None
+        return scores(np.concatenate([cy for _, _, cy in cs]),
+                      np.concatenate([by_id[c] for c, _, _ in cs]))
+    return StaticFit(model, score(train), score(val), pred)
+
+
+def fit_preisach(u, y, n_levels=21, u_range=None):
+    """Preisach model with relays on an even grid over the input range; weights by NNLS (mu >= 0)."""
+    u = finite_array('input', u)
+    y = finite_array('output', y)
+    same_length(input=u, output=y)
+    lo, hi = u_range if u_range is not None else (u.min(), u.max())
+    model = PreisachModel.grid(n_levels, lo, hi)
+    X = np.column_stack([model.features(u).astype(float), np.ones_like(u)])
+    b = _nnls_with_offset(X, y, free_cols=1)
+    return PreisachModel(model.alpha, model.beta, b[:-1], b[-1])
+
+
+# ------------------------------------------------------------------------- dynamic data
+@dataclass
+class DynamicData:
+    """A uniformly sampled run: time [s], duties [0, 1], position [rad], optional ambient [°C]."""
+    time: np.ndarray
+    duty_a: np.ndarray
+    duty_b: np.ndarray
+    position: np.ndarray
+    ambient: np.ndarray = None
+    setpoint: np.ndarray = None
+
+    def __post_init__(self):
+        self.time = finite_array('time', self.time, min_len=10)
+        for name in ('duty_a', 'duty_b', 'position'):
+            setattr(self, name, finite_array(name, getattr(self, name)))
+        same_length(time=self.time, duty_a=self.duty_a, duty_b=self.duty_b, position=self.position)
+        for name in ('ambient', 'setpoint'):
+            if getattr(self, name) is not None:
+                setattr(self, name, finite_array(name, getattr(self, name)))
+                same_length(time=self.time, **{name: getattr(self, name)})
+        steps = np.diff(self.time)
+        if (steps <= 0).any():
+            k = int(np.flatnonzero(steps <= 0)[0])
+            raise ValueError(f'time must be strictly increasing (row {k + 1}: {self.time[k + 1]} '
+                             f'after {self.time[k]})')
+        if np.ptp(steps) > 0.01 * np.median(steps):
+            raise ValueError('time must be uniformly sampled (steps vary by more than 1 %)')
+        for name in ('duty_a', 'duty_b'):
+            d = getattr(self, name)
+            if (d < 0).any() or (d > 1).any():
+                raise ValueError(f'{name} must lie in [0, 1]')
+
+    @property
+    def dt(self):
+        """Sample time [s]."""
+        return float(np.median(np.diff(self.time)))
+
+    def __len__(self):
+        return len(self.time)
+
+
+@dataclass
+class DynamicFit:
+    """Result of `fit_dynamic`: fitted parameters, scores and the free-run prediction."""
+    params: act.ActuatorParams
+    free: dict              # fitted values of the free nonlinear parameters
+    train: dict
+    validation: dict
+    prediction: np.ndarray  # free-run position over the whole record [rad]
+    trajectory: act.Trajectory
+    n_train: int
+    burn_in: int
+    n_parameters: int
+    grid: PlayHysteresis    # the threshold grid of the hysteresis (weights = fitted)
+
+
+_FIELDS = None
+
+
+def set_values(params, values):
+    """ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
+    Names that are not ActuatorParams fields (plug-in parameters) are ignored here."""
+    global _FIELDS
+    if _FIELDS is None:
+        from dataclasses import fields
+        _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
+    changes = {k: v for k, v in values.items() if k in _FIELDS}
+    if 'tau_s' in changes:
+        changes['heat_capacity_j_per_k'] = changes.pop('tau_s') * params.conductance_w_per_k
+    return params.with_changes(**changes)
+
+
+def sensor_inverse(y, c2, c3, iterations=6):
+    """φ with φ + c2 φ² + c3 φ³ = y, by Newton's method from φ = y (bounded small c2, c3)."""
+    phi = np.array(y, dtype=float)
+    if c2 == 0 and c3 == 0:
+        return phi
+    for _ in range(iterations):
+        f = phi + c2 * phi ** 2 + c3 * phi ** 3 - y
+        phi -= f / np.maximum(1.0 + 2 * c2 * phi + 3 * c3 * phi ** 2, 0.2)
+    return phi
+
+
+class _Problem:
+    """One variable-projection problem: data, split, grid, feedback reference, free layout."""
+
+    def __init__(self, data, base, grid, names, n_train, burn_in, input_hook=None):
+        self.data, self.base, self.grid = data, base, grid
+        self.input_hook = input_hook
+        self.values = {}
+        self.names = list(names)
+        self.n_train, self.burn_in = n_train, burn_in
+        self.ref = grid          # hysteresis in the feedback path (normalised weights)
+        self.t_h = (data.time - data.time[0]) / 3600.0
+        self.amb = (data.ambient if data.ambient is not None
+                    else np.full(len(data), base.ambient_c))
+
+    def regressors(self, params, n):
+        """Linear-part columns over the first n samples: [s^a − s_b s^b, u_a − s_b u_b, (t), 1]."""
+        d, g, ref = self.data, self.grid, self.ref
+        m = g.n_operators
+        fa, fb = np.empty((n, m)), np.empty((n, m))
+        ua, ub = np.empty(n), np.empty(n)
+        st = act.initial_state(params.with_changes(hysteresis=ref))
+        da, db, amb = self.inputs(self.values)
+        act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
+                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w, ref.k1, ref.y0, st,
+                           fa, fb, ua, ub)
+        sb = params.stroke_ratio_b
+        fa -= sb * fb
+        X = np.column_stack([fa, ua - sb * ub])
+        if params.fatigue_stroke_per_h:
+            X *= (1.0 - params.fatigue_stroke_per_h * self.t_h[:n])[:, None]
+        if params.delay_s > 0:
+            X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])
+        cols = [X]
+        if 'fatigue_offset_rad_per_h' in self.names:
+            cols.append(self.t_h[:n, None])
+        cols.append(np.ones((n, 1)))
+        return np.hstack(cols)
+
+    def inputs(self, values):
+        """(duty_a, duty_b, ambient) seen by the thermal model (after a plug-in hook)."""
+        d = self.data
+        if self.input_hook is None:
+            return d.duty_a, d.duty_b, self.amb
+        da, db, amb = self.input_hook(d.duty_a, d.duty_b, self.amb, values)
+        return np.clip(da, 0.0, 1.0), np.clip(db, 0.0, 1.0), amb
+
+    def solve(self, params):
+        """NNLS weights on the training window; returns (coefficients, training residual)."""
+        n, sl = self.n_train, slice(self.burn_in, self.n_train)
+        X = self.regressors(params, n)[sl]
+        y = self.data.position[sl]
+        c2, c3 = params.sensor_c2_rad, params.sensor_c3_rad
+        free_cols = 2 if 'fatigue_offset_rad_per_h' in self.names else 1
+        b = _nnls_with_offset(X, sensor_inverse(y, c2, c3), free_cols=free_cols)
+        phi = X @ b
+        return b, phi + c2 * phi ** 2 + c3 * phi ** 3 - y
+
+    def with_linear(self, params, b):
+        """ActuatorParams carrying the NNLS solution as a normalised hysteresis + shaft gain."""
+        g, m = self.grid, self.grid.n_operators
+        w, k1 = b[:m], b[m]
+        drift = b[m + 1] if len(b) == m + 3 else params.fatigue_offset_rad_per_h
+        # normalise so the contraction fraction spans [0, 1] over the grid's range
+        y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
+        stroke = max(y_hi - y_lo, 1e-9)
+        h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
+        # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b)
+        offset = b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
+        return params.with_changes(hysteresis=h, stroke_rad=stroke, offset_rad=offset,
+                                   fatigue_offset_rad_per_h=drift)
+
+    def optimise(self, free, x0, max_nfev):
+        """Outer nonlinear least squares over the free parameters (linear part projected out)."""
+        names = [k for k in self.names if k != 'fatigue_offset_rad_per_h']
+        if not names:
+            return {}, None
+        lo = np.array([free[k][0] for k in names], float)
+        hi = np.array([free[k][1] for k in names], float)
+        x0 = np.clip(np.array([x0[k] for k in names], float), lo, hi)
+
+        def residual(x):
+            self.values = dict(zip(names, x))
+            return self.solve(set_values(self.base, self.values))[1]
+
+        span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1.0))
+        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=span, diff_step=1e-3,
+                            max_nfev=max_nfev)
+        return dict(zip(names, sol.x)), sol.cost
+
+
+def _active_range(h, u_lo, u_hi):
+    """Where a fitted saturated-play operator moves: the 1-99 % quantiles of its rising
+    edges weighted by each element's output span, widened by one band; and the 99 %
+    quantile of its half-widths."""
+    mass = h.w * (h.hi - h.lo)
+    if not np.isfinite(mass).all() or mass.sum() <= 0:
+        return u_lo, u_hi, 0.5 * (u_hi - u_lo)
+
+    def quantile(x, q):
+        order = np.argsort(x)
+        cdf = np.cumsum(mass[order]) / mass.sum()
+        return float(x[order][min(np.searchsorted(cdf, q), len(x) - 1)])
+    edges = 0.5 * (h.lo + h.hi) + h.r
+    band = float(np.max(h.hi - h.lo))
+    a, b = quantile(edges, 0.01) - band, quantile(edges, 0.99) + band
+    return max(u_lo, a), min(u_hi, b), quantile(h.r, 0.99) + 0.5 * band
+
+
+def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
+                start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
+                rounds=2, input_hook=None):
+    """Fit the actuator model to a dynamic run by free-run simulation error.
+
+    data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
+    of nonlinear parameters to fit besides the hysteresis weights (by default only the
+    thermal time constant tau_s). kind: 'modified' (eq. 6) or 'classical' (eq. 5) PI.
+    base: starting ActuatorParams (Flexinol defaults; its G and ambient stay fixed, the
+    ambient defaulting to the first measured ambient values, ambient_gain 0 (constant
+    ambient) unless freed). grid/start: reuse a previous fit's threshold grid and warm
+    start values (diagnose does, so candidates are compared on equal terms).
+    input_hook(duty_a, duty_b, ambient, values) -> (duty_a, duty_b, ambient): plug-in
+    transform of the inputs with its own free parameters (names not in ActuatorParams).
+    Returns a `DynamicFit` scored by free-run error on training and held-out data.
+    """
+    if not isinstance(data, DynamicData):
+        raise TypeError('data must be a DynamicData')
+    if not 0.2 <= train_fraction < 1.0:
+        raise ValueError(f'train_fraction must be in [0.2, 1), got {train_fraction}')
+    base = act.ActuatorParams() if base is None else base
+    free = dict(free or {})
+    if data.ambient is not None and 'ambient_c' not in free:
+        base = base.with_changes(ambient_c=float(np.mean(data.ambient[: max(1, len(data) // 50)])))
+    if 'ambient_gain' not in free:   # the paper's model: constant ambient temperature
+        base = base.with_changes(ambient_gain=0.0)
+    free.setdefault('tau_s', (0.2, 20.0, base.tau_s))
+    for k, (lo, hi, x0) in free.items():
+        if not lo <= x0 <= hi:
+            raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
+    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+        raise ValueError('too little excitation: the duties hardly vary, so the thermal and '
+                         'hysteresis parameters cannot be identified')
+    if np.ptp(data.position) <= 0:
+        raise ValueError('too little excitation: the measured position is constant')
+    n = len(data)
+    n_train = int(round(train_fraction * n))
+    burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
+    values = {k: v[2] for k, v in free.items()}
+    if start:
+        values.update({k: v for k, v in start.items() if k in values})
+
+    if grid is None:
+        amb = data.ambient if data.ambient is not None else np.full(n, base.ambient_c)
+        u_lo = float(np.min(amb)) - 2.0
+        u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
+        prob = _Problem(data, base, play_grid(u_lo, u_hi, kind, *coarse), free, n_train, burn_in,
+                        input_hook)
+        best = None
+        for s in starts:
+            trial = dict(values, tau_s=float(np.clip(s * base.tau_s / 2.0, *free['tau_s'][:2])))
+            v, cost = prob.optimise(free, {k: trial[k] for k in free}, max_nfev)
+            if best is None or cost < best[1]:
+                best = (v, cost)
+        values.update(best[0])
+        prob.values = values
+        b, _ = prob.solve(set_values(base, values))
+        if kind == 'modified':
+            coarse_h = prob.with_linear(set_values(base, values), b).hysteresis
+            a, bb, r_max = _active_range(coarse_h, u_lo, u_hi)
+            grid = _fine_grid(a, bb, r_max, *fine)
+        else:
+            grid = play_grid(u_lo, u_hi, kind, *fine)
+        # keep the elements the fine solution uses, and their grid neighbours, so the
+        # nonlinear search (and every candidate effect after it) works on a small basis
+        prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook)
+        b, _ = prob.solve(set_values(base, values))
+        grid = _prune(grid, b[:grid.n_operators], fine if kind == 'modified' else None)
+    prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook)
+    feedback = any(k in FEEDBACK_PARAMS for k in free)
+    params = None
+    for _ in range(rounds if feedback else 1):
+        v, _ = prob.optimise(free, values, max_nfev)
+        values.update(v)
+        prob.values = values
+        params = set_values(base, values)
+        b, _ = prob.solve(params)
+        params = prob.with_linear(params, b)
+        prob.ref = params.hysteresis
+    values['fatigue_offset_rad_per_h'] = params.fatigue_offset_rad_per_h
+    values = {k: float(values[k]) for k in free}
+    da, db, amb = prob.inputs(values)
+    traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
+    pred, y = traj.position_rad, data.position
+    n_par = int(np.count_nonzero(params.hysteresis.w)) + 3 + len(free)
+    return DynamicFit(params, values, scores(y[burn_in:n_train], pred[burn_in:n_train]),
+                      scores(y[n_train:], pred[n_train:]), pred, traj, n_train, burn_in, n_par,
+                      prob.grid)
+
+
+def _fine_grid(u_lo, u_hi, r_max, n_widths, n_centres):
+    """Saturated plays whose rising edges tile [u_lo, u_hi], half-widths 0..r_max."""
+    band = 0.5 * (u_hi - u_lo) / n_centres
+    rows = []
+    for r in np.linspace(0.0, r_max, n_widths):
+        centres = np.linspace(u_lo + band - r, u_hi - band - r, n_centres)
+        rows += [(r, c - band, c + band) for c in centres]
+    r, lo, hi = np.array(rows).T
+    return PlayHysteresis(r, lo, hi, np.zeros(r.size))
+
+
+def _prune(grid, w, shape):
+    """Elements with non-zero weight, dilated by one grid step in width and centre."""
+    used = w > 0
+    if shape is not None:
+        used = used.reshape(shape)
+        grown = used.copy()
+        grown[1:, :] |= used[:-1, :]
+        grown[:-1, :] |= used[1:, :]
+        grown[:, 1:] |= used[:, :-1]
+        grown[:, :-1] |= used[:, 1:]
+        used = grown.ravel()
+    if not used.any():
+        return grid
+    return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))

@@ -1,0 +1,190 @@
+"""Catalog of physical effects the base model (the paper's) may lack.
+
+Each effect is a small class: its docstring states the physics, `parameters` maps the
+`ActuatorParams` fields it frees to (lower, upper, start) bounds, and `signature` says
+what the residual of a model without it looks like. The physics itself lives in
+`sma_actuator.core.actuator` (one implementation, shared with the plant node).
+
+Plug-in point: subclass `Effect` in your own module and call `register_effect(cls)`
+(or expose the module under the `sma_actuator.effects` entry-point group / pass it to
+`sma-model --plugin`). A plug-in effect may free existing ActuatorParams fields and may
+bring parameters of its own that act through `transform_inputs` (duties and ambient
+before the thermal model), e.g. a supply that sags with load or a PWM dead time.
+"""
+import numpy as np
+
+
+class Effect:
+    """Base class of a catalog effect (see module docstring)."""
+    name = ''
+    signature = ''
+    parameters = {}       # ActuatorParams field (or 'tau_s') -> (lower, upper, start)
+    needs_dynamic = True  # needs time-series data (not quasi-static curves)
+    kind = None           # hysteresis kind the effect requires ('modified' for saturation)
+
+    @property
+    def doc(self):
+        """The physics docstring."""
+        return ' '.join((self.__doc__ or '').split())
+
+    def applicable(self, data):
+        """None if the effect can be fitted on `data`, else the reason it cannot."""
+        return None
+
+    def start_values(self, data):
+        """Starting values of the parameters for `data` (default: the table's start)."""
+        return {k: v[2] for k, v in self.parameters.items()}
+
+    def transform_inputs(self, duty_a, duty_b, ambient, values):
+        """Plug-in hook: inputs (arrays) seen by the thermal model, given this effect's
+        parameter values (dict). Duties must stay in [0, 1]. Identity by default."""
+        return duty_a, duty_b, ambient
+
+
+class Saturation(Effect):
+    """Hysteresis saturation: the transformation of NiTi is complete at both ends (all
+    martensite cold, all austenite hot), so contraction stops growing however far the
+    temperature moves. The classical Prandtl-Ishlinskii operator of eq. (5) keeps growing
+    linearly; the modified operator of eq. (6) (backlash with saturation) does not."""
+    name = 'saturation'
+    signature = ('error grows at the ends of travel; the model overshoots where the '
+                 'measured loop flattens; residual correlates with |position|')
+    needs_dynamic = False
+    kind = 'modified'
+
+
+class FastDynamics(Effect):
+    """Unmodelled fast dynamics tau of the paper's Fig. 13: a first-order lag on the heat
+    input (heat spreading from core to surface, amplifier filtering), so the wire responds
+    to a duty step with an S-shaped rather than exponential temperature rise."""
+    name = 'fast_dynamics'
+    parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
+    signature = ('residual spikes right after duty steps, same sign as the step; '
+                 'residual correlates with the duty rate')
+
+
+class Delay(Effect):
+    """Transport delay between command and measured position (serial link, filtering in
+    the sensor chain, PWM update latency): the whole response is shifted in time."""
+    name = 'delay'
+    parameters = {'delay_s': (0.0, 1.5, 0.05)}
+    signature = ('residual looks like the derivative of the position (leads the motion); '
+                 'cross-correlation of residual and position rate peaks at lag 0')
+
+
+class Convection(Effect):
+    """Temperature-dependent heat transfer: the film coefficient of natural convection
+    (and radiation) rises with the wire's excess temperature, hA(θ) = hA0 (1 + β (θ − θa)),
+    so a hot wire loses heat faster and settles cooler than the linear eq. (7) predicts."""
+    name = 'convection'
+    parameters = {'convection_beta_per_k': (-0.005, 0.05, 0.004)}
+    signature = ('error depends on temperature level: model too hot (over-contracted) at '
+                 'high duty, cooling faster than modelled; residual correlates with temperature')
+
+
+class AmbientDrift(Effect):
+    """Ambient temperature changes during the run: eq. (7) loses heat to the actual
+    ambient θa(t) (measured), not to a constant, shifting every temperature and so the
+    position at a given duty."""
+    name = 'ambient_drift'
+    parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
+    signature = ('slow residual that follows the measured ambient temperature; '
+                 'cross-correlation with ambient well outside the 99 % band')
+
+    def applicable(self, data):
+        """Needs a measured ambient_temperature that actually varies."""
+        amb = getattr(data, 'ambient', None)
+        if amb is None:
+            return 'no ambient_temperature column in the data'
+        if np.ptp(amb) < 0.5:
+            return 'measured ambient varies by less than 0.5 K'
+        return None
+
+
+class PhaseResistance(Effect):
+    """Electrical resistance depends on phase: martensite has a higher resistivity than
+    austenite, so at a given duty the Joule power R i² (current-limited) or V²/R changes as
+    the wire transforms: P = P0 d (1 + κ (1 − y)), y the contraction fraction."""
+    name = 'phase_resistance'
+    parameters = {'phase_kappa': (-0.6, 1.0, 0.1)}
+    signature = ('heating from cold is faster (or slower) than modelled while cooling '
+                 'matches; error concentrated in heating from the martensite side')
+
+
+class StressCoupling(Effect):
+    """Stress coupling of the antagonistic pair: when one wire contracts it stretches the
+    other, raising its stress and, by Clausius-Clapeyron (~6-7 MPa/K), its transformation
+    temperatures; equivalently the wire sees an effective temperature lowered by σ y_other."""
+    name = 'stress_coupling'
+    parameters = {'stress_k': (0.0, 40.0, 4.0)}
+    signature = ('loop of each wire shifts with the state of the other: error larger when '
+                 'the antagonist is contracted (near the ends of travel), depends on history')
+
+
+class AsymmetricWires(Effect):
+    """The two wires differ (length, diameter, resistance, crimping, pre-strain): heating
+    gain, time constant and stroke of wire b relative to wire a are free."""
+    name = 'asymmetric_wires'
+    parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
+                  'stroke_ratio_b': (0.5, 2.0, 1.0)}
+    signature = ('error has opposite character on the two sides: one direction too fast or '
+                 'too far, the other too slow or short; residual correlates with sign of position')
+
+
+class SensorNonlinearity(Effect):
+    """Potentiometer nonlinearity: track resistance is not uniform and the wiper loads the
+    divider, so the reading is a polynomial of the angle, p(φ) = φ + c2 φ² + c3 φ³."""
+    name = 'sensor_nonlinearity'
+    parameters = {'sensor_c2_rad': (-0.4, 0.4, 0.0), 'sensor_c3_rad': (-0.4, 0.4, 0.0)}
+    signature = ('static, memoryless error that is a smooth function of the position '
+                 '(bow or S-shape in the residual-vs-position plot), same on both branches')
+
+
+class FatigueDrift(Effect):
+    """Functional fatigue: with accumulated transformation cycles the recoverable strain
+    shrinks and the zero point drifts (plastic strain, stabilised martensite); modelled
+    as stroke loss and offset drift proportional to operating time."""
+    name = 'fatigue_drift'
+    parameters = {'fatigue_stroke_per_h': (-3.0, 6.0, 0.0),
+                  'fatigue_offset_rad_per_h': (-float('inf'), float('inf'), 0.0)}
+    signature = ('residual trends with time: its mean and amplitude differ between time '
+                 'quartiles; validation error much larger than training error')
+
+
+class CurrentLimit(Effect):
+    """Current limiter of the amplifier engages within the used duty range: the mean
+    current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
+    saturates), so high duties heat less than the linear PWM law predicts."""
+    name = 'current_limit'
+    parameters = {'duty_limit': (0.02, 1.0, 0.9)}
+    signature = ('model over-heats only at the highest duties: error at full contraction '
+                 'after large duty steps, none at small duties')
+
+    def start_values(self, data):
+        """Start below the largest duty used, where the limit has an effect to fit."""
+        top = float(max(np.max(data.duty_a), np.max(data.duty_b)))
+        return {'duty_limit': float(np.clip(0.85 * top, 0.02, 1.0))}
+
+
+CATALOG = {}
+
+
+def register_effect(cls):
+    """Add an Effect subclass to the catalog (the plug-in point); returns cls."""
+    if not (isinstance(cls, type) and issubclass(cls, Effect)) or not cls.name:
+        raise ValueError('a plug-in effect must be an Effect subclass with a name')
+    CATALOG[cls.name] = cls()
+    return cls
+
+
+for _cls in (Saturation, FastDynamics, Delay, Convection, AmbientDrift, PhaseResistance,
+             StressCoupling, AsymmetricWires, SensorNonlinearity, FatigueDrift, CurrentLimit):
+    register_effect(_cls)
+
+
+def get_effect(name):
+    """Catalog lookup with a clear error listing the known effects."""
+    try:
+        return CATALOG[name]
+    except KeyError:
+        raise ValueError(f'unknown effect {name!r}; known: {", ".join(sorted(CATALOG))}') from None
