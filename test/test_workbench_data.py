@@ -1,0 +1,178 @@
+"""Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
+import numpy as np
+import pytest
+
+from sma_actuator.core.identification import DynamicData
+from sma_actuator.workbench.data import (DataError, check_excitation, describe, is_static,
+                                         load_data)
+
+REAL = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+
+
+def _dynamic_rows(n=40, dt=0.05):
+    t = np.arange(n) * dt
+    da = 0.5 + 0.4 * np.sin(t)
+    db = 0.5 - 0.4 * np.sin(t)
+    pos = 0.3 * np.sin(t - 0.2)
+    return t, da, db, pos
+
+
+def _write(path, header, rows, comments=()):
+    lines = list(comments) + [header] + [','.join(f'{v:.6g}' for v in r) for r in rows]
+    path.write_text('\n'.join(lines) + '\n')
+    return path
+
+
+@pytest.fixture
+def dynamic_csv(tmp_path):
+    t, da, db, pos = _dynamic_rows()
+    amb = 22.0 + 0.01 * t
+    return _write(tmp_path / 'run.csv', 'time,duty_a,duty_b,position,ambient_temperature',
+                  np.column_stack([t, da, db, pos, amb]), comments=['# made-up run', ''])
+
+
+def _lines(path):
+    return path.read_text().splitlines()
+
+
+def _rewrite(path, lines):
+    path.write_text('\n'.join(lines) + '\n')
+    return path
+
+
+def test_dynamic_csv_loads_values_and_optional_ambient(dynamic_csv):
+    data = load_data(dynamic_csv)
+    t, da, db, pos = _dynamic_rows()
+    assert isinstance(data, DynamicData) and not is_static(data)
+    np.testing.assert_allclose(data.time, t, atol=1e-9)
+    np.testing.assert_allclose(data.duty_b, db, atol=1e-6)
+    np.testing.assert_allclose(data.position, pos, atol=1e-6)
+    np.testing.assert_allclose(data.ambient, 22.0 + 0.01 * t, atol=1e-6)
+    assert data.setpoint is None
+    assert '40 samples at 20 Hz' in describe(data)
+
+
+def test_column_order_case_and_extra_columns_do_not_matter(tmp_path):
+    t, da, db, pos = _dynamic_rows()
+    path = _write(tmp_path / 'x.csv', 'Position, TIME ,duty_b,note,duty_a,setpoint',
+                  np.column_stack([pos, t, db, np.ones_like(t), da, pos + 0.1]))
+    data = load_data(path)
+    np.testing.assert_allclose(data.duty_a, da, atol=1e-6)
+    np.testing.assert_allclose(data.setpoint, pos + 0.1, atol=1e-6)
+    assert data.ambient is None
+
+
+def test_real_morphing_wing_curves_load_as_static_data():
+    data = load_data(REAL)
+    assert is_static(data)
+    assert sorted(set(data.curve.tolist())) == list(range(11))
+    assert len(data.input) == 642          # 648 lines - 5 comments - 1 header
+    assert data.input.max() == pytest.approx(3.5)
+    check_excitation(data)
+
+
+def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
+    u = np.linspace(0, 1, 12)
+    data = load_data(_write(tmp_path / 's.csv', 'input,output', np.column_stack([u, u ** 2])))
+    assert is_static(data)
+    np.testing.assert_array_equal(data.curve, np.zeros(12, int))
+    np.testing.assert_allclose(data.output, u ** 2, atol=1e-6)
+
+
+@pytest.mark.parametrize('edit, expected', [
+    (lambda ls: ls[:4] + [ls[4].rsplit(',', 1)[0]] + ls[5:], r'line 5: 4 field\(s\), the header has 5'),
+    (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'abc', 1)] + ls[7:],
+     r"line 7, column 'position': 'abc' is not a number"),
+    (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'nan', 1)] + ls[7:],
+     r"line 7, column 'position': nan \(NaN"),
+    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:3] + [''] + ls[6].split(',')[4:])] + ls[7:],
+     r"line 7, column 'position': empty value"),
+    (lambda ls: ls[:10] + [ls[9]] + ls[11:], r"line 11, column 'time': 0.3 repeats 0.3 on line 10"),
+    (lambda ls: ls[:10] + [ls[11], ls[10]] + ls[12:], r"line 12, column 'time': .* goes back from"),
+    (lambda ls: ls[:10] + ls[11:], r"line 11, column 'time': step 0.1 s differs from the median"),
+    (lambda ls: [ls[0], ls[1], 'time,duty_a,duty_b,angle,ambient_temperature'] + ls[3:],
+     r'missing column\(s\) position \(found time, duty_a, duty_b, angle'),
+    (lambda ls: [ls[0], ls[1], 'time,duty_a,duty_a,position,ambient_temperature'] + ls[3:],
+     r"column 'duty_a' appears twice"),
+    (lambda ls: ls[:3], r'no data rows after the header \(line 3\)'),
+    (lambda ls: ls[:2], r'empty file'),
+    (lambda ls: ls[:11], r'8 data row\(s\); a dynamic record needs at least 10'),
+])
+def test_malformed_dynamic_csv_names_file_line_and_column(dynamic_csv, edit, expected):
+    # file lines: 1 comment, 2 blank, 3 header, 4.. data (time 0, 0.05, ...)
+    path = _rewrite(dynamic_csv, edit(_lines(dynamic_csv)))
+    with pytest.raises(DataError, match=expected) as err:
+        load_data(path)
+    assert str(err.value).startswith(str(path))
+
+
+def test_duty_out_of_range_is_reported_as_a_fraction_problem(tmp_path):
+    t, da, db, pos = _dynamic_rows()
+    da[7] = 55.0
+    path = _write(tmp_path / 'pct.csv', 'time,duty_a,duty_b,position',
+                  np.column_stack([t, da, db, pos]))
+    with pytest.raises(DataError, match=r"line 9, column 'duty_a': 55 is outside \[0, 1\]"):
+        load_data(path)
+
+
+def test_static_errors(tmp_path):
+    path = _write(tmp_path / 'c.csv', 'curve,voltage,deflection',
+                  [[0, 0, 0], [0, 1, 1], [1.5, 0, 0], [1.5, 1, 1]])
+    with pytest.raises(DataError, match=r"line 4, column 'curve': 1.5 is not a curve number"):
+        load_data(path)
+    path = _write(tmp_path / 'odd.csv', 'input,output,curve', [[0, 0, 1], [1, 1, 1]])
+    with pytest.raises(DataError, match='no even-numbered curve'):
+        load_data(path)
+    path = _write(tmp_path / 'half.csv', 'curve,voltage', [[0, 0], [0, 1]])
+    with pytest.raises(DataError, match='a static CSV needs input,output or '
+                                        'voltage,deflection'):
+        load_data(path)
+
+
+def test_unknown_header_and_headerless_files_explain_the_formats(tmp_path):
+    with pytest.raises(DataError, match='cannot tell the data kind .* a dynamic CSV needs'):
+        load_data(_write(tmp_path / 'a.csv', 'x,y', [[1, 2], [3, 4]]))
+    with pytest.raises(DataError, match='first row holds numbers, not column names'):
+        load_data(_write(tmp_path / 'b.csv', '0,1', [[1, 2], [3, 4]]))
+
+
+def test_missing_file_binary_file_and_directory(tmp_path):
+    with pytest.raises(DataError, match='no such file'):
+        load_data(tmp_path / 'nope.csv')
+    (tmp_path / 'bin.csv').write_bytes(b'\xff\xfe\x00garbage\x80')
+    with pytest.raises(DataError, match='not UTF-8'):
+        load_data(tmp_path / 'bin.csv')
+    with pytest.raises(DataError, match='directory without an .mcap'):
+        load_data(tmp_path)
+
+
+def test_too_little_excitation(tmp_path):
+    t, da, db, pos = _dynamic_rows()
+    path = _write(tmp_path / 'flat.csv', 'time,duty_a,duty_b,position',
+                  np.column_stack([t, np.full_like(t, 0.3), np.zeros_like(t), pos]))
+    with pytest.raises(DataError, match='too little excitation: duty_a and duty_b hardly vary'):
+        check_excitation(load_data(path), path)
+    path = _write(tmp_path / 'still.csv', 'time,duty_a,duty_b,position',
+                  np.column_stack([t, da, db, np.full_like(t, 0.1)]))
+    with pytest.raises(DataError, match='position is constant'):
+        check_excitation(load_data(path), path)
+
+
+def test_mcap_bag_loads_through_load_run(tmp_path):
+    from sma_actuator.bag.synthetic import write_demo_run
+    bag = write_demo_run(tmp_path / 'demo', duration_s=1.0)
+    data = load_data(bag)
+    assert isinstance(data, DynamicData)
+    assert len(data) == 101 and data.dt == pytest.approx(0.01)
+    assert data.ambient is not None and np.all(data.ambient == 22.0)
+    assert np.all(np.isfinite(data.setpoint))       # leading NaN filled by the first value
+    assert data.duty_a.max() > 0 and np.all(data.duty_b == 0)
+    mcap = next(bag.glob('*.mcap'))
+    assert len(load_data(mcap, rate_hz=50)) == 51   # the file itself, resampled
+
+
+def test_broken_bag_is_a_data_error_naming_the_file(tmp_path):
+    bad = tmp_path / 'broken.mcap'
+    bad.write_bytes(b'\x89MCAP0\r\n' + b'\x00' * 20)
+    with pytest.raises(DataError, match='broken.mcap'):
+        load_data(bad)
