@@ -1,6 +1,7 @@
 """RecorderNode in-process: records what was published, byte for byte, read back by rosbags."""
 import time
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
@@ -14,6 +15,7 @@ from rclpy.serialization import deserialize_message  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
+from sma_actuator.bag.arrays import load_run  # noqa: E402
 from sma_actuator.bag.errors import BagExistsError  # noqa: E402
 from sma_actuator.bag.qos import load_offered_qos_profiles  # noqa: E402
 from sma_actuator.nodes.recorder import RecorderNode  # noqa: E402
@@ -113,6 +115,20 @@ def test_records_every_contract_topic_byte_for_byte(graph, tmp_path):
         publish_times = {}
         for _, channel, msg in mcap.iter_messages():
             publish_times.setdefault(channel.topic, []).append((msg.publish_time, msg.log_time))
+    # the workbench's view of the same recording
+    arrays = load_run(path)
+    assert list(arrays) == ['time', 'duty_a', 'duty_b', 'position', 'ambient_temperature',
+                            'setpoint']
+    published_js = [deserialize_message(raw, JointState).position[0]
+                    for raw in stored['/sma/joint_states']]
+    assert arrays['position'][0] == published_js[0]
+    assert min(published_js) <= arrays['position'].min() <= arrays['position'].max() <= max(
+        published_js)
+    assert set(arrays['duty_a']) <= {i / N for i in range(N)} | {0.0}
+    setpoint = arrays['setpoint']
+    known = ~np.isnan(setpoint)
+    assert known[1:].all(), 'NaN only before the first setpoint (at most the first sample)'
+    assert set(setpoint[known]) <= {0.01 * i for i in range(N)}
     for topic in CONTRACT:
         meta = channels[topic].metadata
         assert meta['topic_type_hash'] == str(offered[topic].topic_type_hash)
