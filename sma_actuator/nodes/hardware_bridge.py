@@ -1,0 +1,196 @@
+"""hardware_bridge: /sma/duty -> serial PWM/ADC microcontroller -> /sma/joint_states.
+
+Drives the real rig (or the `mcu_emulator`) over the protocol of docs/protocol.md. The
+logic is in `hardware.bridge_core` (safety, handshake, calibration) and
+`hardware.link` (pyserial port thread with reconnect/backoff); this node wires them to
+topics:
+
+- subscribes /sma/duty (std_msgs/Float64MultiArray [duty_a, duty_b]) and sends each
+  command at once, refreshed every 1/duty_refresh_hz to feed the 100 ms MCU watchdog;
+- publishes every ADC report as /sma/joint_states (joint `shaft`, calibrated position,
+  filtered velocity, stamp = node clock at reception) and the raw counts as
+  /sma/potentiometer_raw (std_msgs/UInt16);
+- publishes /diagnostics: `hardware_bridge: link` (state, frame/CRC errors, lost
+  frames, round-trip times), `hardware_bridge: mcu` (faults, firmware, MCU-side
+  receive errors) and `hardware_bridge: duty` (host watchdog, rejected/clamped commands).
+
+On shutdown a zero-duty frame is sent before the port closes.
+"""
+import threading
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, UInt16
+
+from ..hardware.bridge_core import BridgeConfig, BridgeCore
+from ..hardware.calibration import AdcCalibration
+from ..hardware.link import SerialLink
+from . import common as c
+
+POTENTIOMETER_RAW = '/sma/potentiometer_raw'
+TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
+LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN, 'error': DiagnosticStatus.ERROR,
+          'stale': DiagnosticStatus.STALE}
+
+
+class HardwareBridge(Node):
+    """Bridge node (see module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('hardware_bridge', **kwargs)
+        self.port = c.declare_str(self, 'port', '/dev/ttyACM0', 'Serial device or pyserial URL '
+                                  '(socket://host:port, loop://).', read_only=True)
+        baud = c.declare_int(self, 'baud', 115200, 'Serial baud rate [bit/s].', 1200, 4_000_000,
+                             read_only=True)
+        offset = c.declare_float(self, 'adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts '
+                                 '[rad].', -10.0, 10.0, read_only=True)
+        scale = c.declare_float(self, 'adc_scale_rad_per_count', 2.4 / 4095, 'Shaft angle per '
+                                'ADC count [rad].', -1.0, 1.0, read_only=True)
+        poly = self.declare_parameter('adc_polynomial', [0.0], ParameterDescriptor(
+            description='With 2 or more coefficients: angle [rad] = polyval(coefficients, counts), '
+            'highest power first, replacing offset and scale. [0.0] = not used (YAML has no '
+            'typed empty list).', type=ParameterType.PARAMETER_DOUBLE_ARRAY, read_only=True)).value
+        calibration = AdcCalibration(offset, scale, poly if len(poly) >= 2 else ())
+        publish_hz = c.declare_float(self, 'publish_rate_hz', 200.0, 'ADC report (and joint '
+                                     'state) rate requested from the MCU; each duty frame also '
+                                     'gets an immediate report [Hz].', 1.0, 1000.0, read_only=True)
+        refresh_hz = c.declare_float(self, 'duty_refresh_hz', 50.0, 'Re-send the current duty '
+                                     'at this rate (> 10 Hz keeps the 100 ms MCU watchdog fed) '
+                                     '[Hz].', 11.0, 1000.0, read_only=True)
+        config = BridgeConfig(
+            max_duty=c.declare_float(self, 'max_duty', 1.0, 'Per-wire duty limit.', 0.0, 1.0,
+                                     read_only=True),
+            interlock_threshold=c.declare_float(
+                self, 'interlock_threshold', 0.3, 'The two duties are never both above this '
+                '(the firmware caps it at 0.5).', 0.0, 0.5, read_only=True),
+            duty_timeout_s=c.declare_float(self, 'duty_timeout_s', 0.2, 'Host watchdog: no '
+                                           '/sma/duty this long -> zero duty + WARN [s].',
+                                           0.01, 10.0, read_only=True),
+            duty_refresh_s=1.0 / refresh_hz,
+            link_timeout_s=c.declare_float(self, 'link_timeout_s', 0.5, 'No valid frame from '
+                                           'the MCU this long -> link lost, re-handshake [s].',
+                                           0.05, 10.0, read_only=True),
+            heartbeat_period_s=1.0 / c.declare_float(self, 'heartbeat_hz', 5.0, 'Round-trip '
+                                                     'probe rate [Hz].', 0.1, 100.0, read_only=True),
+            adc_period_s=1.0 / publish_hz)
+        backoff = (c.declare_float(self, 'reconnect_backoff_min_s', 0.1, 'First reopen delay '
+                                   '[s]; doubles per failure.', 0.01, 10.0, read_only=True),
+                   c.declare_float(self, 'reconnect_backoff_max_s', 5.0, 'Longest reopen delay '
+                                   '[s].', 0.1, 60.0, read_only=True))
+        tau = c.declare_float(self, 'velocity_filter_tau_s', 0.02, 'Low-pass time constant of '
+                              'the velocity estimate [s].', 0.0, 1.0, read_only=True)
+        diag_hz = c.declare_float(self, 'diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].',
+                                  0.1, 50.0, read_only=True)
+
+        self._lock = threading.Lock()   # BridgeCore is shared by the executor and the link thread
+        self._stopping = False
+        self.core = BridgeCore(config, calibration, time.monotonic(), tau, self._log)
+        self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
+        self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, c.DIAGNOSTICS, c.DIAGNOSTICS_QOS)
+        self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
+        self.create_timer(TICK_PERIOD_S, self.on_tick)
+        self.create_timer(1.0 / diag_hz, self.publish_diagnostics)
+        self.link = SerialLink(self.port, baud, self._on_open, self._on_data, self._on_close,
+                               self._on_open_failed, *backoff)
+        self.link.start()
+        self.get_logger().info(f'hardware_bridge on {self.port} at {baud} baud')
+
+    # --- callbacks (executor thread) ----------------------------------------------------
+
+    def on_duty(self, msg):
+        with self._lock:
+            self._write(self.core.on_duty_command(msg.data, time.monotonic()))
+
+    def on_tick(self):
+        with self._lock:
+            self._write(self.core.tick(time.monotonic()))
+
+    def publish_diagnostics(self):
+        with self._lock:
+            statuses = self.core.diagnostics()
+        msg = DiagnosticArray()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        for name, level, text, values in statuses:
+            if name == 'link':
+                values = dict(values, port=self.port, opens=self.link.opens,
+                              reconnect_backoff_s=self.link.backoff_s)
+            msg.status.append(DiagnosticStatus(
+                level=LEVELS[level], name=f'{self.get_name()}: {name}', message=text,
+                hardware_id=self.port,
+                values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
+                        for k, v in values.items()]))
+        self.diag_pub.publish(msg)
+
+    # --- callbacks (link thread) --------------------------------------------------------
+
+    def _on_open(self):
+        with self._lock:
+            return self.core.on_open(time.monotonic())
+
+    def _on_data(self, data, t_s):
+        with self._lock:
+            tx, samples = self.core.on_data(data, t_s)
+            self._write(tx)
+        for sample in samples:
+            stamp = self.get_clock().now().to_msg()
+            js = JointState(name=[c.JOINT_NAME], position=[sample.angle_rad],
+                            velocity=[sample.velocity_rad_s])
+            js.header.stamp = stamp
+            self.js_pub.publish(js)
+            self.raw_pub.publish(UInt16(data=sample.counts))
+
+    def _on_close(self, reason):
+        with self._lock:
+            self.core.on_close(reason, time.monotonic(), failure=not self._stopping)
+
+    def _on_open_failed(self, reason):
+        with self._lock:
+            self.core.on_open_failed(reason, time.monotonic())
+
+    # --- helpers ------------------------------------------------------------------------
+
+    def _write(self, data):
+        if data:
+            self.link.write(data)   # under self._lock: frames leave in seq order
+
+    def _log(self, level, text):
+        # one call site per severity: rclpy refuses a severity change at the same call site
+        logger = self.get_logger()
+        if level == 'error':
+            logger.error(text)
+        elif level == 'warn':
+            logger.warning(text)
+        else:
+            logger.info(text)
+
+    def destroy_node(self):
+        """Send zero duty, close the port, then destroy the node."""
+        with self._lock:
+            self._stopping = True
+            final = self.core.shutdown()
+        self.link.stop(final)
+        super().destroy_node()
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = HardwareBridge()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

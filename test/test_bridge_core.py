@@ -1,0 +1,193 @@
+"""The bridge's ROS-free logic against the real MCU logic, on simulated time.
+
+BridgeCore and McuCore exchange their bytes directly (no port, no plant): the safety
+rules of issue 4 are checked at the MCU's outputs, where they matter.
+"""
+import math
+
+import pytest
+
+from sma_actuator.hardware import protocol as p
+from sma_actuator.hardware.bridge_core import BridgeConfig, BridgeCore, LinkState, sanitize_duty, to_counts
+from sma_actuator.hardware.calibration import AdcCalibration
+from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
+
+
+class Rig:
+    """A bridge wired to an MCU; `run(t)` advances both to time t [s] in 1 ms steps."""
+
+    def __init__(self, config=BridgeConfig(), limits=FirmwareLimits(), adc=2048):
+        self.t = 0.0
+        self.adc = adc
+        self.logs = []
+        self.bridge = BridgeCore(config, AdcCalibration(-1.2, 2.4 / 4095), 0.0,
+                                 log=lambda level, text: self.logs.append((level, text)))
+        self.mcu = McuCore(lambda: self.adc, limits)
+        self.samples = []
+        self.pwm_trace = []          # (t, pwm_a, pwm_b) after every step
+        self.connected = True
+        self._to_bridge = self.mcu.start(0)
+        self._to_mcu = self.bridge.on_open(0.0)
+
+    def command(self, a, b):
+        self._to_mcu += self.bridge.on_duty_command([a, b], self.t)
+
+    def run(self, until_s, command=None):
+        while self.t < until_s - 1e-9:
+            self.t = round(self.t + 0.001, 6)
+            if command is not None:
+                self.command(*command)
+            t_us = int(self.t * 1e6)
+            if self.connected:
+                self._to_bridge += self.mcu.receive(self._to_mcu, t_us) + self.mcu.poll(t_us)
+                tx, samples = self.bridge.on_data(self._to_bridge, self.t)
+                self.samples += samples
+                self._to_mcu = tx
+            else:
+                self._to_mcu = b''
+            self._to_bridge = b''
+            self._to_mcu += self.bridge.tick(self.t)
+            self.pwm_trace.append((self.t, self.mcu.pwm_a, self.mcu.pwm_b))
+
+    def diag(self, name):
+        return next(d for d in self.bridge.diagnostics() if d[0] == name)
+
+
+def test_handshake_then_duty_reaches_the_outputs_and_reports_come_back():
+    rig = Rig()
+    rig.run(0.01)
+    assert rig.bridge.state == LinkState.CONNECTED and rig.mcu.configured
+    rig.run(0.1, command=(0.5, 0.0))
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (to_counts(0.5), 0)
+    assert rig.samples and rig.samples[-1].counts == 2048
+    assert rig.samples[-1].angle_rad == pytest.approx(-1.2 + 2048 * 2.4 / 4095)
+    assert rig.diag('link')[1] == 'ok' and rig.diag('mcu')[1] == 'ok'
+    assert rig.bridge.duty_latency_s and rig.bridge.rtt_s   # both round trips measured
+
+
+def test_host_watchdog_sends_zero_duty_after_timeout_and_warns_once():
+    rig = Rig()
+    rig.run(0.5, command=(0.6, 0.0))
+    assert rig.mcu.pwm_a == to_counts(0.6)
+    rig.run(1.5)                                       # commands stop at t = 0.5 s
+    off = next(t for t, a, b in rig.pwm_trace if t > 0.5 and a == 0)
+    assert 0.7 <= off <= 0.71                          # 200 ms timeout + 5 ms tick
+    assert not rig.mcu.faults & p.FAULT_WATCHDOG       # the host zeroed it, kept the MCU fed
+    warnings = [text for level, text in rig.logs if level == 'warn' and 'no /sma/duty' in text]
+    assert len(warnings) == 1
+    assert rig.diag('duty')[1] == 'warn'
+    rig.run(1.6, command=(0.1, 0.0))
+    assert rig.mcu.pwm_a == to_counts(0.1) and rig.diag('duty')[1] == 'ok'
+
+
+def test_mcu_watchdog_trips_when_the_host_goes_silent():
+    rig = Rig()
+    rig.run(0.3, command=(0.4, 0.0))
+    rig.connected = False                              # host->MCU bytes stop (host hung, cable cut)
+    for step in range(150):
+        t_us = int((0.3 + 0.001 * (step + 1)) * 1e6)
+        rig.mcu.poll(t_us)
+        if rig.mcu.pwm_a == 0:
+            break
+    assert step + 1 == 100 and rig.mcu.faults & p.FAULT_WATCHDOG
+
+
+@pytest.mark.parametrize('command, expected', [
+    ((0.6, 0.5), (0.6, 0.3)), ((0.4, 0.9), (0.3, 0.9)), ((0.5, 0.5), (0.5, 0.3)), ((0.3, 0.3), (0.3, 0.3))])
+def test_never_both_wires_above_the_interlock(command, expected):
+    rig = Rig(BridgeConfig(interlock_threshold=0.3))
+    rig.run(0.2, command=command)
+    thr = rig.bridge.interlock_counts
+    assert not any(a > thr and b > thr for _, a, b in rig.pwm_trace)
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == tuple(to_counts(x) for x in expected)
+    assert not rig.mcu.faults & p.FAULT_INTERLOCK      # the firmware never had to refuse a frame
+
+
+def test_duty_clamped_to_range_and_max_duty():
+    rig = Rig(BridgeConfig(max_duty=0.7))
+    rig.run(0.1, command=(1.5, -0.2))
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (to_counts(0.7), 0)
+    assert rig.bridge.counters['clamped'] > 0
+    assert any('duty_a=1.5 outside [0, 1]' in text for _, text in rig.logs)
+
+
+@pytest.mark.parametrize('values, message', [
+    ([0.5], 'expected 2 values'), ([0.1, 0.2, 0.3], 'expected 2 values'),
+    ([math.nan, 0.0], 'duty_a is nan'), ([0.0, math.inf], 'duty_b is inf')])
+def test_bad_command_zeroes_both_wires_with_a_clear_error(values, message):
+    rig = Rig()
+    rig.run(0.1, command=(0.5, 0.0))
+    rig._to_mcu += rig.bridge.on_duty_command(values, rig.t)
+    rig.run(0.102)
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+    level, text, = rig.diag('duty')[1:3]
+    assert level == 'error' and message in text
+    assert any(level == 'error' and message in text for level, text in rig.logs)
+
+
+def test_mcu_limits_tighter_than_config_are_adopted():
+    rig = Rig(BridgeConfig(interlock_threshold=0.9), limits=FirmwareLimits(max_duty=40000))
+    rig.run(0.2, command=(0.8, 0.8))
+    assert rig.bridge.interlock_counts == FirmwareLimits().interlock_ceiling
+    assert max(a for _, a, _ in rig.pwm_trace) <= 40000
+    assert not rig.mcu.faults & (p.FAULT_INTERLOCK | p.FAULT_CLAMPED)
+
+
+def test_link_closed_zero_duty_error_and_clean_reconnect():
+    rig = Rig()
+    rig.run(0.2, command=(0.5, 0.0))
+    rig.bridge.on_close('read failed: device disconnected', rig.t)
+    assert rig.bridge.state == LinkState.DISCONNECTED and rig.bridge.duty == (0, 0)
+    assert rig.diag('link')[1] == 'error' and 'device disconnected' in rig.diag('link')[2]
+    assert rig.bridge.on_duty_command([0.5, 0.0], rig.t) == b''   # nothing sent while closed
+    rig._to_mcu = rig.bridge.on_open(rig.t)
+    rig.run(0.25)
+    assert rig.bridge.state == LinkState.CONNECTED
+    assert rig.mcu.pwm_a == 0                           # reconnect starts from zero duty
+
+
+def test_silent_mcu_is_a_lost_link_and_a_reset_mcu_is_reconfigured():
+    rig = Rig()
+    rig.run(0.2, command=(0.5, 0.0))
+    rig.connected = False
+    rig.run(0.8)
+    assert rig.bridge.state == LinkState.HANDSHAKING and rig.diag('link')[1] == 'error'
+    assert any('no valid frame from the MCU' in text for level, text in rig.logs if level == 'error')
+    rig.mcu = McuCore(lambda: rig.adc)                 # MCU rebooted meanwhile
+    rig._to_bridge = rig.mcu.start(int(rig.t * 1e6))
+    rig.connected = True
+    rig.run(1.2, command=(0.2, 0.0))
+    assert rig.bridge.state == LinkState.CONNECTED and rig.mcu.pwm_a == to_counts(0.2)
+
+
+def test_garbage_between_frames_is_counted_and_skipped():
+    rig = Rig()
+    rig.run(0.05)
+    n = len(rig.samples)
+    _, samples = rig.bridge.on_data(b'\x13\x37\x00' + p.AdcReport(1, 100, 0, 0, 0, 0).encode(200)[:-4] + b'\x00'
+                                    + p.AdcReport(2, 300, 0, 0, 0, 0).encode(201), rig.t)
+    assert [s.counts for s in samples] == [300]
+    rig.run(0.1)
+    assert len(rig.samples) > n
+    values = rig.diag('link')[3]
+    assert values['framing_errors'] + values['crc_errors'] == 2
+
+
+def test_protocol_version_mismatch_is_an_error_and_never_connects():
+    rig = Rig()
+    _, samples = rig.bridge.on_data(p.HelloAck(9, 1, 0, 0, 10**6, 12, 100, 1, 1, 1).encode(0), 0.0)
+    assert rig.bridge.state == LinkState.HANDSHAKING
+    assert 'protocol v9' in rig.diag('link')[2] and rig.diag('link')[1] == 'error'
+
+
+def test_sanitize_duty_notes_and_errors():
+    a, b, notes = sanitize_duty([0.2, 0.1], 65535, 19660)
+    assert (a, b, notes) == (to_counts(0.2), to_counts(0.1), [])
+    with pytest.raises(ValueError, match=r'expected 2 values \[duty_a, duty_b\], got 0'):
+        sanitize_duty([], 65535, 19660)
+
+
+@pytest.mark.parametrize('field, value', [('max_duty', 1.5), ('duty_timeout_s', 0.0), ('duty_refresh_s', 0.2)])
+def test_config_rejects_bad_values_naming_them(field, value):
+    with pytest.raises(ValueError, match=field):
+        BridgeConfig(**{field: value})
