@@ -78,10 +78,11 @@ def measure(bag, factor, rate_hz, duration_s):
     if not Path(command[0]).exists():
         command = [sys.executable, '-m', 'sma_actuator.nodes.replay']
     proc = subprocess.Popen(command + ['--ros-args', '-p', f'bag_path:={bag}',
-                                       '-p', f'rate:={float(factor)}', '-p', 'delay_s:=1.5'],
+                                       '-p', f'rate:={float(factor)}',
+                                       '-p', 'wait_for_subscribers_s:=10.0'],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        end = time.monotonic() + 1.5 + duration_s / factor + 10
+        end = time.monotonic() + 10 + duration_s / factor + 10
         while proc.poll() is None and time.monotonic() < end:
             executor.spin_once(timeout_sec=0.01)
         for _ in range(50):

@@ -14,6 +14,7 @@ Run: ``replay --ros-args -p bag_path:=runs/step1/bag -p rate:=2.0
 import signal
 import sys
 import threading
+import time
 
 import numpy as np
 import rclpy
@@ -44,8 +45,8 @@ PARAMETERS = {
     'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
     'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
     'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
-    'delay_s': (0.5, 'Wait before the first message so subscribers are matched [s]',
-                (0.0, 60.0)),
+    'wait_for_subscribers_s': (2.0, 'Before the first message, wait until every played '
+                               'topic has a subscriber, at most this long [s]', (0.0, 600.0)),
     'zero_duty_on_stop': (True, 'On end/stop publish duty [0, 0] on the (remapped) duty topic',
                           None),
     'duty_topic': ('/sma/duty', 'Bag topic that carries the duty commands', None),
@@ -97,7 +98,7 @@ class ReplayNode(Node):
         self._player = Player(lambda start: self._reader.messages(topics, start),
                               first.log_time_ns if first else 0, self._publish, options,
                               on_clock=self._publish_clock)
-        self._delay_s = p['delay_s']
+        self._wait_s = p['wait_for_subscribers_s']
         self._stop_event = threading.Event()
         self._zeroed = threading.Lock()
         self._zero_sent = False
@@ -157,14 +158,28 @@ class ReplayNode(Node):
         return self._player.stats
 
     def start(self):
-        """Start playback in a background thread (after ``delay_s``)."""
+        """Start playback in a background thread (see ``wait_for_subscribers_s``)."""
         if self._worker is None:
             self._worker = threading.Thread(target=self._run, name='replay', daemon=True)
             self._worker.start()
 
+    def _wait_for_subscribers(self):
+        """Wait until every played topic is matched (or the wait ends); False if stopped."""
+        deadline = time.monotonic() + self._wait_s
+        while time.monotonic() < deadline:
+            if all(pub.get_subscription_count() for pub in self._replay_pubs.values()):
+                return True
+            if self._stop_event.wait(0.05):
+                return False
+        lonely = [self._topic_out[t] for t, pub in self._replay_pubs.items()
+                  if not pub.get_subscription_count()]
+        if lonely:
+            self.get_logger().warning(f'starting with no subscriber on {lonely}')
+        return not self._stop_event.is_set()
+
     def _run(self):
         try:
-            if not self._stop_event.wait(self._delay_s):
+            if self._wait_for_subscribers():
                 self._player.run(self._stop_event)
         except Exception as err:  # noqa: BLE001 - report, make safe, never die silently
             self._error = err
