@@ -1,0 +1,212 @@
+"""Thermal dynamics of eq. (7), the antagonistic actuator's effects, and the potentiometer."""
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from sma_actuator.core import actuator as act
+from sma_actuator.core.sensor import Potentiometer
+from sma_actuator.core.thermal import heating_power_w, on_current_a, thermal_step
+
+ODE_TOL = 1e-11
+AGREE_K = 1e-7   # kelvin: an exact discretisation agrees with a 1e-11 ODE solve far below this
+
+
+def ode_one(theta0, amb, q_inf, dt, tau):
+    """Reference of T dθ/dt = −(θ − θa) + G d over one held sample."""
+    sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + q_inf) / tau], (0, dt), [theta0],
+                    method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
+    return sol.y[0, -1]
+
+
+def ode_two(theta0, q0, amb, q_inf, dt, tau, tau_f):
+    """Reference of the two-lag model: τ dq/dt = −q + G d, T dθ/dt = −(θ − θa) + q."""
+    sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + x[1]) / tau, (q_inf - x[1]) / tau_f],
+                    (0, dt), [theta0, q0], method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
+    return sol.y[0, -1], sol.y[1, -1]
+
+
+@pytest.mark.parametrize('dt', [1e-3, 0.025, 0.5, 3.0, 20.0])
+def test_exact_step_matches_ode_for_any_dt(dt):
+    for theta0, q_inf in ((22.0, 141.0), (95.0, 0.0), (60.0, 35.0)):
+        theta, q = thermal_step(theta0, 0.0, 22.0, q_inf, dt, 2.0, 0.0)
+        assert abs(theta - ode_one(theta0, 22.0, q_inf, dt, 2.0)) < AGREE_K
+        assert q == q_inf
+
+
+@pytest.mark.parametrize('tau_f', [0.3, 2.0, 5.0])   # 2.0 = T exercises the τ → T limit
+@pytest.mark.parametrize('dt', [0.025, 0.7, 6.0])
+def test_two_lag_step_matches_ode(dt, tau_f):
+    theta, q = 30.0, 10.0
+    theta_ref, q_ref = theta, q
+    for q_inf in (141.0, 0.0, 50.0):       # piecewise-constant duty over three samples
+        theta, q = thermal_step(theta, q, 22.0, q_inf, dt, 2.0, tau_f)
+        theta_ref, q_ref = ode_two(theta_ref, q_ref, 22.0, q_inf, dt, 2.0, tau_f)
+        assert abs(theta - theta_ref) < AGREE_K
+        assert abs(q - q_ref) < AGREE_K
+
+
+@pytest.mark.parametrize('tau_f', [0.0, 0.4])
+def test_steady_state_is_ambient_plus_gain_times_duty(tau_f):
+    gain, duty, amb = 141.0, 0.37, 22.0
+    theta, q = amb, 0.0
+    for _ in range(400):                   # 400 x 0.5 s = 100 T
+        theta, q = thermal_step(theta, q, amb, gain * duty, 0.5, 2.0, tau_f)
+    assert abs(theta - (amb + gain * duty)) < 1e-9
+
+
+def test_current_limiter_and_heating_power():
+    # V/R = 5/13.75 = 0.364 A is limited to 0.35 A; 2 V gives 0.145 A, below the limit
+    assert on_current_a(5.0, 13.75, 0.35) == 0.35
+    assert on_current_a(2.0, 13.75, 0.35) == pytest.approx(2.0 / 13.75)
+    assert heating_power_w(1.0, 5.0, 13.75, 0.35) == pytest.approx(13.75 * 0.35 ** 2)
+    assert heating_power_w(0.5, 2.0, 13.75, 0.35) == pytest.approx(0.5 * 2.0 ** 2 / 13.75)
+    assert heating_power_w(0.0, 5.0, 13.75, 0.35) == 0.0
+    p = act.ActuatorParams()
+    assert p.gain_k == pytest.approx(p.resistance_ohm * 0.35 ** 2 / p.conductance_w_per_k)
+
+
+def duty_pattern(n, dt, seed=0):
+    """Alternating multilevel duty on one wire at a time, 2-4 s holds."""
+    rng = np.random.default_rng(seed)
+    da, db = np.zeros(n), np.zeros(n)
+    k, wire = 0, 0
+    while k < n:
+        m = int(rng.uniform(2, 4) / dt)
+        (da if wire == 0 else db)[k:k + m] = rng.choice([0.0, 0.2, 0.35, 0.5, 0.7])
+        k, wire = k + m, 1 - wire
+    return da, db
+
+
+def test_streaming_step_equals_batch_simulate():
+    params = act.ActuatorParams(tau_fast_s=0.2, phase_kappa=0.3, stress_k=4.0,
+                                convection_beta_per_k=0.004, delay_s=0.05)
+    dt, sub = 0.025, 5                     # the actuator splits 25 ms into 5 ms sub-steps
+    da, db = duty_pattern(800, dt)
+    plant = act.AntagonisticActuator(params, max_substep_s=dt / sub)
+    stream = np.array([plant.step(a, b, dt) for a, b in zip(da, db)])
+    fine = act.simulate(params, np.repeat(da, sub), np.repeat(db, sub), dt / sub)
+    # batch sample k is the state before duty k acts: the stream's k-th return is sample k+1
+    np.testing.assert_allclose(stream[:-1], fine.position_rad[sub::sub], atol=1e-9)
+
+
+def run(params, da, db, dt=0.05, **kw):
+    """Batch simulation shortcut."""
+    return act.simulate(params, da, db, dt, **kw)
+
+
+def step_on_a(n=1000, level=0.5):
+    """Wire a switched on at t = 1 s (dt 0.05 s, 50 s = 25 T long), wire b off."""
+    da = np.zeros(n)
+    da[20:] = level
+    return da, np.zeros(n)
+
+
+BASE = act.ActuatorParams()
+
+
+def test_delay_shifts_the_response():
+    da, db = step_on_a()
+    y0, y1 = run(BASE, da, db).position_rad, run(BASE.with_changes(delay_s=0.5), da, db).position_rad
+    np.testing.assert_allclose(y1[10:], y0[:-10], atol=1e-12)   # 0.5 s = 10 samples
+
+
+def test_duty_limit_lowers_steady_temperature():
+    da, db = step_on_a(level=1.0)
+    t0 = run(BASE, da, db).theta_a_c[-1]
+    t1 = run(BASE.with_changes(duty_limit=0.5), da, db).theta_a_c[-1]
+    assert t0 == pytest.approx(BASE.ambient_c + BASE.gain_k, abs=1e-3)
+    assert t1 == pytest.approx(BASE.ambient_c + 0.5 * BASE.gain_k, abs=1e-3)
+
+
+def test_convection_lowers_hot_temperature_to_its_fixed_point():
+    beta = 0.01
+    da, db = step_on_a(level=0.5)
+    hot = run(BASE.with_changes(convection_beta_per_k=beta), da, db).theta_a_c[-1]
+    # steady state of hA(θ) = hA0 (1 + β x): x (1 + β x) = G d
+    gd = 0.5 * BASE.gain_k
+    x = (-1 + np.sqrt(1 + 4 * beta * gd)) / (2 * beta)
+    assert hot == pytest.approx(BASE.ambient_c + x, abs=1e-3)
+    assert hot < BASE.ambient_c + gd - 10
+
+
+def time_to_half(y, dt=0.05):
+    """First time [s] the sequence reaches half of its final value."""
+    return np.argmax(y >= 0.5 * y[-1]) * dt
+
+
+def test_stress_coupling_delays_transformation():
+    n = 600
+    db = np.full(n, 0.6)                   # antagonist hot and contracted throughout
+    da = np.zeros(n)
+    da[200:] = 0.45
+    t0 = time_to_half(run(BASE, da, db).y_a)
+    t1 = time_to_half(run(BASE.with_changes(stress_k=8.0), da, db).y_a)
+    assert t1 > t0 + 0.1
+
+
+def test_phase_resistance_heats_martensite_faster():
+    da, db = step_on_a(level=0.5)
+    a = run(BASE, da, db)
+    b = run(BASE.with_changes(phase_kappa=0.5), da, db)
+    assert b.theta_a_c[30] > a.theta_a_c[30] + 1.0
+    assert b.y_a[-1] == pytest.approx(1.0, abs=1e-6)     # fully contracted: no extra power
+    assert b.theta_a_c[-1] == pytest.approx(a.theta_a_c[-1], abs=1e-3)
+
+
+def test_fast_dynamics_slow_the_start_only():
+    da, db = step_on_a()
+    a = run(BASE, da, db)
+    b = run(BASE.with_changes(tau_fast_s=0.5), da, db)
+    assert b.theta_a_c[26] < a.theta_a_c[26] - 1.0
+    assert b.theta_a_c[-1] == pytest.approx(a.theta_a_c[-1], abs=1e-3)
+
+
+def test_wire_b_ratios_change_wire_b_only():
+    n = 400
+    da, db = np.full(n, 0.4), np.zeros(n)
+    db[100:] = 0.4
+    a = run(BASE, da, db)
+    for change in ({'gain_ratio_b': 0.6}, {'tau_ratio_b': 2.0}):
+        b = run(BASE.with_changes(**change), da, db)
+        np.testing.assert_array_equal(b.theta_a_c, a.theta_a_c)
+        assert (b.theta_b_c[110:200] < a.theta_b_c[110:200] - 1.0).all()
+
+
+def test_stroke_ratio_scales_wire_b_travel():
+    n = 300
+    da, db = np.zeros(n), np.full(n, 0.6)
+    a = run(BASE, da, db).position_rad[-1]
+    b = run(BASE.with_changes(stroke_ratio_b=0.7), da, db).position_rad[-1]
+    assert a < -0.9 and b == pytest.approx(0.7 * a, rel=1e-6)
+
+
+def test_ambient_gain_weights_measured_ambient():
+    da, db = step_on_a(level=0.2)
+    warm = np.full(len(da), BASE.ambient_c + 5.0)
+    t1 = run(BASE, da, db, ambient_c=warm).theta_a_c[-1]
+    t0 = run(BASE.with_changes(ambient_gain=0.0), da, db, ambient_c=warm).theta_a_c[-1]
+    assert t1 - t0 == pytest.approx(5.0, abs=1e-3)
+
+
+def test_sensor_polynomial_and_fatigue():
+    n, dt = 600, 1.0
+    da = np.where(np.arange(n) % 40 < 20, 0.5, 0.0)
+    db = np.zeros(n)
+    p0 = run(BASE, da, db, dt).position_rad
+    c2 = run(BASE.with_changes(sensor_c2_rad=0.1), da, db, dt).position_rad
+    np.testing.assert_allclose(c2 - p0, 0.1 * p0 ** 2, atol=1e-12)
+    t_h = np.arange(n) * dt / 3600.0
+    drift = run(BASE.with_changes(fatigue_offset_rad_per_h=0.2), da, db, dt).position_rad
+    np.testing.assert_allclose(drift - p0, 0.2 * t_h, atol=1e-12)
+    shrink = run(BASE.with_changes(fatigue_stroke_per_h=0.5), da, db, dt).position_rad
+    np.testing.assert_allclose(shrink, p0 * (1 - 0.5 * t_h), atol=1e-12)
+
+
+def test_potentiometer_round_trip_within_one_lsb():
+    pot = Potentiometer(bits=12, angle_min_rad=-1.2, angle_max_rad=1.2)
+    phi = np.random.default_rng(3).uniform(-1.2, 1.2, 2000)
+    back = np.array([pot.angle(pot.counts(p)) for p in phi])
+    assert np.abs(back - phi).max() <= 0.5 * pot.resolution_rad * (1 + 1e-9)
+    codes = np.arange(0, pot.full_scale + 1, 37)
+    assert [pot.counts(a) for a in pot.angle(codes)] == codes.tolist()
+    assert pot.counts(5.0) == pot.full_scale and pot.counts(-5.0) == 0
