@@ -5,7 +5,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
 from rosbags.typesys import Stores, get_typestore
 
 from sma_actuator.bag.arrays import load_run, zero_order_hold
-from sma_actuator.bag.errors import (BagNotFoundError, MissingTopicError, NotMcapError,
+from sma_actuator.bag.errors import (BagError, BagNotFoundError, MissingTopicError, NotMcapError,
                                      TruncatedBagError, UnknownTypeError)
 from sma_actuator.bag.synthetic import cdr_encoder, stamp
 from sma_actuator.bag.writer import BagWriter
@@ -195,3 +195,13 @@ def test_zero_order_hold_semantics():
     values = np.array([1.0, 2.0, 3.0])
     held = zero_order_hold(times, values, np.array([5, 10, 15, 20, 35]), before=-1.0)
     np.testing.assert_array_equal(held, [-1.0, 1.0, 1.0, 2.0, 3.0])
+
+
+def test_a_jump_in_log_time_is_reported_not_allocated(tmp_path):
+    """E.g. messages logged at time 0 (sim time before /clock) and then at epoch time."""
+    events = _events(range(0, 1000, 10), lambda t: t, DUTY)
+    events = [(top, ty, msg, log - T0 if 'joint' in top and log < T0 + 30 * MS else log)
+              for top, ty, msg, log in events]  # the first three joint states at time ~0
+    path = _write(tmp_path / 'jump', events)
+    with pytest.raises(BagError, match=r'jump.*samples \(limit.*sim time before /clock'):
+        load_run(path)

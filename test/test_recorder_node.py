@@ -7,11 +7,13 @@ from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
 rclpy = pytest.importorskip('rclpy')
+from builtin_interfaces.msg import Time  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_sensor_data  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
@@ -170,3 +172,30 @@ def test_refuses_to_overwrite_and_rejects_unknown_parameters(ros_context, tmp_pa
     assert (existing / 'bag_0.mcap').read_bytes() == b'precious'
     with pytest.raises(ValueError, match="unknown parameters \\['topic'\\]"):
         RecorderNode(context=ros_context, topic=['/x'])
+
+
+def test_sim_time_recording_logs_the_clock_time(graph, tmp_path):
+    """Like rosbag2 under use_sim_time: log time = /clock time at reception (the demo runs
+    the plant on accelerated sim time, so wall time would compress the run)."""
+    talker, _, executor, nodes = graph
+    clock_pub = talker.create_publisher(Clock, '/clock', 10)
+    pub = talker.create_publisher(Float64, '/sma/setpoint', 10)
+    recorder = RecorderNode(context=executor.context, bag_path=str(tmp_path / 'sim'),
+                            topics=['/sma/setpoint'], discovery_period_s=0.05,
+                            use_sim_time=True)
+    nodes.append(recorder)
+    executor.add_node(recorder)
+    assert _spin_until(executor, lambda: recorder.recorded_topics == ['/sma/setpoint'])
+    _spin_until(executor, lambda: clock_pub.get_subscription_count() >= 1)
+    _spin_until(executor, lambda: False, 0.3)
+    sim_s = [1000 + 0.5 * i for i in range(5)]
+    for i, t in enumerate(sim_s):
+        clock_pub.publish(Clock(clock=Time(sec=int(t), nanosec=int((t % 1) * 1e9))))
+        _spin_until(executor, lambda: False, 0.1)
+        pub.publish(Float64(data=float(i)))
+        _spin_until(executor, lambda: False, 0.1)
+    _spin_until(executor, lambda: recorder.bag.message_count == 5, 3.0)
+    recorder.close()
+    with AnyReader([tmp_path / 'sim']) as reader:
+        log_times = [t for _, t, _ in reader.messages()]
+    assert log_times == [int(t * 1e9) for t in sim_s]

@@ -33,6 +33,8 @@ ROLES = {
 }
 REQUIRED_ROLES = ('joint_states', 'duty')
 JOINT_NAME = 'shaft'
+#: Largest grid load_run builds (10 h at 1 kHz); beyond that the log times are suspect.
+MAX_SAMPLES = 36_000_000
 _NS = 1e-9
 
 
@@ -164,6 +166,10 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     if not np.isfinite(rate) or rate <= 0:
         raise ValueError(f'rate_hz must be a positive number, got {rate_hz!r}')
     count = int(np.floor((js_t[-1] - js_t[0]) * _NS * rate + 1e-9)) + 1
+    if count > MAX_SAMPLES:
+        raise BagError(path, f'joint states span {(js_t[-1] - js_t[0]) * _NS:.6g} s: at '
+                             f'{rate:g} Hz that is {count} samples (limit {MAX_SAMPLES}); log '
+                             'times jump, e.g. recorded on sim time before /clock started')
     grid = js_t[0] + np.round(np.arange(count) / rate * 1e9).astype(np.int64)
     duty_t, duty = _sorted(*data['duty'])
     duty_ab = zero_order_hold(duty_t, duty, grid, before=0.0)

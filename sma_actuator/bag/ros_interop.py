@@ -93,17 +93,21 @@ def declare_parameters(node: Node, specs: Dict[str, ParamSpec]) -> Dict[str, Any
     return values
 
 
+#: Parameters every rclpy node declares itself; accepted as keyword arguments too.
+NODE_PARAMETERS = ('use_sim_time',)
+
+
 def parameter_overrides(specs: Dict[str, ParamSpec], params: Dict[str, Any]):
     """Turn ``name=value`` keyword arguments into rclpy parameter overrides.
 
     :raises ValueError: A name that is not one of the node's parameters.
     """
-    unknown = sorted(set(params) - set(specs))
+    unknown = sorted(set(params) - set(specs) - set(NODE_PARAMETERS))
     if unknown:
         raise ValueError(f'unknown parameters {unknown}; known: {sorted(specs)}')
     overrides = []
     for name, value in params.items():
-        default = specs[name][0]
+        default = specs[name][0] if name in specs else value
         if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)  # 2 for a double parameter means 2.0
         if isinstance(value, (list, tuple)) and not value:
