@@ -52,6 +52,10 @@ class InverseFeedforward:
         if (h.w < 0).any() or h.k1 < 0:
             raise ValueError('model hysteresis is not invertible (negative weights)')
         self._plays = [PlayHysteresis.from_dict(h.to_dict()) for _ in range(2)]
+        # derived model constants (the model is fixed for the life of this object)
+        self._y_max = h.output_range()[1]
+        self._gains = (params.gain_k, params.gain_k * params.gain_ratio_b)
+        self._taus = (params.tau_s, params.tau_s * params.tau_ratio_b)
         self.reset()
 
     def reset(self, theta_c=None):
@@ -75,7 +79,7 @@ class InverseFeedforward:
         """Steps 1-2: (y_a*, y_b*); the idle wire's target is None."""
         p = self.params
         dy = (finite_scalar('angle_rad', angle_rad) - p.offset_rad) / p.stroke_rad
-        y_max = p.hysteresis.output_range()[1]
+        y_max = self._y_max
         if abs(dy) <= IDLE_CONTRACTION:
             return None, None
         if dy > 0:
@@ -84,12 +88,10 @@ class InverseFeedforward:
         return None, min(-dy / ratio, y_max)
 
     def _tau(self, j):
-        p = self.params
-        return p.tau_s * (p.tau_ratio_b if j == 1 else 1.0)
+        return self._taus[j]
 
     def _gain(self, j):
-        p = self.params
-        return p.gain_k * (p.gain_ratio_b if j == 1 else 1.0)
+        return self._gains[j]
 
     def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None):
         """Steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""

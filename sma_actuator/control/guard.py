@@ -28,14 +28,15 @@ class ThermalGuard:
         self.horizon_s = finite_scalar('horizon_s', horizon_s)
         if self.horizon_s <= 0:
             raise ValueError(f'horizon_s must be positive, got {horizon_s}')
+        self._wires = None     # derived once: the model does not change under a guard
 
     def _wire(self, j):
-        p = self.params
-        gain = p.gain_k * (1.0 + max(p.phase_kappa, 0.0))
-        tau = p.tau_s
-        if j == 1:
-            gain, tau = gain * p.gain_ratio_b, tau * p.tau_ratio_b
-        return gain, tau
+        """(worst-case gain G [K], time constant T [s]) of wire j, from the model."""
+        if self._wires is None:
+            p = self.params
+            gain, tau = p.gain_k * (1.0 + max(p.phase_kappa, 0.0)), p.tau_s
+            self._wires = ((gain, tau), (gain * p.gain_ratio_b, tau * p.tau_ratio_b))
+        return self._wires[j]
 
     def limits(self, theta_c, last_duty=(0.0, 0.0), ambient_c=None):
         """(limit_a, limit_b) in [0, 1] for estimated temperatures θ̂ [°C] (2,)."""

@@ -15,8 +15,8 @@ import time
 from collections import deque
 from dataclasses import fields
 
+import numpy as np
 import rclpy
-import yaml
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
@@ -25,7 +25,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 
 from ..control.core import MODES, ControllerCore, ControllerSettings
 from ..control.inputs import LastValid, setpoint_problem
-from ..core.actuator import ActuatorParams
+from ..control.model_file import load_model
 from . import common as c
 
 # runtime-tunable settings: (name, range or None, description)
@@ -69,9 +69,10 @@ class Controller(Node):
                                                 '/sma/ambient_temperature to the model.',
                                                 read_only=True)
         self.model_path = model_file or str(c.config_path('controller_model.yaml'))
-        with open(self.model_path) as f:
-            model = ActuatorParams.from_dict(yaml.safe_load(f))
+        model = load_model(self.model_path)
         self.core = ControllerCore(model, ControllerSettings(mode=mode, **values))
+        # run every compiled kernel once now, so the first real sample is not late
+        ControllerCore(model, ControllerSettings(mode='pi_inverse')).step(0.1, 0.0, self.period_s)
         self.setpoint = LastValid(lambda v: setpoint_problem(v, self.sp_min, self.sp_max), initial)
         if setpoint_problem(initial, self.sp_min, self.sp_max):
             raise ValueError('initial_setpoint_rad outside [setpoint_min_rad, setpoint_max_rad]')
@@ -81,9 +82,10 @@ class Controller(Node):
         self.last_step = None
         self.stale = False
         self.rejected_feedback = 0
-        # measurement hooks read by the latency benchmark (steady clock, seconds)
-        self.latencies = deque(maxlen=100000)
-        self.tick_intervals = deque(maxlen=100000)
+        # timing health, reported in diagnostics (and read by bench_controller_latency):
+        # joint-state arrival (rmw reception time) -> duty published, and watchdog intervals
+        self.latencies = deque(maxlen=2000)
+        self.tick_intervals = deque(maxlen=2000)
         self._last_tick_wall = None
 
         self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
@@ -113,8 +115,9 @@ class Controller(Node):
         if -40.0 <= msg.temperature <= 80.0:    # NaN fails both comparisons
             self.ambient_c = msg.temperature
 
-    def on_joint_state(self, msg):
-        arrival = time.perf_counter()
+    def on_joint_state(self, msg, info):
+        received_ns = info.get("received_timestamp", 0) if isinstance(info, dict) else 0
+        arrival_ns = received_ns if received_ns > 0 else time.time_ns()
         try:
             position = msg.position[list(msg.name).index(c.JOINT_NAME)]
         except (ValueError, IndexError):
@@ -137,7 +140,7 @@ class Controller(Node):
         out = self.core.step(self.setpoint.value, position, dt, self.ambient_c)
         self.last_step = out
         self.duty_pub.publish(Float64MultiArray(data=[out.duty_a, out.duty_b]))
-        self.latencies.append(time.perf_counter() - arrival)
+        self.latencies.append((time.time_ns() - arrival_ns) * 1e-9)
 
     # watchdog -------------------------------------------------------------------------
     def on_watchdog(self):
@@ -175,12 +178,26 @@ class Controller(Node):
         out = {'mode': self.core.settings.mode, 'setpoint_rad': float(self.setpoint.value),
                'rejected_setpoints': self.setpoint.rejected,
                'rejected_joint_states': self.rejected_feedback}
+        out.update(self.timing_stats())
         if s is not None:
             out.update(duty_a=s.duty_a, duty_b=s.duty_b, error_rad=s.error,
                        theta_est_a_c=float(s.theta_est_c[0]),
                        theta_est_b_c=float(s.theta_est_c[1]),
                        limit_a=float(s.limits[0]), limit_b=float(s.limits[1]),
                        guard_active=s.guard_active)
+        return out
+
+    def timing_stats(self):
+        """Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
+        jitter p99 [ms] (|interval − period_s|) over the last 2000 samples."""
+        out = {}
+        if self.latencies:
+            lat = np.asarray(self.latencies) * 1e3
+            out.update(latency_p50_ms=float(np.percentile(lat, 50)),
+                       latency_p99_ms=float(np.percentile(lat, 99)))
+        if self.tick_intervals:
+            jit = np.abs(np.asarray(self.tick_intervals) - self.period_s) * 1e3
+            out.update(timer_jitter_p99_ms=float(np.percentile(jit, 99)))
         return out
 
     # parameters -----------------------------------------------------------------------

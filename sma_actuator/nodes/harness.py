@@ -77,6 +77,70 @@ class TraceProbe(Node):
         return self.trace.time_s[-1] - self.trace.time_s[0] if self.trace.time_s else 0.0
 
 
+class ExcitationSource(Node):
+    """Open-loop duty source for identification: answers each joint state with the next duty
+    of a sequence (so the plant's lockstep holds) and logs (stamp t_k, position at t_k,
+    duty sent in reply, which the plant holds over [t_k, t_k+1))."""
+
+    def __init__(self, duty_a, duty_b, **kwargs):
+        super().__init__('excitation', **kwargs)
+        self.sequence = np.column_stack([duty_a, duty_b])
+        self.k = 0
+        self.applied = (0.0, 0.0)
+        self.rows = []
+        self.pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
+
+    def _js(self, msg):
+        if self.k >= len(self.sequence):
+            self.pub.publish(Float64MultiArray(data=[0.0, 0.0]))
+            return
+        self.applied = tuple(float(d) for d in self.sequence[self.k])
+        self.rows.append((c.stamp_to_s(msg.header.stamp), msg.position[0], *self.applied))
+        self.k += 1
+        self.pub.publish(Float64MultiArray(data=list(self.applied)))
+
+    def done(self):
+        return self.k >= len(self.sequence)
+
+
+def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
+    """Drive the plant node open loop with a duty sequence (one entry per 25 ms plant step).
+
+    Returns arrays (time_s, duty_a, duty_b, position): position sampled at time_s[k], and
+    duty_*[k] held from time_s[k] over the next step (sample, then hold: the convention of
+    `core.actuator.simulate` and `core.identification.DynamicData`).
+    """
+    kw = dict(context=context, start_parameter_services=False)
+    executor = SingleThreadedExecutor(context=context)
+    nodes = []
+    try:
+        source = ExcitationSource(duty_a, duty_b, **kw)
+        nodes.append(source)
+        plant_node = PlantSim(**kw, parameter_overrides=_overrides(
+            {'accelerated': True, 'lockstep': True,
+             'real_time_factor': float(real_time_factor), **(plant or {})}))
+        plant_node.timer.cancel()
+        nodes.append(plant_node)
+        for n in nodes:
+            executor.add_node(n)
+        end = time.monotonic() + 0.3
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        plant_node.timer.reset()
+        deadline = time.monotonic() + 10.0 + len(duty_a) * 0.025
+        while not source.done():
+            if time.monotonic() > deadline:
+                raise TimeoutError('excitation run did not finish')
+            executor.spin_once(timeout_sec=0.05)
+        rows = np.array(source.rows)
+        return rows[:, 0], rows[:, 2], rows[:, 3], rows[:, 1]
+    finally:
+        executor.shutdown()
+        for n in reversed(nodes):
+            n.destroy_node()
+
+
 def _overrides(d):
     return [Parameter(k, value=v) for k, v in (d or {}).items()]
 

@@ -1,0 +1,34 @@
+"""Open-loop excitation for identifying the controller's model (duty sequences, no ROS).
+
+A good identification record moves each wire through its major loop and through nested
+minor loops from both branches, with holds long enough (several T = 2 s) for the thermal
+time constant to show. `multilevel` builds that: alternating wires, each segment a held
+duty level drawn from `levels` for a random hold in [hold_min_s, hold_max_s], with the
+other wire cold; some segments step down or up within the same wire (minor loops).
+"""
+import numpy as np
+
+from ..core.validate import finite_scalar
+
+
+def multilevel(duration_s, dt, seed=0, levels=(0.25, 0.32, 0.38, 0.45, 0.55, 0.7),
+               hold_min_s=1.5, hold_max_s=5.0, rest_probability=0.2):
+    """(duty_a, duty_b) arrays of n = duration_s/dt samples (held per sample), seeded."""
+    duration_s, dt = finite_scalar('duration_s', duration_s), finite_scalar('dt', dt)
+    if duration_s <= 0 or dt <= 0 or hold_min_s <= 0 or hold_max_s < hold_min_s:
+        raise ValueError('duration_s, dt, hold_min_s must be positive, hold_max_s >= hold_min_s')
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s / dt))
+    duty = np.zeros((n, 2))
+    k, wire = 0, 0
+    while k < n:
+        hold = int(round(rng.uniform(hold_min_s, hold_max_s) / dt))
+        if rng.random() < rest_probability:
+            level = 0.0                                    # both cold: back to the major loop
+        else:
+            level = float(rng.choice(levels))
+            if rng.random() < 0.5:
+                wire = 1 - wire                            # else: a minor loop, same wire
+        duty[k:k + hold, wire] = level
+        k += hold
+    return duty[:, 0].copy(), duty[:, 1].copy()
