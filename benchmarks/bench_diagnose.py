@@ -1,0 +1,85 @@
+"""Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
+
+Target (issue 6): under 60 s wall time on the 2-core CI machine. The record is simulated
+with `sma_actuator.core.actuator.simulate` (paper model, Flexinol defaults) under random
+antagonistic duty segments, with a measured ambient that drifts by 2 K (so that
+`ambient_drift` is applicable too) and 3 mrad Gaussian position noise. The timed part is
+what `sma-model diagnose DATA` does after loading: the base fit plus one refit per
+candidate effect. Data generation and one small warm-up fit (numba kernels) are not timed.
+
+    .venv/bin/python benchmarks/bench_diagnose.py [--minutes 10] [--rate 40] [--check]
+
+--check: exit status 1 if the timed part exceeds the target.
+"""
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from sma_actuator.core.actuator import ActuatorParams, simulate
+from sma_actuator.core.identification import DynamicData
+from sma_actuator.workbench.effects import CATALOG
+from sma_actuator.workbench.engine import diagnose, fit_model
+
+TARGET_S = 60.0
+
+
+def antagonistic_duties(n, dt, rng):
+    """Segments of 1-4 s: one wire at 0.3-0.7 duty and the other off, or both off."""
+    da, db = np.zeros(n), np.zeros(n)
+    k = 0
+    while k < n:
+        length = int(rng.uniform(1.0, 4.0) / dt)
+        level, wire = rng.uniform(0.3, 0.7), rng.integers(3)
+        (da if wire == 0 else db)[k:k + length] = level if wire < 2 else 0.0
+        k += length
+    return da, db
+
+
+def make_record(minutes=10.0, rate_hz=40.0, seed=0):
+    """A simulated run as DynamicData (time [s], duties, position [rad], ambient [°C])."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    n = int(round(minutes * 60.0 * rate_hz))
+    t = np.arange(n) * dt
+    da, db = antagonistic_duties(n, dt, rng)
+    ambient = 22.0 + 2.0 * t / t[-1]
+    pos = simulate(ActuatorParams(), da, db, dt, ambient_c=ambient).position_rad
+    return DynamicData(t, da, db, pos + rng.normal(0.0, 0.003, n), ambient=ambient)
+
+
+def main(argv=None):
+    """Run the benchmark; print the wall time and the diagnosis."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--minutes', type=float, default=10.0)
+    ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz]')
+    ap.add_argument('--seed', type=int, default=0)
+    ap.add_argument('--check', action='store_true', help='exit 1 if over the target')
+    args = ap.parse_args(argv)
+    data = make_record(args.minutes, args.rate, args.seed)
+    fit_model(make_record(0.5, args.rate, args.seed + 1))          # warm-up (JIT caches)
+    start = time.perf_counter()
+    base = fit_model(data)
+    t_base = time.perf_counter() - start
+    stamps = []   # (effect, time) at the start of each candidate refit
+    diag = diagnose(data, base=base,
+                    progress=lambda done, n, label: stamps.append((label, time.perf_counter())))
+    total = time.perf_counter() - start
+    seconds = {a[0]: b[1] - a[1] for a, b in zip(stamps[:-1], stamps[1:])}
+    print(f'record: {len(data)} samples ({args.minutes:g} min at {args.rate:g} Hz), '
+          f'{len(CATALOG)} catalog effects')
+    print(f'base fit: {t_base:.1f} s; diagnose total: {total:.1f} s (target < {TARGET_S:g} s)')
+    for c in diag.candidates:
+        imp = 'n/a' if c['improvement'] is None else f'{100 * c["improvement"]:+.1f} %'
+        took = seconds.get(c['effect'], float('nan'))
+        print(f'  {c["effect"]:<20} {imp:>9}  {took:6.1f} s  '
+              f'{"significant" if c["significant"] else ""}')
+    print(f'missing effect: {diag.missing_effect}')
+    ok = total < TARGET_S
+    print('PASS' if ok else 'FAIL')
+    return 0 if ok or not args.check else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
