@@ -1,0 +1,88 @@
+"""Identification (the paper's least-squares tuning): static PI on real loops, Preisach, dynamic."""
+import os
+
+import numpy as np
+import pytest
+
+from sma_actuator.core import actuator as act
+from sma_actuator.core import identification as idn
+from sma_actuator.core.hysteresis import PreisachModel
+
+REAL = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+
+
+def load_real():
+    """(curve, voltage, deflection) of the morphing-wing loops ('#' comments, header row)."""
+    with open(REAL) as f:
+        rows = [ln.strip().split(',') for ln in f if ln.strip() and not ln.startswith('#')]
+    assert rows[0] == ['curve', 'voltage', 'deflection']
+    d = np.array(rows[1:], dtype=float)
+    return d[:, 0].astype(int), d[:, 1], d[:, 2]
+
+
+@pytest.mark.skipif(not os.path.exists(REAL), reason='shared real data not mounted')
+def test_fit_static_on_real_morphing_wing_loops():
+    curve, u, y = load_real()
+    assert len(np.unique(curve)) == 11
+    modified = idn.fit_static(u, y, curve, kind='modified')
+    classical = idn.fit_static(u, y, curve, kind='classical', nonneg=False)
+    # saturation is what the measured loops show: the modified PI fits held-out curves
+    assert modified.validation['nrmse'] <= 0.025
+    # the classical PI cannot saturate: about 14 % on held-out curves (issue 2)
+    assert 0.10 <= classical.validation['nrmse'] <= 0.20
+    # validation really is the odd curves, training the even ones
+    n_odd = int(np.sum(curve % 2 == 1))
+    ids = dict(modified.prediction)
+    assert sum(len(ids[c]) for c in range(1, 11, 2)) == n_odd
+
+
+def test_fit_preisach_recovers_generating_model():
+    rng = np.random.default_rng(4)
+    true = PreisachModel.grid(11, -1.0, 1.0)
+    true = PreisachModel(true.alpha, true.beta, rng.uniform(0, 1, true.alpha.size)
+                         * (rng.uniform(size=true.alpha.size) > 0.3), y0=2.0)
+
+    # first-order reversal curves on the midpoints between grid levels: every relay
+    # (alpha, beta) is switched up at its own reversal and down on its own descent, so the
+    # weights are identifiable (Mayergoyz) and the fit must generalise to any input
+    mids = np.linspace(-1.1, 1.1, 12)
+    u_train = np.concatenate([np.concatenate([mids[:i + 1], mids[i::-1]]) for i in range(12)])
+    fit = idn.fit_preisach(u_train, true.simulate(u_train), n_levels=11, u_range=(-1.0, 1.0))
+    np.testing.assert_allclose(fit.mu, true.mu, atol=1e-6)
+    u_val = np.clip(np.cumsum(np.random.default_rng(2).normal(0, 0.08, 4000)), -1.3, 1.3)
+    assert idn.scores(true.simulate(u_val), fit.simulate(u_val))['nrmse'] < 1e-6
+
+
+def multilevel_duty(n, dt, rng):
+    """Random multilevel duty on one wire at a time, holds of 1.5-5 s."""
+    da, db = np.zeros(n), np.zeros(n)
+    k, wire = 0, 0
+    while k < n:
+        m = int(rng.uniform(1.5, 5.0) / dt)
+        (da if wire == 0 else db)[k:k + m] = rng.choice([0, 0.15, 0.3, 0.4, 0.5, 0.6, 0.8])
+        k, wire = k + m, 1 - wire
+    return da, db
+
+
+def test_fit_dynamic_recovers_simulated_actuator():
+    dt = 1.0 / 40.0
+    n = int(300 / dt)                                      # 5 minutes at 40 Hz
+    rng = np.random.default_rng(11)
+    da, db = multilevel_duty(n, dt, rng)
+    truth = act.ActuatorParams()                           # Flexinol defaults, tau_s = 2 s
+    y = act.simulate(truth, da, db, dt).position_rad + rng.normal(0, 0.002, n)   # 2 mrad
+    fit = idn.fit_dynamic(idn.DynamicData(np.arange(n) * dt, da, db, y))
+    assert fit.validation['nrmse'] < 0.02
+    assert fit.free['tau_s'] == pytest.approx(truth.tau_s, rel=0.10)
+
+
+def test_scores_on_hand_checkable_example():
+    y = np.array([0.0, 1.0, 2.0, 3.0])
+    y_hat = np.array([0.0, 1.0, 2.0, 5.0])                # one error of -2
+    s = idn.scores(y, y_hat)
+    assert s['rmse'] == pytest.approx(1.0)                # sqrt(4 / 4)
+    assert s['nrmse'] == pytest.approx(1.0 / 3.0)         # / range 3
+    assert s['fit_percent'] == pytest.approx(100 * (1 - 2 / np.sqrt(5)))   # ||y - 1.5|| = sqrt 5
+    assert s['max_error'] == pytest.approx(2.0)
+    perfect = idn.scores(y, y)
+    assert perfect['rmse'] == 0 and perfect['fit_percent'] == 100
