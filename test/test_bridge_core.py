@@ -140,6 +140,7 @@ def test_link_closed_zero_duty_error_and_clean_reconnect():
     assert rig.bridge.state == LinkState.DISCONNECTED and rig.bridge.duty == (0, 0)
     assert rig.diag('link')[1] == 'error' and 'device disconnected' in rig.diag('link')[2]
     assert rig.bridge.on_duty_command([0.5, 0.0], rig.t) == b''   # nothing sent while closed
+    assert rig.bridge.duty == (0, 0) and rig.diag('duty')[1] == 'warn'
     rig._to_mcu = rig.bridge.on_open(rig.t)
     rig.run(0.25)
     assert rig.bridge.state == LinkState.CONNECTED

@@ -109,3 +109,21 @@ def test_velocity_estimate_follows_a_ramp_across_tick_wraparound():
         v = filtered.update(k * 5000, 0.5 * k * 0.005)
     assert v == pytest.approx(0.5, rel=1e-6)
     assert filtered.update(199 * 5000, 99.0) == v       # duplicate tick: ignored
+
+
+def test_a_failing_callback_does_not_end_the_link_thread():
+    received = []
+
+    def on_data(data, t):
+        received.append(data)
+        if len(received) == 1:
+            raise RuntimeError('publisher gone')
+    link = SerialLink('loop://', 115200, on_open=lambda: b'a', on_data=on_data)
+    link.start()
+    try:
+        assert wait_for(lambda: len(received) == 1)
+        assert wait_for(lambda: link.callback_errors == 1)
+        assert "RuntimeError('publisher gone')" in link.last_error
+        assert link.write(b'b') and wait_for(lambda: len(received) == 2)
+    finally:
+        link.stop()

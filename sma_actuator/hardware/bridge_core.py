@@ -205,6 +205,9 @@ class BridgeCore:
         for note in notes:
             self.counters['interlock_limited' if 'interlock' in note else 'clamped'] += 1
             self._log_throttled(note.split('=')[0], 'warn', f'/sma/duty: {note}', now_s)
+        if self.state != LinkState.CONNECTED:
+            self.counters['commands_dropped'] += 1   # zero-duty state until (re)connected
+            return b''
         self.duty = (a, b)
         return self._send_duty(now_s)
 
@@ -371,8 +374,11 @@ class BridgeCore:
                   'interlock_limited': c['interlock_limited'], 'host_watchdog_trips': c['host_watchdog_trips'],
                   'max_duty': self.max_counts / p.DUTY_FULL_SCALE,
                   'interlock_threshold': self.interlock_counts / p.DUTY_FULL_SCALE}
+        values['commands_dropped'] = c['commands_dropped']
         if self.last_command_bad:
             return 'duty', 'error', f'last command rejected: {self.last_command_bad}', values
+        if self.state != LinkState.CONNECTED:
+            return 'duty', 'warn', 'MCU not connected: commands dropped, zero duty', values
         if self.duty_timed_out:
             return 'duty', 'warn', f'no /sma/duty for over {self.config.duty_timeout_s} s: zero duty', values
         return 'duty', 'ok', 'commands arriving', values

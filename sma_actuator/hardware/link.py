@@ -42,6 +42,7 @@ class SerialLink:
         self.read_timeout_s, self.write_timeout_s = read_timeout_s, write_timeout_s
         self.backoff_s = backoff_min_s   # wait before the next reopen attempt
         self.opens = 0
+        self.callback_errors = 0
         self.last_error = ''
         self._port = None
         self._broken = None               # reason a write failed; the thread closes the port
@@ -94,7 +95,7 @@ class SerialLink:
                 else:
                     if data:
                         self.backoff_s = self.backoff_min_s   # the link works: fast retry next time
-                        self.on_data(data, time.monotonic())
+                        self._call(self.on_data, data, time.monotonic())
                     continue
             self._close(reason)
             self._wait_backoff()
@@ -114,12 +115,12 @@ class SerialLink:
             port.reset_input_buffer()   # stale bytes from before we were listening
         except (serial.SerialException, OSError, ValueError) as exc:
             self.last_error = f'cannot open {self.url}: {exc}'
-            self.on_error(self.last_error)
+            self._call(self.on_error, self.last_error)
             return False
         with self._lock:
             self._port, self._broken = port, None
         self.opens += 1
-        first = self.on_open()
+        first = self._call(self.on_open)
         if first:
             self.write(first)
         return True
@@ -141,7 +142,17 @@ class SerialLink:
             pass
         if reason != 'link stopped':
             self.last_error = reason
-        self.on_close(reason)
+        self._call(self.on_close, reason)
+
+    def _call(self, callback, *args):
+        # A failing callback must not end the thread: it would stop reconnecting and could
+        # no longer send the final zero-duty frame.
+        try:
+            return callback(*args)
+        except Exception as exc:   # noqa: BLE001 - any callback bug, reported not raised
+            self.callback_errors += 1
+            self.last_error = f'{getattr(callback, "__name__", "callback")} raised {exc!r}'
+            return b''
 
     def _wait_backoff(self):
         self._stop.wait(self.backoff_s)

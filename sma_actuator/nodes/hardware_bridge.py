@@ -137,6 +137,8 @@ class HardwareBridge(Node):
         with self._lock:
             tx, samples = self.core.on_data(data, t_s)
             self._write(tx)
+        if self._stopping or not self.context.ok():
+            return   # shutting down: publishers may already be invalid
         for sample in samples:
             stamp = self.get_clock().now().to_msg()
             js = JointState(name=[c.JOINT_NAME], position=[sample.angle_rad],

@@ -1,0 +1,119 @@
+"""Helpers for the bridge/emulator tests: emulator processes and threads, a probe node."""
+import contextlib
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, UInt16
+
+from sma_actuator.hardware.emulator import Emulator, PtyTransport, TcpTransport
+from sma_actuator.nodes import common as c
+from sma_actuator.nodes.hardware_bridge import POTENTIOMETER_RAW
+
+
+def wait_for(condition, timeout_s=3.0, period_s=0.005):
+    """Poll `condition` until true (returns True) or timeout (returns False)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(period_s)
+    return bool(condition())
+
+
+def console_command(name, module):
+    """The installed console script `name`, else `python -m module`."""
+    script = Path(sys.prefix) / 'lib' / 'sma_actuator' / name
+    if script.exists():
+        return [str(script)]
+    found = shutil.which(name)
+    return [found] if found else [sys.executable, '-m', module]
+
+
+def start_emulator_process(*args, timeout_s=15.0):
+    """Start `mcu_emulator args...`; returns (process, port) once it printed its PORT line."""
+    proc = subprocess.Popen(console_command('mcu_emulator', 'sma_actuator.hardware.emulator') + list(args),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ready, _, _ = select.select([proc.stdout], [], [], timeout_s)
+    line = proc.stdout.readline() if ready else ''
+    if not line.startswith('PORT '):
+        stop_process(proc)
+        raise RuntimeError(f'mcu_emulator did not start: {line!r} {proc.stderr.read()}')
+    return proc, line.split(None, 1)[1].strip()
+
+
+def stop_process(proc, sig=signal.SIGTERM, timeout_s=10.0):
+    """Signal a subprocess and wait for it (kill if it hangs); returns its exit code."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    for stream in (proc.stdout, proc.stderr):
+        if stream:
+            stream.close()
+    return proc.returncode
+
+
+@contextlib.contextmanager
+def emulator_thread(tcp=False, **kwargs):
+    """An in-process Emulator serving a pty (or TCP); yields (emulator, port)."""
+    emulator = Emulator(**kwargs)
+    transport = TcpTransport() if tcp else PtyTransport()
+    stop = threading.Event()
+    thread = threading.Thread(target=emulator.run, args=(transport, stop), daemon=True)
+    thread.start()
+    try:
+        yield emulator, transport.port
+    finally:
+        stop.set()
+        thread.join(5.0)
+        transport.close()
+
+
+class Probe(Node):
+    """Publishes /sma/duty; records joint states, raw counts and diagnostics with arrival times."""
+
+    def __init__(self, **kwargs):
+        super().__init__('bridge_probe', **kwargs)
+        self.joint_states, self.raw, self.diagnostics = [], [], []
+        self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        self.create_subscription(JointState, c.JOINT_STATES,
+                                 lambda m: self.joint_states.append((time.monotonic(), m)), c.SENSOR_QOS)
+        self.create_subscription(UInt16, POTENTIOMETER_RAW,
+                                 lambda m: self.raw.append((time.monotonic(), m.data)), c.SENSOR_QOS)
+        self.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
+                                 lambda m: self.diagnostics.append((time.monotonic(), m)), c.DIAGNOSTICS_QOS)
+
+    def duty(self, a, b):
+        self.duty_pub.publish(Float64MultiArray(data=[float(a), float(b)]))
+        self.last_duty_s = time.monotonic()
+
+    def hold(self, a, b, seconds, rate_hz=40.0):
+        """Publish the duty pair at rate_hz for `seconds` (like a controller would)."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.duty(a, b)
+            time.sleep(1.0 / rate_hz)
+
+    def status(self, name, since=0.0):
+        """Latest DiagnosticStatus `hardware_bridge: <name>` received after `since`, as
+        (level, message, values dict), or None."""
+        for t, msg in reversed(self.diagnostics):
+            if t < since:
+                break
+            for st in msg.status:
+                if st.name == f'hardware_bridge: {name}':
+                    return st.level[0] if isinstance(st.level, bytes) else st.level, st.message, \
+                        {kv.key: kv.value for kv in st.values}
+        return None
