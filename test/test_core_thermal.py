@@ -106,7 +106,8 @@ BASE = act.ActuatorParams()
 
 def test_delay_shifts_the_response():
     da, db = step_on_a()
-    y0, y1 = run(BASE, da, db).position_rad, run(BASE.with_changes(delay_s=0.5), da, db).position_rad
+    y0 = run(BASE, da, db).position_rad
+    y1 = run(BASE.with_changes(delay_s=0.5), da, db).position_rad
     np.testing.assert_allclose(y1[10:], y0[:-10], atol=1e-12)   # 0.5 s = 10 samples
 
 
