@@ -120,11 +120,7 @@ def _targets(lo, hi, n=1500, seed=3):
 
 @pytest.mark.parametrize('form,u0', [('classical', -5.0), ('classical', 0.0),
                                      ('modified', 0.0),
-                                     pytest.param('modified', -5.0, marks=pytest.mark.xfail(
-                                         strict=True, reason='core bug: kernels.play_inverse '
-                                         'sizes its breakpoint buffer 3m+2 but a saturated '
-                                         'element contributes up to 6 candidates, so from a '
-                                         'state below all bands breakpoints are dropped'))])
+                                     ('modified', -5.0)])
 def test_inverse_reproduces_targets(form, u0):
     if form == 'classical':
         model, (lo, hi) = classical_pi(), (-2.0, 2.0)

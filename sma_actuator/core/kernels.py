@@ -98,7 +98,7 @@ def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
     u_out = np.empty(n)
     s = s0.copy()
     u_prev = u0
-    bp = np.empty(3 * m + 2)
+    bp = np.empty(6 * m + 2)
     for k in range(n):
         yt = y_target[k]
         y_here = _branch_value(u_prev, s, r, lo, hi, w, k1, y0, True)
@@ -110,9 +110,8 @@ def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
                       hi[i] + r[i], hi[i] - r[i]):
                 if np.isfinite(c) and ((up and c > u_prev and c < u_max)
                                        or ((not up) and c < u_prev and c > u_min)):
-                    if nb < bp.shape[0]:
-                        bp[nb] = c
-                        nb += 1
+                    bp[nb] = c
+                    nb += 1
         bp[nb] = u_max if up else u_min
         nb += 1
         seg = np.sort(bp[:nb])
