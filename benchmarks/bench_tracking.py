@@ -21,7 +21,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 import rclpy
 
 from sma_actuator.control.excitation import multilevel

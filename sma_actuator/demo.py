@@ -21,7 +21,6 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
 import rclpy
 
 from .control.metrics import summarize

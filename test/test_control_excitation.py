@@ -22,7 +22,8 @@ def test_multilevel_excites_both_wires_one_at_a_time_with_held_levels():
 
 
 def test_multilevel_is_reproducible_per_seed():
-    np.testing.assert_array_equal(multilevel(60, 0.025, seed=5)[0], multilevel(60, 0.025, seed=5)[0])
+    first, again = multilevel(60, 0.025, seed=5)[0], multilevel(60, 0.025, seed=5)[0]
+    np.testing.assert_array_equal(first, again)
     assert not np.array_equal(multilevel(60, 0.025, seed=5)[0], multilevel(60, 0.025, seed=6)[0])
 
 

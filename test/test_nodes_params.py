@@ -105,3 +105,27 @@ def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain
             proc.kill()
         ex.shutdown()
         node.destroy_node()
+
+
+def test_every_node_reports_on_diagnostics(ros_context):
+    from diagnostic_msgs.msg import DiagnosticArray
+    nodes = [PlantSim(context=ros_context), Controller(context=ros_context),
+             Setpoint(context=ros_context)]
+    listener = rclpy.create_node('diag_listener', context=ros_context)
+    names = set()
+    listener.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
+                                 lambda m: names.update(s.name.split(':')[0] for s in m.status),
+                                 c.DIAGNOSTICS_QOS)
+    ex = SingleThreadedExecutor(context=ros_context)
+    for n in nodes + [listener]:
+        ex.add_node(n)
+    try:
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and not {'plant_sim', 'controller',
+                                                   'setpoint'} <= names:
+            ex.spin_once(timeout_sec=0.05)
+        assert {'plant_sim', 'controller', 'setpoint'} <= names
+    finally:
+        ex.shutdown()
+        for n in nodes + [listener]:
+            n.destroy_node()

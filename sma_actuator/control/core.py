@@ -12,7 +12,7 @@ Per sample k (period dt, nominally the paper's 25 ms):
   4. split      duty_a = clip(u, 0, L_a), duty_b = clip(−u, 0, L_b), then never both
                 above `both_threshold`
 """
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 from ..core.validate import finite_scalar
 from .estimator import WireEstimator

@@ -30,7 +30,7 @@ def max_error(setpoint, position):
 
 
 def settling_time(time_s, setpoint, position, tolerance_rad, t_start=None):
-    """Time [s] from t_start (default first sample) until |e| <= tolerance for good; None if never."""
+    """Time [s] from t_start (default: first sample) until |e| <= tolerance for good, or None."""
     t = finite_array('time_s', time_s)
     e = np.abs(tracking_errors(setpoint, position))
     if t.shape != e.shape:

@@ -32,11 +32,12 @@ class Trace:
     theta: list = field(default_factory=list)        # latest plant wire temperatures [°C]
 
     def arrays(self):
-        """Dict of numpy arrays (duty and theta as (n, 2))."""
-        return {k: np.asarray(getattr(self, k), dtype=float).reshape(len(self.time_s), -1)
-                .squeeze() if k in ('time_s', 'position', 'setpoint')
-                else np.asarray(getattr(self, k), dtype=float).reshape(-1, 2)
-                for k in ('time_s', 'position', 'setpoint', 'duty', 'theta')}
+        """Dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
+        out = {k: np.asarray(getattr(self, k), dtype=float)
+               for k in ('time_s', 'position', 'setpoint')}
+        out.update({k: np.asarray(getattr(self, k), dtype=float).reshape(-1, 2)
+                    for k in ('duty', 'theta')})
+        return out
 
 
 class TraceProbe(Node):

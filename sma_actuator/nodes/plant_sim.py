@@ -42,7 +42,7 @@ EFFECTS = (
     ('convection_beta_per_k', 0.0, 0.05, 'convection: hA(θ) = hA0 (1 + β (θ − θa)) [1/K]'),
     ('ambient_gain', 0.0, 2.0, 'weight of measured ambient deviations'),
     ('phase_kappa', 0.0, 1.0, 'phase resistance: heating factor 1 + κ (1 − y)'),
-    ('stress_k', 0.0, 50.0, 'stress coupling: hysteresis shift per unit antagonist contraction [K]'),
+    ('stress_k', 0.0, 50.0, 'stress coupling: shift per unit antagonist contraction [K]'),
     ('gain_ratio_b', 0.5, 2.0, 'asymmetric wires: heating gain of wire b relative to a'),
     ('tau_ratio_b', 0.5, 2.0, 'asymmetric wires: time constant of wire b relative to a'),
     ('stroke_ratio_b', 0.5, 2.0, 'asymmetric wires: stroke of wire b relative to a'),
@@ -126,9 +126,9 @@ class PlantSim(Node):
             self.timer = self.create_timer(period, self.on_tick)
         self.steps_per_diag = max(1, int(round(self.rate_hz)))
         self.steps = 0
-        self.get_logger().info(
-            f'plant_sim at {self.rate_hz:g} Hz, {"accelerated x%g" % self.rtf if self.accelerated else "node clock"}'
-            f', duty timeout {self.duty_timeout_s:g} s')
+        timebase = f'accelerated x{self.rtf:g}' if self.accelerated else 'node clock'
+        self.get_logger().info(f'plant_sim at {self.rate_hz:g} Hz, {timebase}, '
+                               f'duty timeout {self.duty_timeout_s:g} s')
 
     # time -----------------------------------------------------------------------------
     def now_s(self):

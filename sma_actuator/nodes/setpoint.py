@@ -47,11 +47,14 @@ class Setpoint(Node):
         self.one_shot = c.declare_bool(self, 'one_shot', False, 'Publish `offset` once and exit.',
                                        read_only=True)
         self.pub = self.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
+        self.diag = c.Diagnostics(self, 'setpoint')
         self.add_on_set_parameters_callback(self.on_set_parameters)
         self.t0 = None
+        self.value = None
         self.done = False
         if not self.one_shot:
             self.timer = self.create_timer(1.0 / rate, self.on_tick)
+            self.create_timer(1.0, self.publish_status)
 
     def on_tick(self):
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -64,7 +67,14 @@ class Setpoint(Node):
             self.done = True
             self.timer.cancel()
             return
-        self.pub.publish(Float64(data=float(self.profile(t))))
+        self.value = float(self.profile(t))
+        self.pub.publish(Float64(data=self.value))
+
+    def publish_status(self):
+        p = self.profile
+        self.diag.publish(c.OK, 'done' if self.done else f'profile {p.kind}',
+                          {'profile': p.kind, 'amplitude_rad': p.amplitude, 'offset_rad': p.offset,
+                           'period_s': p.period_s, 'setpoint_rad': self.value})
 
     def publish_once(self, wait_s=5.0):
         """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement."""
@@ -89,6 +99,7 @@ class Setpoint(Node):
         try:
             self.profile = replace(self.profile, **changes)
         except (ValueError, TypeError) as e:
+            self.diag.publish(c.WARN, f'rejected profile change: {e}')
             return SetParametersResult(successful=False, reason=str(e))
         return SetParametersResult(successful=True)
 
