@@ -143,8 +143,10 @@ def score_line(part, s):
 
 
 def model_line(effects, kind):
-    """'modified PI base + saturation, delay'."""
-    return f'{kind} PI base' + (f' + {", ".join(effects)}' if effects else ' (paper model)')
+    """'modified PI base + saturation, delay' ('... (the paper's model)' without effects)."""
+    if effects:
+        return f'{kind} PI base + {", ".join(effects)}'
+    return f'{kind} PI base' + (" (the paper's model)" if kind == 'modified' else '')
 
 
 # ------------------------------------------------------------------------------ fit

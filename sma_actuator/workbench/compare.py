@@ -49,7 +49,7 @@ SMOOTH_S = 0.25
 RATE_WINDOW_S = 2.0
 MAX_LAG_S = 2.0
 CONCENTRATION_RATIO = 1.5      # regime RMSE / overall RMSE flagged as "error concentrates"
-MIN_SHARE = 0.05               # ... if the regime holds at least this fraction of samples
+MIN_SHARE = 0.02               # ... if the regime holds at least this fraction of samples
 
 
 @dataclass

@@ -15,8 +15,11 @@ import html
 from pathlib import Path
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from .compare import CONCENTRATION_RATIO, MIN_SHARE
 
 REPORT_FILES = ('index.html', 'time.png', 'curves.png', 'residual.png', 'hysteresis.png',
                 'regimes.png', 'correlation.png')
@@ -153,7 +156,8 @@ def plot_curves(comparison):
     ax = axes[0, 0]
     u, curve = comparison.signals['input'], comparison.signals['curve']
     ids = list(dict.fromkeys(curve.tolist()))
-    colours = [f'C{i % 10}' for i in range(len(ids))]
+    palette = colormaps['tab10' if len(ids) <= 10 else 'tab20']
+    colours = [palette(i % palette.N) for i in range(len(ids))]
     for cid, colour in zip(ids, colours):
         m = curve == cid
         ls = '--' if cid % 2 == 1 else '-'
@@ -315,8 +319,9 @@ def render_html(comparison, title, data_line, model, diagnosis, figures):
              '‖e‖/‖y − ȳ‖).</p>',
              _diagnosis_html(diagnosis),
              '<h2>Figures</h2>', imgs,
-             '<h2>Error by regime</h2><p class="note">Highlighted: RMSE at least 1.5 x the '
-             'overall RMSE on at least 5 % of the samples.</p>', _regimes_html(comparison),
+             f'<h2>Error by regime</h2><p class="note">Highlighted: RMSE at least '
+             f'{CONCENTRATION_RATIO:g} x the overall RMSE on at least {100 * MIN_SHARE:g} % of '
+             'the samples.</p>', _regimes_html(comparison),
              '<h2>Residual tests</h2>', _tests_html(comparison),
              '</body></html>']
     return '\n'.join(p for p in parts if p)
