@@ -31,6 +31,7 @@ TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_temperat
 def publisher(rate_hz, duration_s):
     """Publish the five topics at rate_hz each; print how many were sent per topic."""
     import rclpy
+    from rclpy.duration import Duration
     from rclpy.qos import QoSProfile, qos_profile_sensor_data
     from sensor_msgs.msg import JointState, Temperature
     from std_msgs.msg import Float64, Float64MultiArray
@@ -75,6 +76,8 @@ def publisher(rate_hz, duration_s):
         sent = max(sent, min(due, total))
         time.sleep(max(0.0, (sent / rate_hz) - (time.perf_counter() - start)))
     elapsed = time.perf_counter() - start
+    for pub in pubs.values():  # reliable ones: do not exit before the recorder has them
+        pub.wait_for_all_acked(Duration(seconds=5.0))
     time.sleep(0.5)
     print(f'SENT {total} {elapsed:.3f}', flush=True)
     node.destroy_node()
@@ -108,7 +111,7 @@ def _sequences(bag):
 
 def run_rate(rate_hz, duration_s, workdir):
     """Record one run at rate_hz per topic; return (sent per topic, seqs, cpu share, wall)."""
-    bag = Path(workdir) / f'bag_{rate_hz}'
+    bag = Path(tempfile.mkdtemp(prefix=f'rate{rate_hz}_', dir=workdir)) / 'bag'
     recorder = [str(Path(sys.prefix) / 'lib' / 'sma_actuator' / 'recorder')]
     if not Path(recorder[0]).exists():
         recorder = [sys.executable, '-m', 'sma_actuator.nodes.recorder']
@@ -117,6 +120,8 @@ def run_rate(rate_hz, duration_s, workdir):
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         time.sleep(1.0)
+        if rec.poll() is not None:
+            raise RuntimeError(f'recorder exited: {rec.stderr.read().decode()}')
         cpu0, t0 = _cpu_seconds(rec.pid), time.monotonic()
         pub = subprocess.run([sys.executable, __file__, '--publisher', str(rate_hz),
                               str(duration_s)], capture_output=True, text=True, timeout=600)
@@ -133,6 +138,17 @@ def run_rate(rate_hz, duration_s, workdir):
             rec.kill()
             rec.wait()
     return sent, _sequences(bag), cpu, pub_elapsed
+
+
+def _ranges(numbers):
+    """'3-7, 12' style summary of sorted integers (first 5 ranges)."""
+    spans, start, prev = [], numbers[0], numbers[0]
+    for n in numbers[1:] + [None]:
+        if n is None or n != prev + 1:
+            spans.append(f'{start}-{prev}' if prev > start else f'{start}')
+            start = n
+        prev = n if n is not None else prev
+    return ', '.join(spans[:5]) + (f' ... ({len(spans)} gaps)' if len(spans) > 5 else '')
 
 
 def main():
@@ -164,6 +180,10 @@ def main():
                   f'{total_lost} ' + ' '.join(f'{t.rsplit("/", 1)[1]}={n}'
                                               for t, n in lost.items() if n)
                   + f'; recorder CPU {100 * cpu:.0f}% of one core', flush=True)
+            for topic, seq in seqs.items():
+                missing = sorted(set(range(sent)) - set(seq))
+                if missing:
+                    print(f'    {topic}: missing {_ranges(missing)}')
             if total_lost == 0 and achieved >= 0.97 * rate:
                 best = rate
             elif args.rates is None:
