@@ -40,8 +40,8 @@ def console_command(name, module):
 
 def start_emulator_process(*args, timeout_s=15.0):
     """Start `mcu_emulator args...`; returns (process, port) once it printed its PORT line."""
-    proc = subprocess.Popen(console_command('mcu_emulator', 'sma_actuator.hardware.emulator') + list(args),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    command = console_command('mcu_emulator', 'sma_actuator.hardware.emulator') + list(args)
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     ready, _, _ = select.select([proc.stdout], [], [], timeout_s)
     line = proc.stdout.readline() if ready else ''
     if not line.startswith('PORT '):
@@ -88,12 +88,15 @@ class Probe(Node):
         super().__init__('bridge_probe', **kwargs)
         self.joint_states, self.raw, self.diagnostics = [], [], []
         self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
-        self.create_subscription(JointState, c.JOINT_STATES,
-                                 lambda m: self.joint_states.append((time.monotonic(), m)), c.SENSOR_QOS)
-        self.create_subscription(UInt16, POTENTIOMETER_RAW,
-                                 lambda m: self.raw.append((time.monotonic(), m.data)), c.SENSOR_QOS)
-        self.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
-                                 lambda m: self.diagnostics.append((time.monotonic(), m)), c.DIAGNOSTICS_QOS)
+
+        def keep(into, value=lambda m: m):
+            return lambda m: into.append((time.monotonic(), value(m)))
+        self.create_subscription(JointState, c.JOINT_STATES, keep(self.joint_states),
+                                 c.SENSOR_QOS)
+        self.create_subscription(UInt16, POTENTIOMETER_RAW, keep(self.raw, lambda m: m.data),
+                                 c.SENSOR_QOS)
+        self.create_subscription(DiagnosticArray, c.DIAGNOSTICS, keep(self.diagnostics),
+                                 c.DIAGNOSTICS_QOS)
 
     def duty(self, a, b):
         self.duty_pub.publish(Float64MultiArray(data=[float(a), float(b)]))

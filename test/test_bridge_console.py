@@ -14,7 +14,8 @@ from sma_actuator.hardware.bridge_core import to_counts
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'hardware_bridge.yaml'
 
 
-def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(ros_context, ros_domain_id):
+def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(
+        ros_context, ros_domain_id):
     with emulator_thread(baud=115200) as (emulator, port):
         proc = subprocess.Popen(
             console_command('hardware_bridge', 'sma_actuator.nodes.hardware_bridge')

@@ -40,14 +40,18 @@ def test_controller_closes_the_loop_through_bridge_and_emulator(ros_context):
             while time.monotonic() - start < 12.0:
                 setpoint_pub.publish(Float64(data=SETPOINT_RAD))
                 time.sleep(0.1)
-                recent = [m.position[0] for t, m in probe.joint_states if t > time.monotonic() - 0.5]
+                recent = [m.position[0]
+                          for t, m in probe.joint_states if t > time.monotonic() - 0.5]
                 if recent and np.all(np.abs(np.array(recent) - SETPOINT_RAD) < 0.05):
                     settled_at = time.monotonic() - start
                     break
-            assert settled_at is not None, f'not settled: last position {probe.joint_states[-1][1].position[0]}'
+            last = probe.joint_states[-1][1].position[0]
+            assert settled_at is not None, f'not settled: last position {last}'
             # the duties came from the controller, through the bridge, to the MCU outputs
-            assert bridge.core.counters['commands'] > 50 and bridge.core.counters['bad_commands'] == 0
-            assert emulator.mcu.rx_frames > 50 and not emulator.mcu.faults_latched & p.FAULT_INTERLOCK
+            counters = bridge.core.counters
+            assert counters['commands'] > 50 and counters['bad_commands'] == 0
+            assert emulator.mcu.rx_frames > 50
+            assert not emulator.mcu.faults_latched & p.FAULT_INTERLOCK
             assert abs(emulator.angle_rad - SETPOINT_RAD) < 0.06
         finally:
             executor.shutdown(timeout_sec=2.0)

@@ -8,7 +8,8 @@ import math
 import pytest
 
 from sma_actuator.hardware import protocol as p
-from sma_actuator.hardware.bridge_core import BridgeConfig, BridgeCore, LinkState, sanitize_duty, to_counts
+from sma_actuator.hardware.bridge_core import (BridgeConfig, BridgeCore, LinkState, sanitize_duty,
+                                               to_counts)
 from sma_actuator.hardware.calibration import AdcCalibration
 from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
 
@@ -83,7 +84,7 @@ def test_host_watchdog_sends_zero_duty_after_timeout_and_warns_once():
 def test_mcu_watchdog_trips_when_the_host_goes_silent():
     rig = Rig()
     rig.run(0.3, command=(0.4, 0.0))
-    rig.connected = False                              # host->MCU bytes stop (host hung, cable cut)
+    rig.connected = False   # host->MCU bytes stop (host hung, cable cut)
     for step in range(150):
         t_us = int((0.3 + 0.001 * (step + 1)) * 1e6)
         rig.mcu.poll(t_us)
@@ -93,7 +94,8 @@ def test_mcu_watchdog_trips_when_the_host_goes_silent():
 
 
 @pytest.mark.parametrize('command, expected', [
-    ((0.6, 0.5), (0.6, 0.3)), ((0.4, 0.9), (0.3, 0.9)), ((0.5, 0.5), (0.5, 0.3)), ((0.3, 0.3), (0.3, 0.3))])
+    ((0.6, 0.5), (0.6, 0.3)), ((0.4, 0.9), (0.3, 0.9)), ((0.5, 0.5), (0.5, 0.3)),
+    ((0.3, 0.3), (0.3, 0.3))])
 def test_never_both_wires_above_the_interlock(command, expected):
     rig = Rig(BridgeConfig(interlock_threshold=0.3))
     rig.run(0.2, command=command)
@@ -153,7 +155,8 @@ def test_silent_mcu_is_a_lost_link_and_a_reset_mcu_is_reconfigured():
     rig.connected = False
     rig.run(0.8)
     assert rig.bridge.state == LinkState.HANDSHAKING and rig.diag('link')[1] == 'error'
-    assert any('no valid frame from the MCU' in text for level, text in rig.logs if level == 'error')
+    errors = [text for level, text in rig.logs if level == 'error']
+    assert any('no valid frame from the MCU' in text for text in errors)
     rig.mcu = McuCore(lambda: rig.adc)                 # MCU rebooted meanwhile
     rig._to_bridge = rig.mcu.start(int(rig.t * 1e6))
     rig.connected = True
@@ -165,8 +168,9 @@ def test_garbage_between_frames_is_counted_and_skipped():
     rig = Rig()
     rig.run(0.05)
     n = len(rig.samples)
-    _, samples = rig.bridge.on_data(b'\x13\x37\x00' + p.AdcReport(1, 100, 0, 0, 0, 0).encode(200)[:-4] + b'\x00'
-                                    + p.AdcReport(2, 300, 0, 0, 0, 0).encode(201), rig.t)
+    truncated = p.AdcReport(1, 100, 0, 0, 0, 0).encode(200)[:-4] + b'\x00'
+    good = p.AdcReport(2, 300, 0, 0, 0, 0).encode(201)
+    _, samples = rig.bridge.on_data(b'\x13\x37\x00' + truncated + good, rig.t)
     assert [s.counts for s in samples] == [300]
     rig.run(0.1)
     assert len(rig.samples) > n
@@ -188,7 +192,8 @@ def test_sanitize_duty_notes_and_errors():
         sanitize_duty([], 65535, 19660)
 
 
-@pytest.mark.parametrize('field, value', [('max_duty', 1.5), ('duty_timeout_s', 0.0), ('duty_refresh_s', 0.2)])
+@pytest.mark.parametrize('field, value', [
+    ('max_duty', 1.5), ('duty_timeout_s', 0.0), ('duty_refresh_s', 0.2)])
 def test_config_rejects_bad_values_naming_them(field, value):
     with pytest.raises(ValueError, match=field):
         BridgeConfig(**{field: value})

@@ -1,6 +1,5 @@
 """SerialLink (pyserial thread, reconnect with backoff) and the ADC calibration."""
 import socket
-import threading
 import time
 
 import pytest
@@ -20,7 +19,8 @@ def wait_for(condition, timeout_s=3.0):
 
 def test_loop_url_delivers_the_open_greeting_and_writes():
     received = bytearray()
-    link = SerialLink('loop://', 115200, on_open=lambda: b'hello', on_data=lambda d, t: received.extend(d))
+    link = SerialLink('loop://', 115200, on_open=lambda: b'hello',
+                      on_data=lambda data, t: received.extend(data))
     link.start()
     try:
         assert wait_for(lambda: bytes(received) == b'hello')
@@ -92,7 +92,8 @@ def test_linear_and_polynomial_calibration():
 
 
 @pytest.mark.parametrize('kwargs, message', [
-    ({'scale_rad_per_count': 0.0}, 'must not be 0'), ({'offset_rad': float('nan')}, 'must be finite'),
+    ({'scale_rad_per_count': 0.0}, 'must not be 0'),
+    ({'offset_rad': float('nan')}, 'must be finite'),
     ({'polynomial': [1.0, float('inf')]}, 'must be finite')])
 def test_calibration_rejects_bad_values(kwargs, message):
     with pytest.raises(ValueError, match=message):

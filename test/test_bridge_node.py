@@ -18,7 +18,9 @@ from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
 
-OK, WARN, ERROR = (ord(level) for level in (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR))
+# DiagnosticStatus levels are bytes constants; the probe reports them as ints
+OK, WARN, ERROR = (ord(x) for x in (DiagnosticStatus.OK, DiagnosticStatus.WARN,
+                                    DiagnosticStatus.ERROR))
 
 
 class Loop:

@@ -50,7 +50,8 @@ def test_duty_is_applied_and_answered_with_an_adc_report():
     rig.hello()
     report = rig.send(p.Duty(30000, 5), 100)[0]
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (30000, 5)
-    assert (report.counts, report.duty_seq, report.duty_a, report.duty_b, report.ticks_us) == (777, 1, 30000, 5, 100)
+    assert (report.counts, report.duty_seq, report.ticks_us) == (777, 1, 100)
+    assert (report.duty_a, report.duty_b) == (30000, 5)
 
 
 def test_watchdog_turns_outputs_off_after_100_ms_without_duty():

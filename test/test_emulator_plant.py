@@ -75,7 +75,8 @@ def test_emulated_mcu_watchdog_switches_off_100_ms_after_the_last_duty():
     on = next(t for t, a, _ in host.pwm if a == 30000)
     off = next(t for t, a, _ in host.pwm if t > on and a == 0)
     assert off - on == pytest.approx(0.1, abs=1e-6)
-    status = [(t, m) for t, m in host.received if isinstance(m, p.Status) and m.faults & p.FAULT_WATCHDOG]
+    status = [(t, m) for t, m in host.received
+              if isinstance(m, p.Status) and m.faults & p.FAULT_WATCHDOG]
     assert status and status[0][1].ticks_us == pytest.approx((off - 10.0) * 1e6, abs=1)
     temps = host.emu.actuator.temperature_c
     host.run(0.5)

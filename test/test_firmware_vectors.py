@@ -19,7 +19,7 @@ from sma_actuator.hardware import vectors
 
 FIRMWARE = Path(__file__).resolve().parents[1] / 'firmware'
 CXXFLAGS = ['-std=c++17', '-Wall', '-Wextra', '-Werror', '-O1', f'-I{FIRMWARE / "sma_mcu"}']
-CORE_SOURCES = [FIRMWARE / 'sma_mcu' / 'sma_protocol.cpp', FIRMWARE / 'sma_mcu' / 'sma_mcu_core.cpp']
+CORE_SOURCES = [FIRMWARE / 'sma_mcu' / f for f in ('sma_protocol.cpp', 'sma_mcu_core.cpp')]
 
 
 @pytest.fixture(scope='module')
@@ -39,7 +39,8 @@ def _compile(build_dir, name, sources, extra=()):
 
 @pytest.fixture(scope='module')
 def vector_driver(build_dir):
-    return _compile(build_dir, 'vector_driver', CORE_SOURCES + [FIRMWARE / 'host_test' / 'vector_driver.cpp'])
+    sources = CORE_SOURCES + [FIRMWARE / 'host_test' / 'vector_driver.cpp']
+    return _compile(build_dir, 'vector_driver', sources)
 
 
 @pytest.fixture(scope='module')
@@ -54,7 +55,8 @@ def _load_vectors():
 
 
 def test_vectors_file_matches_python_generator_byte_for_byte():
-    assert (FIRMWARE / 'test_vectors.json').read_text() == vectors.render(vectors.build_vectors()), \
+    expected = vectors.render(vectors.build_vectors())
+    assert (FIRMWARE / 'test_vectors.json').read_text() == expected, \
         'firmware/test_vectors.json is stale: run python -m sma_actuator.hardware.vectors --write'
 
 
@@ -79,22 +81,26 @@ def test_driver_reports_a_wrong_vector(vector_driver, tmp_path):
         lines[i] = json.dumps(vec) + (',' if lines[i].endswith(',') else '')
     bad = tmp_path / 'bad_vectors.json'
     bad.write_text('\n'.join(lines) + '\n')
-    result = subprocess.run([str(vector_driver), str(bad)], capture_output=True, text=True, timeout=60)
+    result = subprocess.run([str(vector_driver), str(bad)],
+                            capture_output=True, text=True, timeout=60)
     assert result.returncode == 1
     assert result.stdout.count('FAIL') == 2 and ', 2 failed' in result.stdout
 
 
 def test_vectors_show_the_firmware_watchdog_and_interlock():
     # What the C++ reproduces above, spelled out: these outputs are the safety behaviour.
-    scenarios = {v['name']: (v['in'].split(), v['out'].split()) for v in _load_vectors() if v['kind'] == 'mcu'}
+    scenarios = {v['name']: (v['in'].split(), v['out'].split())
+                 for v in _load_vectors() if v['kind'] == 'mcu'}
     steps, outs = scenarios['watchdog_100ms']
     state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
-    assert state['159999'] == ['40000', '100', '0']      # last duty at 60 ms: still on at 159.999 ms
+    # last duty at 60 ms: still on at 159.999 ms
+    assert state['159999'] == ['40000', '100', '0']
     assert state['160000'] == ['0', '0', str(p.FAULT_WATCHDOG)]   # 100 ms without duty: off
     assert state['180000'] == ['0', '20000', '0']        # next duty frame re-enables
     steps, outs = scenarios['interlock_both_above']
     assert [o.split(',')[:3] for o in outs[2:]] == [
-        ['0', '0', str(p.FAULT_INTERLOCK)], ['19661', '60000', str(p.FAULT_CLAMPED)], ['19662', '19661', '0']]
+        ['0', '0', str(p.FAULT_INTERLOCK)], ['19661', '60000', str(p.FAULT_CLAMPED)],
+        ['19662', '19661', '0']]
 
 
 def test_differential_fuzz_cpp_and_python_decoders_agree(vector_driver):
@@ -111,8 +117,8 @@ def test_differential_fuzz_cpp_and_python_decoders_agree(vector_driver):
             data[where:where + rng.randint(0, 2)] = rng.randbytes(rng.randint(0, 2))
         streams.append(bytes(data))
     stdin = ''.join(s.hex() + '\n' for s in streams)
-    result = subprocess.run([str(vector_driver), '--decode-stream'], input=stdin, capture_output=True,
-                            text=True, timeout=60)
+    result = subprocess.run([str(vector_driver), '--decode-stream'], input=stdin,
+                            capture_output=True, text=True, timeout=60)
     assert result.returncode == 0
     cpp = result.stdout.splitlines()
     assert len(cpp) == len(streams)
@@ -124,15 +130,18 @@ def test_differential_fuzz_cpp_and_python_decoders_agree(vector_driver):
 
 def _run_sketch(sketch_driver, steps):
     stdin = ''.join(f'{t} {data.hex()}\n' for t, data in steps)
-    result = subprocess.run([str(sketch_driver)], input=stdin, capture_output=True, text=True, timeout=30)
+    result = subprocess.run([str(sketch_driver)], input=stdin,
+                            capture_output=True, text=True, timeout=30)
     assert result.returncode == 0, result.stderr
     rows = [line.split() for line in result.stdout.splitlines()]
-    return [(int(t), int(a), int(b), bytes.fromhex(tx) if tx != '-' else b'') for t, a, b, tx in rows]
+    return [(int(t), int(a), int(b), bytes.fromhex(tx) if tx != '-' else b'')
+            for t, a, b, tx in rows]
 
 
 def test_sketch_applies_duty_and_watchdog_turns_outputs_off(sketch_driver):
     hello = p.Hello(p.PROTOCOL_VERSION, 65535, 19661, 20000).encode(0)
-    steps = [(10, hello), (1000, p.Duty(40000, 0).encode(1))] + [(t, b'') for t in range(2000, 130000, 1000)]
+    steps = [(10, hello), (1000, p.Duty(40000, 0).encode(1))]
+    steps += [(t, b'') for t in range(2000, 130000, 1000)]
     rows = _run_sketch(sketch_driver, steps)
     assert rows[0][1:3] == (0, 0)                           # off after setup()
     pwm = {t: (a, b) for t, a, b, _ in rows}

@@ -36,7 +36,8 @@ def test_cobs_round_trip_random():
         assert p.cobs_decode(encoded) == data
 
 
-@pytest.mark.parametrize('bad, reason', [(b'\x05\x11', 'runs past the end'), (b'\x02\x00', 'zero byte')])
+@pytest.mark.parametrize('bad, reason',
+                         [(b'\x05\x11', 'runs past the end'), (b'\x02\x00', 'zero byte')])
 def test_cobs_decode_rejects_malformed(bad, reason):
     with pytest.raises(p.ProtocolError, match=reason):
         p.cobs_decode(bad)
@@ -57,7 +58,8 @@ def test_encode_frame_refuses_oversized_body():
 
 
 def test_message_field_range_errors_name_the_field():
-    with pytest.raises(p.ProtocolError, match=r'Duty\.duty_b=70000 is not an integer in 0\.\.65535'):
+    with pytest.raises(p.ProtocolError,
+                       match=r'Duty\.duty_b=70000 is not an integer in 0\.\.65535'):
         p.Duty(1, 70000).encode(0)
     with pytest.raises(p.ProtocolError, match=r'Duty\.duty_a=0\.5'):
         p.Duty(0.5, 0).encode(0)
@@ -91,7 +93,8 @@ def test_decoder_resynchronises_after_garbage_truncation_and_crc_error():
 def test_decoder_handles_byte_by_byte_feed_like_bulk_feed():
     rng = random.Random(5)
     data = b''.join(p.AdcReport(i, i, i, 0, 0, 0).encode(i) for i in range(20))
-    data = bytes(b if rng.random() > 0.02 else rng.randrange(256) for b in data) + b'\x07' * 90 + b'\x00'
+    data = bytes(b if rng.random() > 0.02 else rng.randrange(256)
+                 for b in data) + b'\x07' * 90 + b'\x00'
     bulk, trickle = p.FrameDecoder(), p.FrameDecoder()
     expected = bulk.feed(data)
     got = [f for i in range(len(data)) for f in trickle.feed(data[i:i + 1])]

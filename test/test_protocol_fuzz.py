@@ -54,7 +54,8 @@ def _mutated_case(rng, pool):
         pieces.insert(0, bytes(rng.randrange(1, 256) for _ in range(rng.randint(1, 6))))
         picks.insert(0, None)
     must = [pick for i, pick in enumerate(picks)
-            if pick is not None and pieces[i] == pick[1] and (i == 0 or pieces[i - 1].endswith(b'\x00'))]
+            if pick is not None and pieces[i] == pick[1]
+            and (i == 0 or pieces[i - 1].endswith(b'\x00'))]
     return b''.join(pieces), [pick[0] for pick in picks if pick is not None], [m[0] for m in must]
 
 

@@ -59,7 +59,8 @@ class BridgeConfig:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f'{name} must be a positive number of seconds, got {value}')
         if self.duty_refresh_s >= 0.1:
-            raise ValueError(f'duty_refresh_s={self.duty_refresh_s} must stay below the 0.1 s MCU watchdog')
+            raise ValueError(
+                f'duty_refresh_s={self.duty_refresh_s} must stay below the 0.1 s MCU watchdog')
 
 
 @dataclass(frozen=True)
@@ -96,13 +97,15 @@ def sanitize_duty(values, max_counts: int, interlock_counts: int) -> tuple[int, 
             notes.append(f'{name}={value:g} outside [0, 1], clamped')
         c = to_counts(min(max(value, 0.0), 1.0))
         if c > max_counts:
-            notes.append(f'{name}={value:g} above max_duty {max_counts / p.DUTY_FULL_SCALE:g}, clamped')
+            notes.append(
+                f'{name}={value:g} above max_duty {max_counts / p.DUTY_FULL_SCALE:g}, clamped')
             c = max_counts
         counts.append(c)
     a, b = counts
     if a > interlock_counts and b > interlock_counts:
-        notes.append(f'both wires above the interlock {interlock_counts / p.DUTY_FULL_SCALE:g} '
-                     f'(a={a / p.DUTY_FULL_SCALE:g}, b={b / p.DUTY_FULL_SCALE:g}): weaker one limited')
+        full = p.DUTY_FULL_SCALE
+        notes.append(f'both wires above the interlock {interlock_counts / full:g} '
+                     f'(a={a / full:g}, b={b / full:g}): weaker one limited')
         if a >= b:
             b = interlock_counts
         if b >= a:
@@ -114,7 +117,8 @@ class BridgeCore:
     """State machine of the bridge; see the module docstring. `log(level, text)` reports events."""
 
     def __init__(self, config: BridgeConfig, calibration: AdcCalibration, now_s: float,
-                 velocity_tau_s: float = 0.02, log: Callable[[str, str], None] = lambda level, text: None):
+                 velocity_tau_s: float = 0.02,
+                 log: Callable[[str, str], None] = lambda level, text: None):
         self.config, self.calibration, self._log = config, calibration, log
         self.velocity = VelocityEstimator(velocity_tau_s)
         self.stream = p.MessageStream(accept=p.MCU_TO_HOST)
@@ -198,7 +202,8 @@ class BridgeCore:
         except (ValueError, TypeError) as exc:
             self.counters['bad_commands'] += 1
             self.last_command_bad = str(exc)
-            self._log_throttled('bad', 'error', f'rejected /sma/duty command: {exc}; both wires set to zero', now_s)
+            self._log_throttled('bad', 'error', f'rejected /sma/duty command: {exc}; '
+                                'both wires set to zero', now_s)
             a, b, notes = 0, 0, []
         else:
             self.last_command_bad = ''
@@ -219,8 +224,8 @@ class BridgeCore:
             self.duty_timed_out = True
             self.counters['host_watchdog_trips'] += 1
             self.duty = (0, 0)
-            self._log('warn', f'no /sma/duty for {silent_s:.3f} s (timeout {cfg.duty_timeout_s} s): '
-                              'sending zero duty')
+            self._log('warn', f'no /sma/duty for {silent_s:.3f} s '
+                              f'(timeout {cfg.duty_timeout_s} s): sending zero duty')
             tx += self._send_duty(now_s)
         if self.state == LinkState.DISCONNECTED:
             return bytes(tx)
@@ -261,12 +266,14 @@ class BridgeCore:
     def _hello(self, now_s: float) -> bytes:
         self._last_hello_s = now_s
         cfg = self.config
-        return self.sender.encode(p.Hello(p.PROTOCOL_VERSION, self.max_counts, self.interlock_counts,
-                                          int(round(cfg.adc_period_s * 1e6))))
+        period_us = int(round(cfg.adc_period_s * 1e6))
+        return self.sender.encode(p.Hello(p.PROTOCOL_VERSION, self.max_counts,
+                                          self.interlock_counts, period_us))
 
     def _on_hello_ack(self, ack: p.HelloAck, now_s: float) -> bytes:
         if ack.protocol_version != p.PROTOCOL_VERSION:
-            self.link_error = f'MCU speaks protocol v{ack.protocol_version}, bridge v{p.PROTOCOL_VERSION}'
+            self.link_error = (f'MCU speaks protocol v{ack.protocol_version}, '
+                               f'bridge v{p.PROTOCOL_VERSION}')
             self._log_throttled('version', 'error', self.link_error, now_s)
             return b''
         self.mcu, self.mcu_faults = ack, 0
@@ -275,8 +282,9 @@ class BridgeCore:
         self.max_counts = min(to_counts(self.config.max_duty), ack.max_duty)
         self.interlock_counts = min(to_counts(self.config.interlock_threshold), ack.interlock_duty)
         if self.state != LinkState.CONNECTED:
-            self._log('info', f'connected: MCU firmware {ack.fw_major}.{ack.fw_minor}.{ack.fw_patch}, '
-                              f'{ack.adc_bits}-bit ADC, limits max {ack.max_duty} interlock {ack.interlock_duty}')
+            self._log('info', f'connected: MCU firmware {ack.fw_major}.{ack.fw_minor}.'
+                              f'{ack.fw_patch}, {ack.adc_bits}-bit ADC, limits max '
+                              f'{ack.max_duty} interlock {ack.interlock_duty}')
         self.state = LinkState.CONNECTED
         self.link_error = ''
         self.duty = (0, 0)
@@ -296,7 +304,8 @@ class BridgeCore:
         self.mcu_faults = faults
         if new:
             level = 'error' if new & (p.FAULT_INTERLOCK | p.FAULT_BAD_VERSION) else 'warn'
-            self._log_throttled(f'fault{new}', level, f'MCU fault: {", ".join(p.fault_names(new))}', now_s)
+            names = ', '.join(p.fault_names(new))
+            self._log_throttled(f'fault{new}', level, f'MCU fault: {names}', now_s)
         if faults & p.FAULT_NOT_CONFIGURED:
             # The MCU restarted (brown-out, reset button): configure it again.
             self._log('warn', 'MCU reports it is not configured (reset?): re-handshaking')
@@ -332,12 +341,14 @@ class BridgeCore:
         errors = self.stream.frames.errors
         values = {
             'state': self.state.value, 'last_error': self.link_error,
-            'frames_received': self.stream.frames.frames, 'bytes_received': self.counters['bytes_received'],
-            'crc_errors': errors['crc'], 'framing_errors': errors['cobs'] + errors['short'] + errors['oversize'],
+            'frames_received': self.stream.frames.frames,
+            'bytes_received': self.counters['bytes_received'], 'crc_errors': errors['crc'],
+            'framing_errors': errors['cobs'] + errors['short'] + errors['oversize'],
             'malformed_frames': self.stream.malformed, 'frames_lost': self.stream.lost,
             'open_failures': self.counters['open_failures'],
             'rtt_ms_last': _ms(self.rtt_s[-1]) if self.rtt_s else 'n/a',
-            'rtt_ms_p50': _ms_pct(self.rtt_s, 50), 'rtt_ms_max': _ms(max(self.rtt_s)) if self.rtt_s else 'n/a',
+            'rtt_ms_p50': _ms_pct(self.rtt_s, 50),
+            'rtt_ms_max': _ms(max(self.rtt_s)) if self.rtt_s else 'n/a',
             'duty_to_report_ms_p50': _ms_pct(self.duty_latency_s, 50),
             'duty_to_report_ms_p99': _ms_pct(self.duty_latency_s, 99),
         }
@@ -358,7 +369,8 @@ class BridgeCore:
             st = self.mcu_status
             values.update({'faults_latched': ' '.join(p.fault_names(st.faults_latched)) or 'none',
                            'mcu_rx_frames': st.rx_frames, 'mcu_rx_crc_errors': st.rx_crc_errors,
-                           'mcu_rx_framing_errors': st.rx_framing_errors, 'mcu_rx_malformed': st.rx_malformed})
+                           'mcu_rx_framing_errors': st.rx_framing_errors,
+                           'mcu_rx_malformed': st.rx_malformed})
         if self.state != LinkState.CONNECTED:
             return 'mcu', 'stale', 'no MCU connected', values
         if self.mcu_faults & (p.FAULT_INTERLOCK | p.FAULT_BAD_VERSION):
@@ -369,9 +381,11 @@ class BridgeCore:
 
     def _duty_diag(self):
         c = self.counters
-        values = {'duty_a': self.duty[0] / p.DUTY_FULL_SCALE, 'duty_b': self.duty[1] / p.DUTY_FULL_SCALE,
-                  'commands': c['commands'], 'bad_commands': c['bad_commands'], 'clamped': c['clamped'],
-                  'interlock_limited': c['interlock_limited'], 'host_watchdog_trips': c['host_watchdog_trips'],
+        full = p.DUTY_FULL_SCALE
+        values = {'duty_a': self.duty[0] / full, 'duty_b': self.duty[1] / full,
+                  'commands': c['commands'], 'bad_commands': c['bad_commands'],
+                  'clamped': c['clamped'], 'interlock_limited': c['interlock_limited'],
+                  'host_watchdog_trips': c['host_watchdog_trips'],
                   'max_duty': self.max_counts / p.DUTY_FULL_SCALE,
                   'interlock_threshold': self.interlock_counts / p.DUTY_FULL_SCALE}
         values['commands_dropped'] = c['commands_dropped']
@@ -380,7 +394,8 @@ class BridgeCore:
         if self.state != LinkState.CONNECTED:
             return 'duty', 'warn', 'MCU not connected: commands dropped, zero duty', values
         if self.duty_timed_out:
-            return 'duty', 'warn', f'no /sma/duty for over {self.config.duty_timeout_s} s: zero duty', values
+            text = f'no /sma/duty for over {self.config.duty_timeout_s} s: zero duty'
+            return 'duty', 'warn', text, values
         return 'duty', 'ok', 'commands arriving', values
 
 

@@ -22,8 +22,8 @@ class AdcCalibration:
         self.polynomial = tuple(float(c) for c in polynomial)
         values = (self.offset_rad, self.scale_rad_per_count) + self.polynomial
         if not all(math.isfinite(v) for v in values):
-            raise ValueError(f'ADC calibration must be finite: offset {offset_rad}, scale {scale_rad_per_count}, '
-                             f'polynomial {list(polynomial)}')
+            raise ValueError(f'ADC calibration must be finite: offset {offset_rad}, '
+                             f'scale {scale_rad_per_count}, polynomial {list(polynomial)}')
         if not self.polynomial and self.scale_rad_per_count == 0:
             raise ValueError('ADC calibration scale_rad_per_count must not be 0')
 

@@ -111,8 +111,9 @@ class PtyTransport:
 
     def close(self):
         """Close both ends and remove the link."""
-        if self.link_path and os.path.islink(self.link_path) and os.readlink(self.link_path) == os.ttyname(self._slave):
-            os.unlink(self.link_path)
+        link = self.link_path
+        if link and os.path.islink(link) and os.readlink(link) == os.ttyname(self._slave):
+            os.unlink(link)   # only our own link: a newer emulator may have taken it over
         os.close(self.master)
         os.close(self._slave)
 
@@ -231,7 +232,8 @@ class Emulator:
         frame = p.AdcReport(0, 0, 0, 0, 0, 0).encode(0)
         kind = self.rng.integers(3)
         if kind == 0:
-            return bytes(self.rng.integers(0, 256, self.rng.integers(1, 40), dtype=np.uint8)) + b'\x00'
+            return bytes(self.rng.integers(
+                0, 256, self.rng.integers(1, 40), dtype=np.uint8)) + b'\x00'
         if kind == 1:
             return frame[:len(frame) // 2] + b'\x00'
         payload = bytearray(p.cobs_decode(frame[:-1]))
@@ -262,17 +264,18 @@ class Emulator:
 
 def _parse_args(argv):
     parser = argparse.ArgumentParser(prog='mcu_emulator', description=__doc__.splitlines()[0])
-    parser.add_argument('--link', help='also make this path a symlink to the pty (stable port name)')
-    parser.add_argument('--tcp', metavar='[HOST:]PORT',
-                        help='serve TCP instead of a pty (port 0: any free port); bridge port socket://HOST:PORT')
-    parser.add_argument('--baud', type=int, default=115200,
-                        help='modelled UART rate in bit/s, 0 for an ideal line (default: %(default)s)')
-    parser.add_argument('--adc-noise-rad', type=float, default=0.0, help='potentiometer noise, std dev [rad]')
-    parser.add_argument('--ambient-c', type=float, default=None, help='ambient temperature [°C]')
-    parser.add_argument('--seed', type=int, default=None, help='random seed (ADC noise, line noise)')
-    parser.add_argument('--line-noise-hz', type=float, default=0.0,
-                        help='bursts per second of garbage/truncated/CRC-bad frames on the MCU->host line')
-    parser.add_argument('--verbose', action='store_true', help='print plant state to stderr every second')
+    add = parser.add_argument
+    add('--link', help='also make this path a symlink to the pty (stable port name)')
+    add('--tcp', metavar='[HOST:]PORT', help='serve TCP instead of a pty (port 0: any free '
+        'port); the bridge port is then socket://HOST:PORT')
+    add('--baud', type=int, default=115200,
+        help='modelled UART rate in bit/s, 0 for an ideal line (default: %(default)s)')
+    add('--adc-noise-rad', type=float, default=0.0, help='potentiometer noise, std dev [rad]')
+    add('--ambient-c', type=float, default=None, help='ambient temperature [°C]')
+    add('--seed', type=int, default=None, help='random seed (ADC noise, line noise)')
+    add('--line-noise-hz', type=float, default=0.0, help='bursts per second of garbage, '
+        'truncated or CRC-bad frames on the MCU->host line')
+    add('--verbose', action='store_true', help='print plant state to stderr every second')
     args = parser.parse_args(argv)
     if args.baud < 0 or args.adc_noise_rad < 0 or args.line_noise_hz < 0:
         parser.error('--baud, --adc-noise-rad and --line-noise-hz must not be negative')
@@ -284,9 +287,11 @@ def main(argv=None):
     args = _parse_args(sys.argv[1:] if argv is None else argv)
     from sma_actuator.core.actuator import ActuatorParams
     from sma_actuator.core.sensor import Potentiometer
-    params = ActuatorParams() if args.ambient_c is None else ActuatorParams(ambient_c=args.ambient_c)
-    emulator = Emulator(args.baud, params, Potentiometer(noise_rad=args.adc_noise_rad), args.seed,
-                        args.line_noise_hz)
+    params = ActuatorParams()
+    if args.ambient_c is not None:
+        params = params.with_changes(ambient_c=args.ambient_c)
+    emulator = Emulator(args.baud, params, Potentiometer(noise_rad=args.adc_noise_rad),
+                        args.seed, args.line_noise_hz)
     if args.tcp is not None:
         host, _, port = args.tcp.rpartition(':')
         transport = TcpTransport(host or '127.0.0.1', int(port))

@@ -31,13 +31,16 @@ class SerialLink:
     """
 
     def __init__(self, url: str, baud: int, on_open: Callable[[], bytes] = _noop,
-                 on_data: Callable[[bytes, float], None] = _noop, on_close: Callable[[str], None] = _noop,
-                 on_error: Callable[[str], None] = _noop, backoff_min_s: float = 0.1,
-                 backoff_max_s: float = 5.0, read_timeout_s: float = 0.05, write_timeout_s: float = 0.2):
+                 on_data: Callable[[bytes, float], None] = _noop,
+                 on_close: Callable[[str], None] = _noop, on_error: Callable[[str], None] = _noop,
+                 backoff_min_s: float = 0.1, backoff_max_s: float = 5.0,
+                 read_timeout_s: float = 0.05, write_timeout_s: float = 0.2):
         if not 0 < backoff_min_s <= backoff_max_s:
-            raise ValueError(f'need 0 < backoff_min_s <= backoff_max_s, got {backoff_min_s}, {backoff_max_s}')
+            raise ValueError(f'need 0 < backoff_min_s <= backoff_max_s, '
+                             f'got {backoff_min_s}, {backoff_max_s}')
         self.url, self.baud = url, int(baud)
-        self.on_open, self.on_data, self.on_close, self.on_error = on_open, on_data, on_close, on_error
+        self.on_open, self.on_data = on_open, on_data
+        self.on_close, self.on_error = on_close, on_error
         self.backoff_min_s, self.backoff_max_s = backoff_min_s, backoff_max_s
         self.read_timeout_s, self.write_timeout_s = read_timeout_s, write_timeout_s
         self.backoff_s = backoff_min_s   # wait before the next reopen attempt
@@ -94,7 +97,7 @@ class SerialLink:
                     reason = f'read from {self.url} failed: {exc}'
                 else:
                     if data:
-                        self.backoff_s = self.backoff_min_s   # the link works: fast retry next time
+                        self.backoff_s = self.backoff_min_s   # link works: retry fast next time
                         self._call(self.on_data, data, time.monotonic())
                     continue
             self._close(reason)

@@ -121,13 +121,15 @@ class McuCore:
             self.configured = True
             self.max_duty = min(msg.max_duty, lim.max_duty)
             self.interlock_duty = min(msg.interlock_duty, lim.interlock_ceiling)
-            self.adc_period_us = min(max(msg.adc_period_us, lim.adc_period_min_us), lim.adc_period_max_us)
+            self.adc_period_us = min(
+                max(msg.adc_period_us, lim.adc_period_min_us), lim.adc_period_max_us)
             self.faults_latched = 0
             self._set_faults(0)
             self._last_duty_us = self._last_report_us = now_us
+        lim = self.limits
         return self.sender.encode(p.HelloAck(
-            p.PROTOCOL_VERSION, *FIRMWARE_VERSION, TICK_HZ, self.limits.adc_bits,
-            self.limits.watchdog_us // 1000, self.max_duty, self.interlock_duty, self.adc_period_us))
+            p.PROTOCOL_VERSION, *FIRMWARE_VERSION, TICK_HZ, lim.adc_bits, lim.watchdog_us // 1000,
+            self.max_duty, self.interlock_duty, self.adc_period_us))
 
     def _duty(self, msg: p.Duty, seq: int, now_us: int) -> bytes:
         self.duty_seq = seq

@@ -82,7 +82,8 @@ def cobs_decode(encoded: bytes) -> bytes:
         code = encoded[index]
         end = index + code
         if end > size:
-            raise ProtocolError(f'COBS code {code} at byte {index} runs past the end ({size} bytes)')
+            raise ProtocolError(
+                f'COBS code {code} at byte {index} runs past the end ({size} bytes)')
         out += encoded[index + 1:end]
         index = end
         if code != 0xFF and index < size:
@@ -115,7 +116,8 @@ def encode_frame(msg_type: int, seq: int, body: bytes) -> bytes:
         raise ProtocolError(f'frame type {msg_type} and seq {seq} must both be in 0..255')
     payload = bytes((msg_type, seq)) + bytes(body)
     if len(payload) + CRC_SIZE > MAX_PAYLOAD:
-        raise ProtocolError(f'frame body of {len(body)} bytes exceeds the {MAX_PAYLOAD}-byte payload limit')
+        raise ProtocolError(
+            f'frame body of {len(body)} bytes exceeds the {MAX_PAYLOAD}-byte payload limit')
     payload += crc32(payload).to_bytes(CRC_SIZE, 'little')
     return cobs_encode(payload) + b'\x00'
 
@@ -317,7 +319,8 @@ def decode_message(frame: Frame, accept=MESSAGES.values()) -> Message:
     if cls is None or cls not in accept:
         raise ProtocolError(f'unexpected message type 0x{frame.type:02x}')
     if len(frame.body) != cls.FORMAT.size:
-        raise ProtocolError(f'{cls.__name__} body is {len(frame.body)} bytes, expected {cls.FORMAT.size}')
+        raise ProtocolError(
+            f'{cls.__name__} body is {len(frame.body)} bytes, expected {cls.FORMAT.size}')
     return cls(*cls.FORMAT.unpack(frame.body))
 
 

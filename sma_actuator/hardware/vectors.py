@@ -75,15 +75,16 @@ def _fields_text(seq: int, msg: p.Message) -> str:
 
 
 def _crc_vectors(rng):
-    inputs = [b'', b'123456789', b'\x00', b'\xff\xff\xff\xff'] + [rng.randbytes(rng.randrange(1, 65))
-                                                                   for _ in range(8)]
+    inputs = [b'', b'123456789', b'\x00', b'\xff\xff\xff\xff']
+    inputs += [rng.randbytes(rng.randrange(1, 65)) for _ in range(8)]
     return [{'kind': 'crc32', 'in': d.hex(), 'out': f'{p.crc32(d):08x}'} for d in inputs]
 
 
 def _cobs_vectors(rng):
     nonzero = bytes(range(1, 256))
-    inputs = [b'', b'\x00', b'\x00\x00', b'\x11\x22\x00\x33', b'\x11\x00', nonzero[:253], nonzero[:254],
-              nonzero[:254] + b'\x00', nonzero + b'\x01', b'\x00' + nonzero[:254] + b'\x00\x07']
+    inputs = [b'', b'\x00', b'\x00\x00', b'\x11\x22\x00\x33', b'\x11\x00', nonzero[:253],
+              nonzero[:254], nonzero[:254] + b'\x00', nonzero + b'\x01',
+              b'\x00' + nonzero[:254] + b'\x00\x07']
     inputs += [bytes(rng.choice((0, rng.randrange(256))) for _ in range(rng.randrange(1, 600)))
                for _ in range(6)]
     return [{'kind': 'cobs', 'in': d.hex(), 'out': p.cobs_encode(d).hex()} for d in inputs]
@@ -109,9 +110,10 @@ def _stream_vectors(rng):
     bad_crc = bytearray(duty)
     bad_crc[3] ^= 0x40
     streams = [
-        duty + adc, b'\x13\x37garbage' + duty, duty[:5] + adc, bytes(bad_crc) + adc, b'\x00\x00' + duty + b'\x00',
-        b'\x05\x11\x22\x00' + duty, b'\x09\x01\x02\x00' + adc, b'\x01' * 200 + duty, b'\x01' * 65 + b'\x00' + adc,
-        b'\x01' * 66 + b'\x00' + adc, b'\x02\x01\x01\x01\x00',
+        duty + adc, b'\x13\x37garbage' + duty, duty[:5] + adc, bytes(bad_crc) + adc,
+        b'\x00\x00' + duty + b'\x00', b'\x05\x11\x22\x00' + duty, b'\x09\x01\x02\x00' + adc,
+        b'\x01' * 200 + duty, b'\x01' * 65 + b'\x00' + adc, b'\x01' * 66 + b'\x00' + adc,
+        b'\x02\x01\x01\x01\x00',
     ]
     frames = [msg.encode(seq) for seq, msg in _messages()]
     for _ in range(24):
@@ -135,26 +137,36 @@ def _scenarios():
     def duty(seq, a, b):
         return p.Duty(a, b).encode(seq)
     return {
-        'boot_hello_duty_reports': [('S', 0), ('P', 1000), ('R', 2000, hello), ('R', 3000, duty(1, 30000, 0)),
-                                    ('P', 7999), ('P', 8000), ('P', 13000)],
-        'watchdog_100ms': [('S', 0), ('R', 10, hello), ('R', 1000, duty(1, 40000, 100)), ('P', 50000),
-                           ('R', 60000, duty(2, 40000, 100)), ('P', 159999), ('P', 160000), ('P', 170000),
-                           ('R', 180000, duty(3, 0, 20000))],
-        'interlock_both_above': [('S', 0), ('R', 10, hello), ('R', 20, duty(1, 19662, 19662)),
-                                 ('R', 30, duty(2, 19661, 65535)), ('R', 40, duty(3, 19662, 19661))],
-        'clamp_to_max': [('S', 0), ('R', 10, hello), ('R', 20, duty(1, 65535, 0)), ('R', 30, duty(2, 100, 0))],
-        'hello_cannot_raise_interlock': [('S', 0), ('R', 10, p.Hello(1, 65535, 65535, 100).encode(0)),
-                                         ('R', 20, duty(1, 40000, 40000)), ('R', 30, duty(2, 32768, 32768))],
-        'duty_ignored_until_hello': [('S', 5), ('R', 10, duty(1, 30000, 0)), ('P', 100005),
-                                     ('R', 100010, hello + duty(2, 30000, 0))],
-        'bad_protocol_version': [('S', 0), ('R', 10, p.Hello(2, 60000, 19661, 5000).encode(0)),
-                                 ('R', 20, duty(1, 30000, 0))],
-        'heartbeat_echo': [('S', 0), ('R', 10, p.Heartbeat(0xDEADBEEF).encode(0)), ('P', 100000)],
-        'rx_errors_counted': [('S', 0), ('R', 10, b'\x01\x02\x00garbage\x00' + hello[:4] + b'\x00'),
-                              ('R', 20, duty(1, 1, 1)[:-3] + b'\x01\x00'), ('R', 30, b'\x01' * 100 + b'\x00'),
-                              ('R', 40, p.AdcReport(1, 2, 3, 4, 5, 6).encode(9)), ('P', 100000)],
-        'tick_wraparound': [('S', 0xFFFF0000), ('R', 0xFFFFFF00, hello), ('R', 0xFFFFFFF0, duty(1, 5000, 0)),
-                            ('P', 40000), ('P', 99000), ('P', 99984), ('P', 99985)],
+        'boot_hello_duty_reports': [
+            ('S', 0), ('P', 1000), ('R', 2000, hello), ('R', 3000, duty(1, 30000, 0)),
+            ('P', 7999), ('P', 8000), ('P', 13000)],
+        'watchdog_100ms': [
+            ('S', 0), ('R', 10, hello), ('R', 1000, duty(1, 40000, 100)), ('P', 50000),
+            ('R', 60000, duty(2, 40000, 100)), ('P', 159999), ('P', 160000), ('P', 170000),
+            ('R', 180000, duty(3, 0, 20000))],
+        'interlock_both_above': [
+            ('S', 0), ('R', 10, hello), ('R', 20, duty(1, 19662, 19662)),
+            ('R', 30, duty(2, 19661, 65535)), ('R', 40, duty(3, 19662, 19661))],
+        'clamp_to_max': [
+            ('S', 0), ('R', 10, hello), ('R', 20, duty(1, 65535, 0)), ('R', 30, duty(2, 100, 0))],
+        'hello_cannot_raise_interlock': [
+            ('S', 0), ('R', 10, p.Hello(1, 65535, 65535, 100).encode(0)),
+            ('R', 20, duty(1, 40000, 40000)), ('R', 30, duty(2, 32768, 32768))],
+        'duty_ignored_until_hello': [
+            ('S', 5), ('R', 10, duty(1, 30000, 0)), ('P', 100005),
+            ('R', 100010, hello + duty(2, 30000, 0))],
+        'bad_protocol_version': [
+            ('S', 0), ('R', 10, p.Hello(2, 60000, 19661, 5000).encode(0)),
+            ('R', 20, duty(1, 30000, 0))],
+        'heartbeat_echo': [
+            ('S', 0), ('R', 10, p.Heartbeat(0xDEADBEEF).encode(0)), ('P', 100000)],
+        'rx_errors_counted': [
+            ('S', 0), ('R', 10, b'\x01\x02\x00garbage\x00' + hello[:4] + b'\x00'),
+            ('R', 20, duty(1, 1, 1)[:-3] + b'\x01\x00'), ('R', 30, b'\x01' * 100 + b'\x00'),
+            ('R', 40, p.AdcReport(1, 2, 3, 4, 5, 6).encode(9)), ('P', 100000)],
+        'tick_wraparound': [
+            ('S', 0xFFFF0000), ('R', 0xFFFFFF00, hello), ('R', 0xFFFFFFF0, duty(1, 5000, 0)),
+            ('P', 40000), ('P', 99000), ('P', 99984), ('P', 99985)],
     }
 
 
@@ -164,13 +176,16 @@ def build_vectors() -> dict:
     vectors = _crc_vectors(rng) + _cobs_vectors(rng)
     for seq, msg in _messages():
         wire = msg.encode(seq)
-        vectors.append({'kind': 'frame', 'in': (bytes((msg.TYPE, seq)) + msg.body()).hex(), 'out': wire.hex()})
-        vectors.append({'kind': 'msg', 'type': type(msg).__name__, 'in': _fields_text(seq, msg),
-                        'out': wire.hex()})
+        unframed = bytes((msg.TYPE, seq)) + msg.body()
+        vectors.append({'kind': 'frame', 'in': unframed.hex(), 'out': wire.hex()})
+        vectors.append({'kind': 'msg', 'type': type(msg).__name__,
+                        'in': _fields_text(seq, msg), 'out': wire.hex()})
     vectors += _stream_vectors(rng)
     for name, steps in _scenarios().items():
-        vectors.append({'kind': 'mcu', 'name': name, 'in': steps_text(steps), 'out': run_scenario(steps)})
-    return {'format': 'sma_actuator serial protocol test vectors', 'protocol_version': str(p.PROTOCOL_VERSION),
+        vectors.append({'kind': 'mcu', 'name': name, 'in': steps_text(steps),
+                        'out': run_scenario(steps)})
+    return {'format': 'sma_actuator serial protocol test vectors',
+            'protocol_version': str(p.PROTOCOL_VERSION),
             'generator': 'python -m sma_actuator.hardware.vectors --write', 'vectors': vectors}
 
 
@@ -185,8 +200,10 @@ def main(argv=None) -> int:
     """Write or check the vectors file; exit status 1 if --check finds it out of date."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--write', action='store_true', help='regenerate the file')
-    parser.add_argument('--check', action='store_true', help='fail if the file differs from the generator')
-    parser.add_argument('--path', type=Path, default=DEFAULT_PATH, help='vectors file (default: %(default)s)')
+    parser.add_argument('--check', action='store_true',
+                        help='fail if the file differs from the generator')
+    parser.add_argument('--path', type=Path, default=DEFAULT_PATH,
+                        help='vectors file (default: %(default)s)')
     args = parser.parse_args(argv)
     text = render(build_vectors())
     if args.write:

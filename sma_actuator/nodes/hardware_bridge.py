@@ -16,6 +16,7 @@ topics:
 
 On shutdown a zero-duty frame is sent before the port closes.
 """
+import functools
 import threading
 import time
 
@@ -34,8 +35,8 @@ from . import common as c
 
 POTENTIOMETER_RAW = '/sma/potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
-LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN, 'error': DiagnosticStatus.ERROR,
-          'stale': DiagnosticStatus.STALE}
+LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
+          'error': DiagnosticStatus.ERROR, 'stale': DiagnosticStatus.STALE}
 
 
 class HardwareBridge(Node):
@@ -43,63 +44,72 @@ class HardwareBridge(Node):
 
     def __init__(self, **kwargs):
         super().__init__('hardware_bridge', **kwargs)
-        self.port = c.declare_str(self, 'port', '/dev/ttyACM0', 'Serial device or pyserial URL '
-                                  '(socket://host:port, loop://).', read_only=True)
-        baud = c.declare_int(self, 'baud', 115200, 'Serial baud rate [bit/s].', 1200, 4_000_000,
-                             read_only=True)
-        offset = c.declare_float(self, 'adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts '
-                                 '[rad].', -10.0, 10.0, read_only=True)
-        scale = c.declare_float(self, 'adc_scale_rad_per_count', 2.4 / 4095, 'Shaft angle per '
-                                'ADC count [rad].', -1.0, 1.0, read_only=True)
-        poly = self.declare_parameter('adc_polynomial', [0.0], ParameterDescriptor(
-            description='With 2 or more coefficients: angle [rad] = polyval(coefficients, counts), '
-            'highest power first, replacing offset and scale. [0.0] = not used (YAML has no '
-            'typed empty list).', type=ParameterType.PARAMETER_DOUBLE_ARRAY, read_only=True)).value
-        calibration = AdcCalibration(offset, scale, poly if len(poly) >= 2 else ())
-        publish_hz = c.declare_float(self, 'publish_rate_hz', 200.0, 'ADC report (and joint '
-                                     'state) rate requested from the MCU; each duty frame also '
-                                     'gets an immediate report [Hz].', 1.0, 1000.0, read_only=True)
-        refresh_hz = c.declare_float(self, 'duty_refresh_hz', 50.0, 'Re-send the current duty '
-                                     'at this rate (> 10 Hz keeps the 100 ms MCU watchdog fed) '
-                                     '[Hz].', 11.0, 1000.0, read_only=True)
+        f = self._declare_parameters()
+        self.port, baud, poly = f['port'], f['baud'], f['adc_polynomial']
+        calibration = AdcCalibration(f['adc_offset_rad'], f['adc_scale_rad_per_count'],
+                                     poly if len(poly) >= 2 else ())
         config = BridgeConfig(
-            max_duty=c.declare_float(self, 'max_duty', 1.0, 'Per-wire duty limit.', 0.0, 1.0,
-                                     read_only=True),
-            interlock_threshold=c.declare_float(
-                self, 'interlock_threshold', 0.3, 'The two duties are never both above this '
-                '(the firmware caps it at 0.5).', 0.0, 0.5, read_only=True),
-            duty_timeout_s=c.declare_float(self, 'duty_timeout_s', 0.2, 'Host watchdog: no '
-                                           '/sma/duty this long -> zero duty + WARN [s].',
-                                           0.01, 10.0, read_only=True),
-            duty_refresh_s=1.0 / refresh_hz,
-            link_timeout_s=c.declare_float(self, 'link_timeout_s', 0.5, 'No valid frame from '
-                                           'the MCU this long -> link lost, re-handshake [s].',
-                                           0.05, 10.0, read_only=True),
-            heartbeat_period_s=1.0 / c.declare_float(self, 'heartbeat_hz', 5.0, 'Round-trip '
-                                                     'probe rate [Hz].', 0.1, 100.0, read_only=True),
-            adc_period_s=1.0 / publish_hz)
-        backoff = (c.declare_float(self, 'reconnect_backoff_min_s', 0.1, 'First reopen delay '
-                                   '[s]; doubles per failure.', 0.01, 10.0, read_only=True),
-                   c.declare_float(self, 'reconnect_backoff_max_s', 5.0, 'Longest reopen delay '
-                                   '[s].', 0.1, 60.0, read_only=True))
-        tau = c.declare_float(self, 'velocity_filter_tau_s', 0.02, 'Low-pass time constant of '
-                              'the velocity estimate [s].', 0.0, 1.0, read_only=True)
-        diag_hz = c.declare_float(self, 'diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].',
-                                  0.1, 50.0, read_only=True)
+            max_duty=f['max_duty'], interlock_threshold=f['interlock_threshold'],
+            duty_timeout_s=f['duty_timeout_s'], duty_refresh_s=1.0 / f['duty_refresh_hz'],
+            link_timeout_s=f['link_timeout_s'], heartbeat_period_s=1.0 / f['heartbeat_hz'],
+            adc_period_s=1.0 / f['publish_rate_hz'])
 
         self._lock = threading.Lock()   # BridgeCore is shared by the executor and the link thread
         self._stopping = False
-        self.core = BridgeCore(config, calibration, time.monotonic(), tau, self._log)
+        self.core = BridgeCore(config, calibration, time.monotonic(),
+                               f['velocity_filter_tau_s'], self._log)
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, c.DIAGNOSTICS, c.DIAGNOSTICS_QOS)
         self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
         self.create_timer(TICK_PERIOD_S, self.on_tick)
-        self.create_timer(1.0 / diag_hz, self.publish_diagnostics)
+        self.create_timer(1.0 / f['diagnostics_rate_hz'], self.publish_diagnostics)
         self.link = SerialLink(self.port, baud, self._on_open, self._on_data, self._on_close,
-                               self._on_open_failed, *backoff)
+                               self._on_open_failed, f['reconnect_backoff_min_s'],
+                               f['reconnect_backoff_max_s'])
         self.link.start()
         self.get_logger().info(f'hardware_bridge on {self.port} at {baud} baud')
+
+    def _declare_parameters(self):
+        """Declare every parameter (all read-only: they take effect at start); name -> value."""
+        fl = functools.partial(c.declare_float, self, read_only=True)
+        return {
+            'port': c.declare_str(self, 'port', '/dev/ttyACM0', 'Serial device or pyserial URL '
+                                  '(socket://host:port, loop://).', read_only=True),
+            'baud': c.declare_int(self, 'baud', 115200, 'Serial baud rate [bit/s].', 1200,
+                                  4_000_000, read_only=True),
+            'adc_offset_rad': fl('adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts [rad].',
+                                 -10.0, 10.0),
+            'adc_scale_rad_per_count': fl('adc_scale_rad_per_count', 2.4 / 4095,
+                                          'Shaft angle per ADC count [rad].', -1.0, 1.0),
+            'adc_polynomial': self.declare_parameter('adc_polynomial', [0.0], ParameterDescriptor(
+                description='With 2 or more coefficients: angle [rad] = polyval(coefficients, '
+                'counts), highest power first, replacing offset and scale. [0.0] = not used '
+                '(YAML has no typed empty list).', type=ParameterType.PARAMETER_DOUBLE_ARRAY,
+                read_only=True)).value,
+            'publish_rate_hz': fl('publish_rate_hz', 200.0, 'ADC report (and joint state) rate '
+                                  'requested from the MCU; each duty frame also gets an '
+                                  'immediate report [Hz].', 1.0, 1000.0),
+            'duty_refresh_hz': fl('duty_refresh_hz', 50.0, 'Re-send the current duty at this '
+                                  'rate (> 10 Hz keeps the 100 ms MCU watchdog fed) [Hz].',
+                                  11.0, 1000.0),
+            'max_duty': fl('max_duty', 1.0, 'Per-wire duty limit.', 0.0, 1.0),
+            'interlock_threshold': fl('interlock_threshold', 0.3, 'The two duties are never both '
+                                      'above this (the firmware caps it at 0.5).', 0.0, 0.5),
+            'duty_timeout_s': fl('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long '
+                                 '-> zero duty + WARN [s].', 0.01, 10.0),
+            'link_timeout_s': fl('link_timeout_s', 0.5, 'No valid frame from the MCU this long '
+                                 '-> link lost, zero duty, re-handshake [s].', 0.05, 10.0),
+            'heartbeat_hz': fl('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', 0.1, 100.0),
+            'reconnect_backoff_min_s': fl('reconnect_backoff_min_s', 0.1, 'First reopen delay '
+                                          '[s]; doubles per failure.', 0.01, 10.0),
+            'reconnect_backoff_max_s': fl('reconnect_backoff_max_s', 5.0, 'Longest reopen delay '
+                                          '[s].', 0.1, 60.0),
+            'velocity_filter_tau_s': fl('velocity_filter_tau_s', 0.02, 'Low-pass time constant '
+                                        'of the velocity estimate [s].', 0.0, 1.0),
+            'diagnostics_rate_hz': fl('diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].',
+                                      0.1, 50.0),
+        }
 
     # --- callbacks (executor thread) ----------------------------------------------------
 
