@@ -303,6 +303,15 @@ def test_entry_point_group_registers_installed_effects(tmp_path, monkeypatch, ca
     assert len(warnings) == 1 and 'broken' in warnings[0]
 
 
+def test_effects_lists_catalog_and_plugins(tmp_path, capsys, catalog_guard):
+    (tmp_path / 'dead_time.py').write_text(PLUGIN)
+    assert cli.main(['effects', '--plugin', str(tmp_path / 'dead_time.py'), '--json']) == 0
+    doc = {d['effect']: d for d in json.loads(capsys.readouterr().out)}
+    assert set(CATALOG) == set(doc) and 'pwm_dead_time' in doc and 'delay' in doc
+    assert doc['pwm_dead_time']['parameters'] == {'dead_duty': [0.0, 0.4]}
+    assert doc['delay']['signature'] == CATALOG['delay'].signature
+
+
 def test_progress_bar_only_on_a_terminal():
     class Stream:
         def __init__(self, tty):

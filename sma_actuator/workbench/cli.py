@@ -3,6 +3,7 @@
     sma-model fit DATA [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml] [--json]
     sma-model compare DATA --model FITTED.yaml [--report DIR] [--json]
     sma-model diagnose DATA [--model MODEL.yaml] [--report DIR] [--json]
+    sma-model effects [--json]        (the catalog, with plug-ins)
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
 --force to overwrite existing output files. Bad input ends with exit code 2 and one line
@@ -11,6 +12,7 @@ stderr only when stderr is a terminal. See docs/workbench.md.
 """
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
@@ -307,6 +309,24 @@ def diagnosis_lines(doc, kind):
     return lines
 
 
+# ------------------------------------------------------------------------------ effects
+def cmd_effects(args):
+    """sma-model effects: list the catalog (with plug-ins): parameters, signature, physics."""
+    catalog = setup_effects(args)
+    doc = [{'effect': name, 'parameters': {k: list(v[:2]) for k, v in e.parameters.items()},
+            'needs_dynamic': bool(e.needs_dynamic), 'signature': e.signature, 'physics': e.doc}
+           for name, e in catalog.items()]
+    if args.json:
+        print_json(doc)
+        return 0
+    for d in doc:
+        bounds = ', '.join(f'{k} in [{lo:g}, {hi:g}]' for k, (lo, hi) in d['parameters'].items())
+        print(f'{d["effect"]}: {bounds or "no free parameter"}')
+        print(f'    physics:   {d["physics"]}')
+        print(f'    signature: {d["signature"]}')
+    return 0
+
+
 # ------------------------------------------------------------------------------ parser
 def build_parser():
     """The argparse parser of `sma-model` (one-line errors, exit code 2)."""
@@ -349,6 +369,12 @@ def build_parser():
                      help='only try these effects (default: every catalog effect)')
     dia.add_argument('--report', metavar='DIR', help='write an HTML report with figures')
     dia.set_defaults(func=cmd_diagnose)
+    eff = sub.add_parser('effects', help='list the effect catalog (with plug-ins)',
+                         description='List every effect: parameters, physics, signature.')
+    eff.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
+                     help='load user effects from a Python file or module (repeatable)')
+    eff.add_argument('--json', action='store_true', help='print the catalog as JSON')
+    eff.set_defaults(func=cmd_effects)
     return parser
 
 
@@ -376,6 +402,9 @@ def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
+    except BrokenPipeError:   # stdout closed early (e.g. piped into head): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except (ValueError, OSError) as err:
         print(f'{PROG}: error: {error_text(err)}', file=sys.stderr)
         return EXIT_BAD_INPUT
