@@ -102,3 +102,12 @@ def test_bad_duties_are_rejected_by_the_plant_and_last_valid_kept(ros_context):
         ex.shutdown()
         for n in (plant, tester.node):
             n.destroy_node()
+
+
+def test_non_finite_joint_state_is_rejected_with_a_warning(loop):
+    ex, plant, ctrl, tester = loop
+    js = tester.node.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
+    assert spin_until(ex, lambda: js.get_subscription_count() > 0, 5)
+    js.publish(JointState(name=['shaft'], position=[math.nan]))
+    assert spin_until(ex, lambda: tester.warnings('controller', 'rejected joint state'), 3)
+    assert ctrl.rejected_feedback >= 1

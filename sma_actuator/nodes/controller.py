@@ -82,6 +82,7 @@ class Controller(Node):
         self.last_step = None
         self.stale = False
         self.rejected_feedback = 0
+        self._last_reject_diag = 0.0
         # timing health, reported in diagnostics (and read by bench_controller_latency):
         # joint-state arrival (rmw reception time) -> duty published, and watchdog intervals
         self.latencies = deque(maxlen=2000)
@@ -126,9 +127,15 @@ class Controller(Node):
             self.rejected_feedback += 1
             self.get_logger().warn(f'rejected joint state (shaft position {position})',
                                    throttle_duration_sec=1.0)
+            if self.rejected_feedback == 1 or time.monotonic() - self._last_reject_diag > 1.0:
+                self._last_reject_diag = time.monotonic()
+                self.diag.publish(c.WARN, f'rejected joint state (position {position})',
+                                  self._status())
             return
         self.last_feedback = self.now_s()
         stamp = c.stamp_to_s(msg.header.stamp)
+        if self.last_sample is not None and stamp < self.last_sample:
+            self.last_sample = None               # the feedback's clock restarted
         if self.last_sample is not None and stamp - self.last_sample < 0.75 * self.period_s:
             return                                # faster feedback than the control period
         dt = self.period_s if self.last_sample is None else stamp - self.last_sample

@@ -21,6 +21,10 @@ from .controller import Controller
 from .plant_sim import PlantSim
 from .setpoint import Setpoint
 
+# a loaded host can stall the controller for tens of ms; only a dead one should make the
+# plant step without its reply (that would change the loop delay and the results)
+LOCKSTEP_TIMEOUT_S = 1.0
+
 
 @dataclass
 class Trace:
@@ -119,7 +123,7 @@ def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
         source = ExcitationSource(duty_a, duty_b, **kw)
         nodes.append(source)
         plant_node = PlantSim(**kw, parameter_overrides=_overrides(
-            {'accelerated': True, 'lockstep': True,
+            {'accelerated': True, 'lockstep': True, 'lockstep_timeout_s': LOCKSTEP_TIMEOUT_S,
              'real_time_factor': float(real_time_factor), **(plant or {})}))
         plant_node.timer.cancel()
         nodes.append(plant_node)
@@ -171,7 +175,7 @@ def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20
         nodes.append(Setpoint(**kw, parameter_overrides=sim + _overrides(
             {**profile, **(setpoint or {})})))
         plant_node = PlantSim(**kw, parameter_overrides=_overrides(
-            {'accelerated': True, 'lockstep': True,
+            {'accelerated': True, 'lockstep': True, 'lockstep_timeout_s': LOCKSTEP_TIMEOUT_S,
              'real_time_factor': float(real_time_factor), **(plant or {})}))
         plant_node.timer.cancel()             # sim time starts after the warm-up
         nodes.append(plant_node)
