@@ -138,6 +138,11 @@ def test_bad_requests_are_named(ros_context, tmp_path):
         ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), topics=['/sma/other'])
     with pytest.raises(ValueError, match="bad remapping 'joint_states'"):
         ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), remap=['joint_states'])
+    empty = tmp_path / 'empty'
+    with BagWriter(empty) as bag:
+        bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
+    with pytest.raises(BagError, match='nothing to play'):
+        ReplayNode(context=ros_context, bag_path=str(empty))
     with pytest.raises(ValueError, match="parameter 'rate'.*out of range"):
         ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), rate=0.0)
 

@@ -65,12 +65,12 @@ class _McapFile:
             f.seek(max(0, size - len(MCAP_MAGIC)))
             complete = size >= 2 * len(MCAP_MAGIC) + _FOOTER_AND_MAGIC and \
                 f.read() == MCAP_MAGIC
-        summary = self._read_summary() if complete else None
+        summary, profile = self._read_summary() if complete else (None, None)
         if summary is not None:
             self.schemas, self.channels = summary.schemas, summary.channels
             stats = summary.statistics
             self.counts = dict(stats.channel_message_counts) if stats else {}
-            self.profile = make_reader(open(path, 'rb')).get_header().profile
+            self.profile = profile
             return
         found = scan(path)
         if found.header is None:
@@ -82,11 +82,13 @@ class _McapFile:
         self.profile = found.header.profile
 
     def _read_summary(self):
+        """Return ``(summary, header profile)``, or ``(None, None)`` if there is no summary."""
         try:
             with open(self.path, 'rb') as f:
-                return make_reader(f).get_summary()
+                reader = make_reader(f)
+                return reader.get_summary(), reader.get_header().profile
         except (McapError, ValueError, OSError, EOFError):
-            return None
+            return None, None
 
     def messages(self, topics: Optional[Iterable[str]],
                  start_time_ns: Optional[int]) -> Iterator[BagMessage]:

@@ -110,7 +110,7 @@ class RecorderNode(Node):
             if topic in self._recording_subs or not self._selector.matches(topic):
                 continue
             if len(types) != 1:
-                self._skip(topic, f'has several types {types}; rosbag2 would not record it')
+                self._skip(topic, f'has several types {types}; one bag topic holds one type')
                 continue
             offers, type_hash = publisher_offers(self, topic)
             if not offers:

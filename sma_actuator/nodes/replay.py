@@ -94,9 +94,15 @@ class ReplayNode(Node):
             Clock, '/clock', QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) \
             if p['clock'] else None
         topics = sorted(self._topic_out)
-        first = next(iter(self._reader.messages(topics)), None)
+        if not topics:
+            raise BagError(self._reader.path, 'nothing to play: no topic with messages of an '
+                                              f'installed type (bag topics: '
+                                              f'{sorted(self._reader.topics)})')
+        messages = self._reader.messages(topics)
+        first = next(messages)  # the timeline (and start_offset_s) starts at the first played
+        messages.close()
         self._player = Player(lambda start: self._reader.messages(topics, start),
-                              first.log_time_ns if first else 0, self._publish, options,
+                              first.log_time_ns, self._publish, options,
                               on_clock=self._publish_clock)
         self._wait_s = p['wait_for_subscribers_s']
         self._stop_event = threading.Event()
