@@ -129,3 +129,38 @@ def test_every_node_reports_on_diagnostics(ros_context):
         ex.shutdown()
         for n in nodes + [listener]:
             n.destroy_node()
+
+
+def test_plant_follows_the_ambient_topic_and_rejects_a_bad_ambient(ros_context):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from sensor_msgs.msg import Temperature
+    plant = PlantSim(context=ros_context, parameter_overrides=[
+        Parameter('use_ambient_topic', value=True), Parameter('accelerated', value=True),
+        Parameter('real_time_factor', value=50.0)])
+    node = rclpy.create_node('ambient_source', context=ros_context)
+    pub = node.create_publisher(Temperature, c.AMBIENT_TEMPERATURE, c.SENSOR_QOS)
+    warns = []
+    node.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
+                             lambda m: warns.extend(s.message for s in m.status
+                                                    if s.level == DiagnosticStatus.WARN),
+                             c.DIAGNOSTICS_QOS)
+    ex = SingleThreadedExecutor(context=ros_context)
+    for n in (plant, node):
+        ex.add_node(n)
+    try:
+        deadline = time.monotonic() + 5
+        while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        pub.publish(Temperature(temperature=40.0))
+        pub.publish(Temperature(temperature=float('nan')))
+        deadline = time.monotonic() + 10
+        while plant.sim_time < 10.0 and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        assert plant.ambient_c == 40.0                  # NaN rejected, 40 kept
+        assert any('rejected ambient' in w for w in warns)
+        # zero duty: both wires relax to the new ambient (T = 2 s, 10 s elapsed)
+        assert plant.actuator.temperature_c == pytest.approx([40.0, 40.0], abs=0.5)
+    finally:
+        ex.shutdown()
+        for n in (plant, node):
+            n.destroy_node()
