@@ -136,7 +136,8 @@ class BagWriter:
         lost on SIGKILL); 0 disables the age limit.
     :param max_file_size_bytes: Start a new ``_N.mcap`` file past this size; 0 = never.
     :param max_file_duration_s: Start a new file past this span of log time [s]; 0 = never.
-    :param overwrite: Replace an existing bag in ``path`` (otherwise BagExistsError).
+    :param overwrite: Replace an existing bag in ``path``: its ``metadata.yaml`` and ``*.mcap``
+        files are deleted, other files are kept (without it: BagExistsError).
     :param ros_distro: Distro recorded in the metadata (default ``$ROS_DISTRO`` or jazzy).
     :raises BagExistsError: ``path`` already holds a bag (or is a file) and not ``overwrite``.
     :raises ValueError: An option is out of range.
