@@ -197,3 +197,16 @@ def test_sanitize_duty_notes_and_errors():
 def test_config_rejects_bad_values_naming_them(field, value):
     with pytest.raises(ValueError, match=field):
         BridgeConfig(**{field: value})
+
+
+def test_a_duplicate_hello_ack_restores_the_current_command():
+    # A slow MCU answers the first Hello and a retried one: the second Hello switched the
+    # outputs off, so the bridge must re-send the running command, not fall back to zero.
+    rig = Rig()
+    rig.run(0.1, command=(0.4, 0.0))
+    rig._to_mcu += rig.bridge._hello(rig.t)     # what a Hello retry would send
+    rig.run(0.101)
+    assert rig.mcu.pwm_a == 0                   # the MCU obeyed the Hello
+    rig.run(0.103)
+    assert rig.bridge.state == LinkState.CONNECTED and rig.bridge.duty == (to_counts(0.4), 0)
+    assert rig.mcu.pwm_a == to_counts(0.4)

@@ -281,10 +281,17 @@ class BridgeCore:
         # frame it would refuse.
         self.max_counts = min(to_counts(self.config.max_duty), ack.max_duty)
         self.interlock_counts = min(to_counts(self.config.interlock_threshold), ack.interlock_duty)
-        if self.state != LinkState.CONNECTED:
-            self._log('info', f'connected: MCU firmware {ack.fw_major}.{ack.fw_minor}.'
-                              f'{ack.fw_patch}, {ack.adc_bits}-bit ADC, limits max '
-                              f'{ack.max_duty} interlock {ack.interlock_duty}')
+        if self.state == LinkState.CONNECTED:
+            # A second answer to a retried Hello: the MCU switched its outputs off for that
+            # Hello, so restore the current command (clamped to the limits just adopted).
+            a, b, _ = sanitize_duty([self.duty[0] / p.DUTY_FULL_SCALE,
+                                     self.duty[1] / p.DUTY_FULL_SCALE],
+                                    self.max_counts, self.interlock_counts)
+            self.duty = (a, b)
+            return self._send_duty(now_s)
+        self._log('info', f'connected: MCU firmware {ack.fw_major}.{ack.fw_minor}.'
+                          f'{ack.fw_patch}, {ack.adc_bits}-bit ADC, limits max '
+                          f'{ack.max_duty} interlock {ack.interlock_duty}')
         self.state = LinkState.CONNECTED
         self.link_error = ''
         self.duty = (0, 0)
