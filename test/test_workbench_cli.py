@@ -180,8 +180,12 @@ def test_argparse_errors_are_one_line_exit_2(tmp_path):
     (['fit', REAL, '--model', 'unknown.yaml'], 'unknown effect(s) magic'),
     (['fit', 'flat.csv'], 'too little excitation'),
     (['compare', 'flat.csv', '--model', 'static_fit.yaml'], 'too little excitation'),
+    (['compare', REAL, '--model', 'static_fit.yaml'],
+     "static_fit.yaml: cannot use the fitted model (missing 'r')"),
     (['fit', 'dup.csv'], "line 5, column 'time': 0.1 repeats 0.1 on line 4"),
     (['fit', REAL, '--add', 'delay'], 'delay'),
+    (['fit', 'dup.csv', '--out', 'dup.csv', '--force'], '--out dup.csv is DATA itself'),
+    (['fit', REAL, '--rate', '-3'], "argument --rate: '-3' is not a positive number"),
 ])
 def test_bad_input_in_process(tmp_path, monkeypatch, capsys, argv, fragment):
     monkeypatch.chdir(tmp_path)
@@ -196,9 +200,14 @@ def test_bad_input_in_process(tmp_path, monkeypatch, capsys, argv, fragment):
     rows[3, 0] = rows[2, 0]
     np.savetxt('dup.csv', rows, delimiter=',', header='time,duty_a,duty_b,position',
                comments='')
-    assert cli.main(argv) == 2
+    before = (tmp_path / 'dup.csv').read_bytes()
+    try:
+        assert cli.main(argv) == 2
+    except SystemExit as stop:       # argparse errors exit directly
+        assert stop.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith('sma-model: error: ') and fragment in err[0]
+    assert (tmp_path / 'dup.csv').read_bytes() == before
 
 
 def test_compare_of_a_static_model_on_dynamic_data_is_refused(tmp_path, capsys):

@@ -14,6 +14,7 @@ import argparse
 import json
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -78,6 +79,15 @@ def setup_effects(args):
     plugins.load_entry_points()
     plugins.load_plugins(args.plugin or [])
     return CATALOG
+
+
+def check_outputs_spare_data(args):
+    """Raise UsageError if --out or --report would write over DATA itself (even with --force)."""
+    data = Path(args.data).resolve()
+    for option, target in (('--out', getattr(args, 'out', None)),
+                           ('--report', getattr(args, 'report', None))):
+        if target and Path(target).resolve() == data:
+            raise UsageError(f'{option} {target} is DATA itself; choose another path')
 
 
 def check_effect_names(names, catalog, what='--add'):
@@ -158,6 +168,7 @@ def cmd_fit(args):
     from .engine import fit_model
     from .modelfile import check_writable, write_model
     catalog = setup_effects(args)
+    check_outputs_spare_data(args)
     if args.out:
         check_writable(args.out, args.force)
     spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
@@ -206,6 +217,7 @@ def cmd_compare(args):
     from .modelfile import is_fitted, is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
+    check_outputs_spare_data(args)
     if args.report:
         check_report_dir(args.report, args.force)
     spec = read_model_spec(args.model, catalog)
@@ -219,9 +231,9 @@ def cmd_compare(args):
                          f'{args.data} is {kinds[not is_static(data)]}')
     try:
         fit = load_fit(spec, data=data)
-    except (KeyError, TypeError) as err:
-        raise UsageError(f'{args.model}: not a fitted model file ({type(err).__name__}: '
-                         f'{err})') from None
+    except (KeyError, TypeError, ValueError) as err:
+        what = f'missing {err}' if isinstance(err, KeyError) else str(err)
+        raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
     result = compare(data, fit.prediction, model_signals(fit, data))
     title = f'{PROG} compare: {args.data} with {args.model}'
     if args.report:
@@ -252,6 +264,7 @@ def cmd_diagnose(args):
     from .engine import diagnose, fit_model
     from .report import check_report_dir
     catalog = setup_effects(args)
+    check_outputs_spare_data(args)
     if args.report:
         check_report_dir(args.report, args.force)
     spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}

@@ -63,7 +63,8 @@ def check_model(spec, source, known_effects=None):
     if known_effects is not None:
         unknown = [e for e in effects if e not in known_effects]
         if unknown:
-            raise ModelFileError(f'{source}: unknown effect(s) {", ".join(unknown)}; known: '
+            raise ModelFileError(f'{source}: unknown effect(s) {", ".join(unknown)} (a plug-in '
+                                 'effect needs --plugin); known: '
                                  f'{", ".join(sorted(known_effects))}')
     kind = spec.get('kind')
     if kind is not None and kind not in KINDS:
