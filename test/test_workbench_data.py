@@ -80,15 +80,18 @@ def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
 
 
 @pytest.mark.parametrize('edit, expected', [
-    (lambda ls: ls[:4] + [ls[4].rsplit(',', 1)[0]] + ls[5:], r'line 5: 4 field\(s\), the header has 5'),
+    (lambda ls: ls[:4] + [ls[4].rsplit(',', 1)[0]] + ls[5:],
+     r'line 5: 4 field\(s\), the header has 5'),
     (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'abc', 1)] + ls[7:],
      r"line 7, column 'position': 'abc' is not a number"),
     (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'nan', 1)] + ls[7:],
      r"line 7, column 'position': nan \(NaN"),
     (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:3] + [''] + ls[6].split(',')[4:])] + ls[7:],
      r"line 7, column 'position': empty value"),
-    (lambda ls: ls[:10] + [ls[9]] + ls[11:], r"line 11, column 'time': 0.3 repeats 0.3 on line 10"),
-    (lambda ls: ls[:10] + [ls[11], ls[10]] + ls[12:], r"line 12, column 'time': .* goes back from"),
+    (lambda ls: ls[:10] + [ls[9]] + ls[11:],
+     r"line 11, column 'time': 0.3 repeats 0.3 on line 10"),
+    (lambda ls: ls[:10] + [ls[11], ls[10]] + ls[12:],
+     r"line 12, column 'time': .* goes back from"),
     (lambda ls: ls[:10] + ls[11:], r"line 11, column 'time': step 0.1 s differs from the median"),
     (lambda ls: [ls[0], ls[1], 'time,duty_a,duty_b,angle,ambient_temperature'] + ls[3:],
      r'missing column\(s\) position \(found time, duty_a, duty_b, angle'),

@@ -313,7 +313,7 @@ def concentrations(rows_by_group, rmse_all):
 
 # ------------------------------------------------------------------------------ residual tests
 def correlation_signals(data, temps):
-    """Signals the residual is tested against: inputs, temperatures, ambient, position, rate, time."""
+    """Signals tested against the residual: inputs, temperatures, ambient, position, rate, time."""
     out = {'duty_a': data.duty_a, 'duty_b': data.duty_b}
     label = ' (proxy)' if temps.get('proxy') else ''
     out[f'theta_a{label}'] = temps['theta_a']
