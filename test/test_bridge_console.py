@@ -5,6 +5,7 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 from rclpy.executors import SingleThreadedExecutor
 
 from hardware_support import Probe, console_command, emulator_thread, stop_process, wait_for
@@ -63,3 +64,15 @@ def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(
             probe.destroy_node()
             thread.join(2.0)
             stop_process(proc, sig=signal.SIGKILL)
+
+
+@pytest.mark.parametrize('override, named', [
+    ('max_duty:=1.5', 'max_duty'), ('adc_scale_rad_per_count:=0.0', 'scale_rad_per_count')])
+def test_bad_parameter_stops_with_a_message_naming_it(ros_domain_id, override, named):
+    result = subprocess.run(
+        console_command('hardware_bridge', 'sma_actuator.nodes.hardware_bridge')
+        + ['--ros-args', '-p', 'port:=loop://', '-p', override],
+        capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1
+    assert named in result.stderr and 'not started' in result.stderr
+    assert 'Traceback' not in result.stderr

@@ -17,12 +17,14 @@ topics:
 On shutdown a zero-duty frame is sent before the port closes.
 """
 import functools
+import sys
 import threading
 import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -191,6 +193,7 @@ class HardwareBridge(Node):
 
 
 def main(args=None):
+    """Console script: run the bridge until SIGINT/SIGTERM; exit status 1 on bad parameters."""
     rclpy.init(args=args)
     node = None
     try:
@@ -198,11 +201,16 @@ def main(args=None):
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except (ValueError, InvalidParameterValueException) as exc:
+        # a configuration mistake: say which parameter, without a traceback
+        rclpy.logging.get_logger('hardware_bridge').fatal(f'not started: {exc}')
+        return 1
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+    return 0
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())
