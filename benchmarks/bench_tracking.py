@@ -11,8 +11,8 @@ Printed side by side: RMS over the whole run (from the start of the sine) and ov
 periods after the first (steady state), max error, and the pi_inverse / pi ratio
 (target <= 0.5).
 
-Run: python benchmarks/bench_tracking.py [--periods 3] [--plant delay_s=0.05 ...]
-     [--save-model config/controller_model.yaml]
+Run: python benchmarks/bench_tracking.py [--periods 3] [--plant gain_ratio_b=1.15 ...]
+     [--free gain_ratio_b=0.5:2:1 ...] [--save-model config/controller_model.yaml]
 """
 import argparse
 import os
@@ -32,11 +32,22 @@ from sma_actuator.nodes.harness import run_closed_loop, run_excitation
 SINE = dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0)
 
 
-def identify(context, seconds, seed, plant):
+def identify(context, seconds, seed, plant, free=None):
     """Excitation run through plant_sim, then fit_dynamic; returns the DynamicFit."""
     duty_a, duty_b = multilevel(seconds, 0.025, seed=seed)
     t, a, b, pos = run_excitation(context, duty_a, duty_b, plant={**plant, 'seed': seed + 1000})
-    return fit_dynamic(DynamicData(t, a, b, pos))
+    return fit_dynamic(DynamicData(t, a, b, pos), free=free)
+
+
+def parse_free(items):
+    """NAME=lo:hi:init -> {NAME: (lo, hi, init)}; tau_s is always free."""
+    if not items:
+        return None
+    out = {'tau_s': (0.3, 10.0, 2.0)}
+    for item in items:
+        name, _, spec = item.partition('=')
+        out[name] = tuple(float(v) for v in spec.split(':'))
+    return out
 
 
 def parse_overrides(items):
@@ -54,6 +65,11 @@ def main():
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')
     ap.add_argument('--plant', nargs='*', default=[], metavar='PARAM=VALUE',
                     help='plant_sim effect overrides (hidden from the model structure)')
+    ap.add_argument('--controller', nargs='*', default=[], metavar='PARAM=VALUE',
+                    help='controller parameter overrides for both modes, e.g. kp=1.5 ki=2')
+    ap.add_argument('--free', nargs='*', default=[], metavar='NAME=LO:HI:INIT',
+                    help='extra model parameters to identify (fit_dynamic free), e.g. '
+                         'gain_ratio_b=0.5:2:1')
     ap.add_argument('--save-model', default='', help='also write the identified model here')
     ns = ap.parse_args()
     plant = parse_overrides(ns.plant)
@@ -62,7 +78,7 @@ def main():
     rclpy.init(context=context, domain_id=random.SystemRandom().randint(101, 200))
     try:
         t0 = time.monotonic()
-        fit = identify(context, ns.excitation_s, ns.seed, plant)
+        fit = identify(context, ns.excitation_s, ns.seed, plant, parse_free(ns.free))
         t_id = time.monotonic() - t0
         header = (f'Identified by benchmarks/bench_tracking.py from a {ns.excitation_s:g} s '
                   f'multilevel excitation (seed {ns.seed}) of plant_sim {plant or "(defaults)"}\n'
@@ -76,7 +92,8 @@ def main():
             t1 = time.monotonic()
             trace = run_closed_loop(context, SINE, duration, mode=mode, real_time_factor=100.0,
                                     plant={**plant, 'seed': 7},
-                                    controller={'model_file': str(model_path)})
+                                    controller={**parse_overrides(ns.controller),
+                                                'model_file': str(model_path)})
             a = trace.arrays()
             t = a['time_s'] - a['time_s'][0]
             whole = summarize(t, a['setpoint'], a['position'], 0.025, SINE['delay_s'])
@@ -88,8 +105,9 @@ def main():
     print(f'identification: {ns.excitation_s:g} s excitation, {t_id:.1f} s wall; train NRMSE '
           f'{fit.train["nrmse"]:.4f}, validation NRMSE {fit.validation["nrmse"]:.4f}, '
           f'tau_s {fit.params.tau_s:.3f} s, {fit.params.hysteresis.n_operators} play operators'
-          f'; model {model_path}')
-    print(f'plant overrides: {plant or "none"}; sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
+          f', free {fit.free}; model {model_path}')
+    print(f'plant overrides: {plant or "none"}; controller overrides: '
+          f'{parse_overrides(ns.controller) or "none"}; sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
     print(f'{"mode":12s} {"rms whole":>10s} {"rms steady":>11s} {"max steady":>11s} '
           f'{"wall s":>7s}')
     for mode, (whole, steady, wall) in results.items():

