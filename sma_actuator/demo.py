@@ -41,7 +41,8 @@ def recorder_factory(bag_dir):
         from .nodes.recorder import RecorderNode
     except ImportError:
         return None
-    return lambda context: RecorderNode(context=context, bag_path=str(bag_dir))
+    # the demo runs on the plant's accelerated /clock: log times must be sim time too
+    return lambda context: RecorderNode(context=context, bag_path=str(bag_dir), use_sim_time=True)
 
 
 def plot_response(path, title, t, setpoint, position, duty):

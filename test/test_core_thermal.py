@@ -196,11 +196,18 @@ def test_sensor_polynomial_and_fatigue():
     p0 = run(BASE, da, db, dt).position_rad
     c2 = run(BASE.with_changes(sensor_c2_rad=0.1), da, db, dt).position_rad
     np.testing.assert_allclose(c2 - p0, 0.1 * p0 ** 2, atol=1e-12)
-    t_h = np.arange(n) * dt / 3600.0
-    drift = run(BASE.with_changes(fatigue_offset_rad_per_h=0.2), da, db, dt).position_rad
-    np.testing.assert_allclose(drift - p0, 0.2 * t_h, atol=1e-12)
-    shrink = run(BASE.with_changes(fatigue_stroke_per_h=0.5), da, db, dt).position_rad
-    np.testing.assert_allclose(shrink, p0 * (1 - 0.5 * t_h), atol=1e-12)
+    c5 = run(BASE.with_changes(sensor_c5_rad=0.05), da, db, dt).position_rad
+    np.testing.assert_allclose(c5 - p0, 0.05 * p0 ** 5, atol=1e-12)
+    # fatigue: shakedown g(N) = 1 - exp(-N/N_f) over cycles N = (sum|dy_a| + sum|dy_b|)/2
+    traj = run(BASE, da, db, dt)
+    cycles = 0.5 * np.cumsum(np.abs(np.diff(traj.y_a, prepend=traj.y_a[0]))
+                             + np.abs(np.diff(traj.y_b, prepend=traj.y_b[0])))
+    assert cycles[-1] > 5          # the square wave drives several full transformations
+    g = 1.0 - np.exp(-cycles / 4.0)
+    drift = run(BASE.with_changes(fatigue_offset_rad=0.2, fatigue_cycles=4.0), da, db, dt)
+    np.testing.assert_allclose(drift.position_rad - p0, 0.2 * g, atol=1e-12)
+    shrink = run(BASE.with_changes(fatigue_stroke=0.3, fatigue_cycles=4.0), da, db, dt)
+    np.testing.assert_allclose(shrink.position_rad, p0 * (1 - 0.3 * g), atol=1e-12)
 
 
 def test_potentiometer_round_trip_within_one_lsb():

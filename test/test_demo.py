@@ -39,3 +39,9 @@ def test_recorder_hook_records_each_run_to_mcap(ros_context, tmp_path):
         topics = [channel.topic for _, channel, _ in make_reader(f).iter_messages()]
     assert topics.count('/sma/joint_states') > 100        # most of the 15 s at 40 Hz
     assert '/sma/duty' in topics and '/sma/setpoint' in topics
+    # the bag is logged on the plant's sim time: it spans the simulated run, not the
+    # (much shorter) wall time of the accelerated loop, so load_run sees the real run
+    from sma_actuator.bag.arrays import load_run
+    run = load_run(out / 'bags' / 'step_pi')
+    span = run['time'][-1] - run['time'][0]
+    assert 14.0 < span < 16.0, span

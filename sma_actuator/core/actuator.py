@@ -12,11 +12,11 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
               shared by both wires, output = contraction fraction (0 cold, 1 hot); σ [K] is
               the stress coupling (Clausius-Clapeyron shift from the antagonist's pull)
   4. shaft    φ = φ0 + g (y_a − s_b y_b)           (pulley kinematics, g = ε L / 2r)
-  5. sensor   φ_meas(t) = p(φ(t − D)) with functional fatigue: the stroke shrinks by
-              f_s per hour of operation and the zero drifts by f_o per hour (time is the
-              usage measure so the effect stays separable; under steady cycling it is
-              proportional to accumulated cycles), and the potentiometer polynomial
-              p(φ) = φ + c2 φ² + c3 φ³.
+  5. sensor   φ_meas(t) = p(φ(t − D)) with functional fatigue: over N accumulated
+              transformation cycles the stroke shrinks by f_s g(N) and the zero drifts by
+              f_o g(N), g(N) = 1 − exp(−N / N_f) (shakedown: most of the loss in the first
+              cycles; N_f large gives a linear drift), and the potentiometer polynomial
+              p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad).
 
 Steps 1-3 run in one compiled kernel (`simulate_wires`); steps 4-5 are vectorised output
 maps. With every effect parameter at its neutral value this is exactly the paper's model
@@ -101,8 +101,11 @@ class ActuatorParams:
     stroke_ratio_b: float = 1.0      # asymmetric_wires: stroke of wire b relative to a
     sensor_c2_rad: float = 0.0       # sensor_nonlinearity: quadratic term [rad at 1 rad]
     sensor_c3_rad: float = 0.0       # sensor_nonlinearity: cubic term [rad at 1 rad]
-    fatigue_offset_rad_per_h: float = 0.0  # fatigue_drift: zero drift per hour of operation
-    fatigue_stroke_per_h: float = 0.0      # fatigue_drift: stroke loss fraction per hour
+    sensor_c4_rad: float = 0.0       # sensor_nonlinearity: 4th-order term [rad at 1 rad]
+    sensor_c5_rad: float = 0.0       # sensor_nonlinearity: 5th-order term [rad at 1 rad]
+    fatigue_offset_rad: float = 0.0  # fatigue_drift: zero drift after shakedown [rad]
+    fatigue_stroke: float = 0.0      # fatigue_drift: stroke loss fraction after shakedown
+    fatigue_cycles: float = 20.0     # fatigue_drift: shakedown constant N_f [cycles]
     duty_limit: float = 1.0          # current_limit: duty above which mean current saturates
     hysteresis: PlayHysteresis = field(default_factory=flexinol_hysteresis)
 
@@ -111,7 +114,8 @@ class ActuatorParams:
             if f.name != 'hysteresis':
                 setattr(self, f.name, finite_scalar(f.name, getattr(self, f.name)))
         for name in ('length_m', 'resistance_ohm_per_m', 'supply_v', 'current_limit_a',
-                     'heat_capacity_j_per_k', 'conductance_w_per_k', 'tau_ratio_b'):
+                     'heat_capacity_j_per_k', 'conductance_w_per_k', 'tau_ratio_b',
+                     'fatigue_cycles'):
             if getattr(self, name) <= 0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name)}')
         for name in ('tau_fast_s', 'delay_s', 'gain_ratio_b', 'stroke_ratio_b'):
@@ -253,13 +257,30 @@ def shaft_angle(params, y_a, y_b):
     return params.offset_rad + params.stroke_rad * (np.asarray(y_a) - params.stroke_ratio_b * np.asarray(y_b))
 
 
-def sensor_map(params, phi, time_s):
-    """Step 5 without the delay: fatigue scaling/drift over time [s] and the potentiometer polynomial."""
-    hours = np.asarray(time_s) / 3600.0
+def transformation_cycles(y_a, y_b, n0=0.0):
+    """Accumulated transformation cycles N = n0 + (Σ|Δy_a| + Σ|Δy_b|) / 2 per sample
+    (one full contraction and release of one wire counts 1)."""
+    dy = np.abs(np.diff(y_a, prepend=y_a[0])) + np.abs(np.diff(y_b, prepend=y_b[0]))
+    return n0 + 0.5 * np.cumsum(dy)
+
+
+def fatigue_progress(params, cycles):
+    """Shakedown fraction g(N) = 1 − exp(−N / N_f) of functional fatigue."""
+    return -np.expm1(-np.asarray(cycles) / params.fatigue_cycles)
+
+
+def sensor_polynomial(params, phi):
+    """Potentiometer reading p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad]."""
+    return phi + phi * phi * (params.sensor_c2_rad + phi * (params.sensor_c3_rad + phi * (
+        params.sensor_c4_rad + phi * params.sensor_c5_rad)))
+
+
+def sensor_map(params, phi, cycles):
+    """Step 5 without the delay: fatigue after N cycles, then the potentiometer polynomial."""
+    g = fatigue_progress(params, cycles)
     phi0 = params.offset_rad
-    phi = (phi0 + (phi - phi0) * (1.0 - params.fatigue_stroke_per_h * hours)
-           + params.fatigue_offset_rad_per_h * hours)
-    return phi + params.sensor_c2_rad * phi ** 2 + params.sensor_c3_rad * phi ** 3
+    phi = phi0 + (phi - phi0) * (1.0 - params.fatigue_stroke * g) + params.fatigue_offset_rad * g
+    return sensor_polynomial(params, phi)
 
 
 def delay_signal(x, dt, delay_s):
@@ -305,7 +326,7 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
     ya, yb, ta, tb = simulate_wires(duty_a, duty_b, amb, dist, dt, params.kernel_vector(),
                                     h.r, h.lo, h.hi, h.w, h.k1, h.y0, st, *NO_FEATURES)
     phi = shaft_angle(params, ya, yb)
-    phi = sensor_map(params, phi, np.arange(n) * dt)
+    phi = sensor_map(params, phi, transformation_cycles(ya, yb))
     return Trajectory(delay_signal(phi, dt, params.delay_s), ta, tb, ya, yb)
 
 
@@ -325,6 +346,7 @@ class AntagonisticActuator:
         """Both wires at ambient (or theta_c), cold and fully martensitic, shaft at rest."""
         self._state = initial_state(self.params, theta_c)
         self._time = 0.0
+        self._cycles = 0.0
         self._history = [(0.0, self._measured(self._state[4], self._state[5]))]
 
     @property
@@ -339,7 +361,7 @@ class AntagonisticActuator:
 
     def _measured(self, y_a, y_b):
         phi = shaft_angle(self.params, y_a, y_b)
-        return float(sensor_map(self.params, phi, self._time))
+        return float(sensor_map(self.params, phi, self._cycles))
 
     def step(self, duty_a, duty_b, dt, ambient_c=None, disturbance_k=0.0):
         """Hold the duties for dt seconds; return the (delayed, sensed) shaft angle [rad]."""
@@ -354,10 +376,12 @@ class AntagonisticActuator:
         dist = finite_scalar('disturbance_k', disturbance_k)
         n_sub = max(1, int(np.ceil(dt / self.max_substep_s)))
         h = self.params.hysteresis
+        y_before = self._state[4:6].copy()
         simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
                                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
                                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
                                       h.y0, self._state, *NO_FEATURES)
+        self._cycles += 0.5 * float(np.sum(np.abs(self._state[4:6] - y_before)))
         self._time += dt
         self._history.append((self._time, self._measured(self._state[4], self._state[5])))
         return self._delayed()

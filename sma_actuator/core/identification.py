@@ -30,8 +30,13 @@ from .hysteresis import PlayHysteresis, PreisachModel
 from .validate import finite_array, same_length
 
 # parameters that feed the hysteresis output back into its own regressors
-FEEDBACK_PARAMS = ('phase_kappa', 'stress_k')
-SENSOR_PARAMS = ('sensor_c2_rad', 'sensor_c3_rad')
+FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles',
+                   'fatigue_offset_rad')
+# parameters solved linearly with the weights (no outer search)
+LINEAR_PARAMS = ('fatigue_offset_rad',)
+# regression rows are thinned to about this rate: the thermal lag (~1 s) makes denser
+# samples nearly redundant, and the Gram matrix cost scales with the row count
+REGRESSION_RATE_HZ = 20.0
 
 
 def scores(y, y_hat):
@@ -234,28 +239,31 @@ def set_values(params, values):
     return params.with_changes(**changes)
 
 
-def sensor_inverse(y, c2, c3, iterations=6):
-    """φ with φ + c2 φ² + c3 φ³ = y, by Newton's method from φ = y (bounded small c2, c3)."""
+def sensor_inverse(params, y, iterations=8):
+    """φ with p(φ) = y for the potentiometer polynomial of `actuator.sensor_polynomial`,
+    by Newton's method from φ = y (the coefficients are bounded, p stays near identity)."""
+    c = (params.sensor_c2_rad, params.sensor_c3_rad, params.sensor_c4_rad, params.sensor_c5_rad)
     phi = np.array(y, dtype=float)
-    if c2 == 0 and c3 == 0:
+    if not any(c):
         return phi
     for _ in range(iterations):
-        f = phi + c2 * phi ** 2 + c3 * phi ** 3 - y
-        phi -= f / np.maximum(1.0 + 2 * c2 * phi + 3 * c3 * phi ** 2, 0.2)
+        f = act.sensor_polynomial(params, phi) - y
+        slope = 1.0 + phi * (2 * c[0] + phi * (3 * c[1] + phi * (4 * c[2] + phi * 5 * c[3])))
+        phi -= f / np.maximum(slope, 0.2)
     return phi
 
 
 class _Problem:
     """One variable-projection problem: data, split, grid, feedback reference, free layout."""
 
-    def __init__(self, data, base, grid, names, n_train, burn_in, input_hook=None):
+    def __init__(self, data, base, grid, names, n_train, burn_in, input_hook=None, values=None):
         self.data, self.base, self.grid = data, base, grid
         self.input_hook = input_hook
-        self.values = {}
+        self.values = dict(values or {})   # current nonlinear values (plug-in hooks read them)
         self.names = list(names)
         self.n_train, self.burn_in = n_train, burn_in
         self.ref = grid          # hysteresis in the feedback path (normalised weights)
-        self.t_h = (data.time - data.time[0]) / 3600.0
+        self.stride = max(1, int(round(1.0 / (data.dt * REGRESSION_RATE_HZ))))
         self.amb = (data.ambient if data.ambient is not None
                     else np.full(len(data), base.ambient_c))
 
@@ -267,19 +275,21 @@ class _Problem:
         ua, ub = np.empty(n), np.empty(n)
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(self.values)
-        act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
-                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w, ref.k1, ref.y0, st,
-                           fa, fb, ua, ub)
+        ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
+                                          params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
+                                          ref.k1, ref.y0, st, fa, fb, ua, ub)
         sb = params.stroke_ratio_b
         fa -= sb * fb
         X = np.column_stack([fa, ua - sb * ub])
-        if params.fatigue_stroke_per_h:
-            X *= (1.0 - params.fatigue_stroke_per_h * self.t_h[:n])[:, None]
+        fatigue = 'fatigue_offset_rad' in self.names or params.fatigue_stroke
+        if fatigue:   # shakedown over the cycles of the reference (previous round) model
+            g_n = act.fatigue_progress(params, act.transformation_cycles(ya, yb))
+            X *= (1.0 - params.fatigue_stroke * g_n)[:, None]
         if params.delay_s > 0:
             X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])
         cols = [X]
-        if 'fatigue_offset_rad_per_h' in self.names:
-            cols.append(self.t_h[:n, None])
+        if 'fatigue_offset_rad' in self.names:
+            cols.append(g_n[:, None])
         cols.append(np.ones((n, 1)))
         return np.hstack(cols)
 
@@ -293,20 +303,19 @@ class _Problem:
 
     def solve(self, params):
         """NNLS weights on the training window; returns (coefficients, training residual)."""
-        n, sl = self.n_train, slice(self.burn_in, self.n_train)
+        n = self.n_train
+        sl = slice(self.burn_in, n, self.stride)
         X = self.regressors(params, n)[sl]
         y = self.data.position[sl]
-        c2, c3 = params.sensor_c2_rad, params.sensor_c3_rad
-        free_cols = 2 if 'fatigue_offset_rad_per_h' in self.names else 1
-        b = _nnls_with_offset(X, sensor_inverse(y, c2, c3), free_cols=free_cols)
-        phi = X @ b
-        return b, phi + c2 * phi ** 2 + c3 * phi ** 3 - y
+        free_cols = 2 if 'fatigue_offset_rad' in self.names else 1
+        b = _nnls_with_offset(X, sensor_inverse(params, y), free_cols=free_cols)
+        return b, act.sensor_polynomial(params, X @ b) - y
 
     def with_linear(self, params, b):
         """ActuatorParams carrying the NNLS solution as a normalised hysteresis + shaft gain."""
         g, m = self.grid, self.grid.n_operators
         w, k1 = b[:m], b[m]
-        drift = b[m + 1] if len(b) == m + 3 else params.fatigue_offset_rad_per_h
+        drift = b[m + 1] if len(b) == m + 3 else params.fatigue_offset_rad
         # normalise so the contraction fraction spans [0, 1] over the grid's range
         y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
         stroke = max(y_hi - y_lo, 1e-9)
@@ -314,11 +323,11 @@ class _Problem:
         # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b)
         offset = b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
         return params.with_changes(hysteresis=h, stroke_rad=stroke, offset_rad=offset,
-                                   fatigue_offset_rad_per_h=drift)
+                                   fatigue_offset_rad=drift)
 
     def optimise(self, free, x0, max_nfev):
         """Outer nonlinear least squares over the free parameters (linear part projected out)."""
-        names = [k for k in self.names if k != 'fatigue_offset_rad_per_h']
+        names = [k for k in self.names if k not in LINEAR_PARAMS]
         if not names:
             return {}, None
         lo = np.array([free[k][0] for k in names], float)
@@ -355,7 +364,7 @@ def _active_range(h, u_lo, u_hi):
 
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
                 start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
-                rounds=2, input_hook=None):
+                rounds=3, input_hook=None, ref=None):
     """Fit the actuator model to a dynamic run by free-run simulation error.
 
     data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
@@ -367,6 +376,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     start values (diagnose does, so candidates are compared on equal terms).
     input_hook(duty_a, duty_b, ambient, values) -> (duty_a, duty_b, ambient): plug-in
     transform of the inputs with its own free parameters (names not in ActuatorParams).
+    ref: hysteresis on `grid` used in the feedback path of the first round (default: the
+    grid with zero weights, i.e. no feedback until the first weights are known).
     Returns a `DynamicFit` scored by free-run error on training and held-out data.
     """
     if not isinstance(data, DynamicData):
@@ -400,7 +411,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         u_lo = float(np.min(amb)) - 2.0
         u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
         prob = _Problem(data, base, play_grid(u_lo, u_hi, kind, *coarse), free, n_train, burn_in,
-                        input_hook)
+                        input_hook, values)
         best = None
         for s in starts:
             trial = dict(values, tau_s=float(np.clip(s * base.tau_s / 2.0, *free['tau_s'][:2])))
@@ -418,10 +429,12 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
             grid = play_grid(u_lo, u_hi, kind, *fine)
         # keep the elements the fine solution uses, and their grid neighbours, so the
         # nonlinear search (and every candidate effect after it) works on a small basis
-        prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook)
+        prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
         b, _ = prob.solve(set_values(base, values))
         grid = _prune(grid, b[:grid.n_operators], fine if kind == 'modified' else None)
-    prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook)
+    prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
+    if ref is not None:
+        prob.ref = ref
     feedback = any(k in FEEDBACK_PARAMS for k in free)
     params = None
     for _ in range(rounds if feedback else 1):
@@ -432,7 +445,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         b, _ = prob.solve(params)
         params = prob.with_linear(params, b)
         prob.ref = params.hysteresis
-    values['fatigue_offset_rad_per_h'] = params.fatigue_offset_rad_per_h
+    values['fatigue_offset_rad'] = params.fatigue_offset_rad
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
     traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
@@ -454,16 +467,18 @@ def _fine_grid(u_lo, u_hi, r_max, n_widths, n_centres):
     return PlayHysteresis(r, lo, hi, np.zeros(r.size))
 
 
-def _prune(grid, w, shape):
-    """Elements with non-zero weight, dilated by one grid step in width and centre."""
+def _prune(grid, w, shape, centre_steps=3):
+    """Elements with non-zero weight, dilated by one step in width and `centre_steps` in
+    centre: room for effects that shift where (in model temperature) the wire transforms."""
     used = w > 0
     if shape is not None:
         used = used.reshape(shape)
         grown = used.copy()
         grown[1:, :] |= used[:-1, :]
         grown[:-1, :] |= used[1:, :]
-        grown[:, 1:] |= used[:, :-1]
-        grown[:, :-1] |= used[:, 1:]
+        for k in range(1, centre_steps + 1):
+            grown[:, k:] |= used[:, :-k]
+            grown[:, :-k] |= used[:, k:]
         used = grown.ravel()
     if not used.any():
         return grid

@@ -48,8 +48,11 @@ EFFECTS = (
     ('stroke_ratio_b', 0.5, 2.0, 'asymmetric wires: stroke of wire b relative to a'),
     ('sensor_c2_rad', -0.2, 0.2, 'potentiometer quadratic term [rad at 1 rad]'),
     ('sensor_c3_rad', -0.2, 0.2, 'potentiometer cubic term [rad at 1 rad]'),
-    ('fatigue_offset_rad_per_h', -0.1, 0.1, 'fatigue: zero drift per hour of operation [rad/h]'),
-    ('fatigue_stroke_per_h', 0.0, 0.1, 'fatigue: stroke loss fraction per hour of operation'),
+    ('sensor_c4_rad', -0.2, 0.2, 'potentiometer 4th-order term [rad at 1 rad]'),
+    ('sensor_c5_rad', -0.2, 0.2, 'potentiometer 5th-order term [rad at 1 rad]'),
+    ('fatigue_offset_rad', -0.3, 0.3, 'fatigue: zero drift after shakedown [rad]'),
+    ('fatigue_stroke', 0.0, 0.5, 'fatigue: stroke loss fraction after shakedown'),
+    ('fatigue_cycles', 1.0, 1e6, 'fatigue: shakedown constant [transformation cycles]'),
     ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
 )
 

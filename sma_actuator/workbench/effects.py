@@ -35,6 +35,10 @@ class Effect:
         """Starting values of the parameters for `data` (default: the table's start)."""
         return {k: v[2] for k, v in self.parameters.items()}
 
+    def alternative_starts(self, data):
+        """Further starting points tried when the fit may have several minima (default none)."""
+        return []
+
     def transform_inputs(self, duty_a, duty_b, ambient, values):
         """Plug-in hook: inputs (arrays) seen by the thermal model, given this effect's
         parameter values (dict). Duties must stay in [0, 1]. Identity by default."""
@@ -59,6 +63,10 @@ class FastDynamics(Effect):
     to a duty step with an S-shaped rather than exponential temperature rise."""
     name = 'fast_dynamics'
     parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
+
+    def alternative_starts(self, data):
+        """A slow lag trades off against the basic time constant: also start there."""
+        return [{'tau_fast_s': 0.5}]
     signature = ('residual spikes right after duty steps, same sign as the step; '
                  'residual correlates with the duty rate')
 
@@ -68,6 +76,10 @@ class Delay(Effect):
     the sensor chain, PWM update latency): the whole response is shifted in time."""
     name = 'delay'
     parameters = {'delay_s': (0.0, 1.5, 0.05)}
+
+    def alternative_starts(self, data):
+        """Delays longer than a few samples sit in another basin of the error surface."""
+        return [{'delay_s': 0.3}]
     signature = ('residual looks like the derivative of the position (leads the motion); '
                  'cross-correlation of residual and position rate peaks at lag 0')
 
@@ -133,20 +145,27 @@ class AsymmetricWires(Effect):
 
 class SensorNonlinearity(Effect):
     """Potentiometer nonlinearity: track resistance is not uniform and the wiper loads the
-    divider, so the reading is a polynomial of the angle, p(φ) = φ + c2 φ² + c3 φ³."""
+    divider, so the reading is a smooth function of the angle, here the polynomial
+    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad; enough for bow and S shapes)."""
     name = 'sensor_nonlinearity'
-    parameters = {'sensor_c2_rad': (-0.4, 0.4, 0.0), 'sensor_c3_rad': (-0.4, 0.4, 0.0)}
+    parameters = {'sensor_c2_rad': (-0.4, 0.4, 0.0), 'sensor_c3_rad': (-0.6, 0.6, 0.0),
+                  'sensor_c4_rad': (-0.4, 0.4, 0.0), 'sensor_c5_rad': (-0.6, 0.6, 0.0)}
     signature = ('static, memoryless error that is a smooth function of the position '
                  '(bow or S-shape in the residual-vs-position plot), same on both branches')
 
 
 class FatigueDrift(Effect):
-    """Functional fatigue: with accumulated transformation cycles the recoverable strain
-    shrinks and the zero point drifts (plastic strain, stabilised martensite); modelled
-    as stroke loss and offset drift proportional to operating time."""
+    """Functional fatigue: with accumulated transformation cycles N the recoverable strain
+    shrinks and the zero point drifts (plastic strain, stabilised martensite), most of it in
+    the first cycles (shakedown): stroke loss f_s g(N) and offset f_o g(N) with
+    g(N) = 1 − exp(−N / N_f)."""
     name = 'fatigue_drift'
-    parameters = {'fatigue_stroke_per_h': (-3.0, 6.0, 0.0),
-                  'fatigue_offset_rad_per_h': (-float('inf'), float('inf'), 0.0)}
+    parameters = {'fatigue_stroke': (-0.5, 0.8, 0.05), 'fatigue_cycles': (0.5, 5000.0, 20.0),
+                  'fatigue_offset_rad': (-float('inf'), float('inf'), 0.0)}
+
+    def alternative_starts(self, data):
+        """Slow (nearly linear) drift is a different basin from a quick shakedown."""
+        return [{'fatigue_cycles': 500.0}]
     signature = ('residual trends with time: its mean and amplitude differ between time '
                  'quartiles; validation error much larger than training error')
 

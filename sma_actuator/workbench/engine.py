@@ -9,10 +9,10 @@ diagnose: for every candidate effect not in the model, refit with it (same hyste
 grid, warm-started from the base fit, so candidates compete on equal terms) and score the
 held-out error. A candidate is significant only if
   1. held-out NRMSE falls by at least `min_improvement` (default 20 %), and
-  2. the Bayesian information criterion on the training residual agrees:
-     BIC = n_eff ln(RSS / n) + k ln(n_eff) falls, with n_eff the number of effectively
-     independent samples (n divided by the residual's correlation length), so serially
-     correlated residuals cannot buy extra parameters cheaply.
+  2. the Bayesian information criterion of the free-run residual over the whole record
+     agrees: BIC = n_eff ln(RSS / n) + k ln(n_eff) falls, with n_eff the number of
+     effectively independent samples (n divided by the base residual's correlation
+     length), so serially correlated residuals cannot buy extra parameters cheaply.
 Candidates are ranked by held-out improvement; the best significant one is the missing
 effect.
 """
@@ -50,7 +50,7 @@ class ModelFit:
     prediction: object
     split: object
     n_parameters: int
-    train_residual: np.ndarray
+    residual: np.ndarray                  # free-run residual after the burn-in, whole record
     params: object = None                 # ActuatorParams (dynamic) or PlayHysteresis (static)
     signals: dict = field(default_factory=dict)
     grid: object = None
@@ -70,8 +70,27 @@ class ModelFit:
             u0 = float(np.min(data.input))
             return [(c, h.simulate(data.input[data.curve == c], h.initial_state(u0)))
                     for c in dict.fromkeys(data.curve.tolist())]
-        return act.simulate(self.params, data.duty_a, data.duty_b, data.dt,
-                            ambient_c=data.ambient).position_rad
+        return self.trajectory(data).position_rad
+
+    def trajectory(self, data):
+        """Free-run `core.actuator.Trajectory` of this model on dynamic data (plug-in input
+        transforms applied with the fitted values)."""
+        amb = data.ambient if data.ambient is not None else np.full(len(data), self.params.ambient_c)
+        da, db, amb = _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
+        return act.simulate(self.params, da, db, data.dt, ambient_c=amb)
+
+
+def _input_hooks(effects):
+    """Effects (plug-ins) that transform the inputs."""
+    return [get_effect(e) for e in effects
+            if type(get_effect(e)).transform_inputs is not Effect.transform_inputs]
+
+
+def _hooked_inputs(effects, duty_a, duty_b, ambient, values):
+    """Inputs after every plug-in transform, duties clipped to [0, 1]."""
+    for eff in _input_hooks(effects):
+        duty_a, duty_b, ambient = eff.transform_inputs(duty_a, duty_b, ambient, values)
+    return np.clip(duty_a, 0.0, 1.0), np.clip(duty_b, 0.0, 1.0), ambient
 
 
 def load_fit(d, data=None):
@@ -86,12 +105,16 @@ def load_fit(d, data=None):
                    dict(d.get('parameters', {})), sc.get('train'), sc.get('validation'),
                    None, None, 0, np.zeros(0), params)
     if data is not None:
-        pred = fit.simulate(data)
-        fit.prediction = pred
         if isinstance(data, StaticData):
+            pred = fit.simulate(data)
             fit.validation = scores(data.output, np.concatenate([p for _, p in pred]))
         else:
+            t = fit.trajectory(data)
+            pred = t.position_rad
             fit.validation = scores(data.position, pred)
+            fit.signals = {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
+                           'y_b': t.y_b, 'time': data.time}
+        fit.prediction = pred
     return fit
 
 
@@ -139,23 +162,28 @@ def fit_model(data, effects=(), kind=None, progress=None, base_fit=None, input_h
 def _fit_dynamic(data, effects, kind, base_fit, input_hooks):
     free = {}
     start = dict(base_fit.values) if base_fit else {}
+    alternatives = []
     for e in effects:
         eff = get_effect(e)
         free.update(eff.parameters)
         for k, v in eff.start_values(data).items():
             start.setdefault(k, v)
-    hooks = [get_effect(e) for e in effects
-             if type(get_effect(e)).transform_inputs is not Effect.transform_inputs]
+        if base_fit is None or e not in base_fit.effects:
+            alternatives += eff.alternative_starts(data)
+    hooks = _input_hooks(effects)
 
     def input_hook(da, db, amb, values):
-        for eff in hooks:
-            da, db, amb = eff.transform_inputs(da, db, amb, values)
-        return da, db, amb
+        return _hooked_inputs(effects, da, db, amb, values)
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
-    res = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if same_grid else None,
-                      start=start, input_hook=input_hook if hooks else None)
-    n, sl = len(data), slice(res.burn_in, res.n_train)
-    resid = res.prediction[sl] - data.position[sl]
+    res = None
+    for alt in [{}] + alternatives:
+        trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if same_grid else None,
+                            start=dict(start, **alt), input_hook=input_hook if hooks else None,
+                            ref=base_fit.params.hysteresis if same_grid else None)
+        if res is None or trial.train['rmse'] < res.train['rmse']:
+            res = trial
+    n = len(data)
+    resid = res.prediction[res.burn_in:] - data.position[res.burn_in:]
     t = res.trajectory
     return ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
                     res.n_train, res.n_parameters, resid, res.params,
@@ -213,8 +241,8 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
         base = fit_model(data, (), kind=kind)
     names = [n for n in (candidates or CATALOG) if n not in base.effects]
     out = []
-    n_eff = max(len(base.train_residual) / correlation_length(base.train_residual), 2.0)
-    bic0 = bic(base.train_residual, _free_count(base), n_eff)
+    n_eff = max(len(base.residual) / correlation_length(base.residual), 2.0)
+    bic0 = bic(base.residual, _free_count(base), n_eff)
     for i, name in enumerate(names):
         if progress:
             progress(i, len(names), name)
@@ -236,7 +264,7 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
             continue
         v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
         gain = (v0 - v1) / v0 if v0 > 0 else 0.0
-        bic1 = bic(fit.train_residual, _free_count(fit), n_eff)
+        bic1 = bic(fit.residual, _free_count(fit), n_eff)
         significant = bool(gain >= min_improvement and bic1 < bic0)
         values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
                            if k in eff.parameters) or 'modified PI (saturated plays)'
