@@ -34,9 +34,14 @@ FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles'
                    'fatigue_offset_rad')
 # parameters solved linearly with the weights (no outer search)
 LINEAR_PARAMS = ('fatigue_offset_rad',)
+# potentiometer polynomial: refitted linearly on the model's pre-sensor angle each round
+SENSOR_PARAMS = ('sensor_c2_rad', 'sensor_c3_rad', 'sensor_c4_rad', 'sensor_c5_rad')
 # regression rows are thinned to about this rate: the thermal lag (~1 s) makes denser
 # samples nearly redundant, and the Gram matrix cost scales with the row count
 REGRESSION_RATE_HZ = 20.0
+# ridge on the (unit-norm scaled) hysteresis weights: elements the training data hardly
+# excite would otherwise take arbitrary weights and spoil the held-out prediction
+RIDGE = 1e-10
 
 
 def scores(y, y_hat):
@@ -93,7 +98,7 @@ def _nnls_with_offset(X, y, free_cols=0):
     scale[scale == 0] = 1.0
     Xs = X / scale
     G = Xs.T @ Xs
-    G[np.diag_indices_from(G)] += 1e-10 * np.trace(G) / len(G)   # ± column pairs are collinear
+    G[np.diag_indices_from(G)] += RIDGE * np.trace(G) / len(G)   # also: ± column pairs are collinear
     R = np.linalg.cholesky(G).T
     z = np.linalg.solve(R.T, Xs.T @ y)
     b, _ = nnls(R, z, maxiter=50 * X.shape[1])
@@ -327,7 +332,7 @@ class _Problem:
 
     def optimise(self, free, x0, max_nfev):
         """Outer nonlinear least squares over the free parameters (linear part projected out)."""
-        names = [k for k in self.names if k not in LINEAR_PARAMS]
+        names = [k for k in self.names if k not in LINEAR_PARAMS and k not in SENSOR_PARAMS]
         if not names:
             return {}, None
         lo = np.array([free[k][0] for k in names], float)
@@ -435,7 +440,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
     if ref is not None:
         prob.ref = ref
-    feedback = any(k in FEEDBACK_PARAMS for k in free)
+    sensor = [k for k in SENSOR_PARAMS if k in free]
+    feedback = sensor or any(k in FEEDBACK_PARAMS for k in free)
     params = None
     for _ in range(rounds if feedback else 1):
         v, _ = prob.optimise(free, values, max_nfev)
@@ -445,6 +451,10 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         b, _ = prob.solve(params)
         params = prob.with_linear(params, b)
         prob.ref = params.hysteresis
+        if sensor:
+            values.update(_refit_sensor(prob, params, free, sensor))
+            prob.values = values
+            params = set_values(params, {k: values[k] for k in sensor})
     values['fatigue_offset_rad'] = params.fatigue_offset_rad
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
@@ -483,3 +493,17 @@ def _prune(grid, w, shape, centre_steps=3):
     if not used.any():
         return grid
     return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
+
+
+def _refit_sensor(prob, params, free, names):
+    """Potentiometer polynomial by linear least squares: y − φ = Σ c_k φ^k (k = 2..5) on the
+    training window, φ the model's free-run angle before the sensor, c_k clipped to bounds."""
+    d, n = prob.data, prob.n_train
+    da, db, amb = prob.inputs(prob.values)
+    bare = params.with_changes(**{k: 0.0 for k in SENSOR_PARAMS})
+    phi = act.simulate(bare, da[:n], db[:n], d.dt, ambient_c=amb[:n]).position_rad
+    sl = slice(prob.burn_in, n)
+    powers = {'sensor_c2_rad': 2, 'sensor_c3_rad': 3, 'sensor_c4_rad': 4, 'sensor_c5_rad': 5}
+    X = np.column_stack([phi[sl] ** powers[k] for k in names] + [np.ones(n - prob.burn_in)])
+    c = np.linalg.lstsq(X, d.position[sl] - phi[sl], rcond=None)[0]
+    return {k: float(np.clip(c[i], free[k][0], free[k][1])) for i, k in enumerate(names)}

@@ -118,7 +118,8 @@ class PhaseResistance(Effect):
     austenite, so at a given duty the Joule power R i² (current-limited) or V²/R changes as
     the wire transforms: P = P0 d (1 + κ (1 − y)), y the contraction fraction."""
     name = 'phase_resistance'
-    parameters = {'phase_kappa': (-0.6, 1.0, 0.1)}
+    # NiTi resistivity differs by roughly 10-25 % between the phases: |κ| <= 0.35
+    parameters = {'phase_kappa': (-0.35, 0.35, 0.1)}
     signature = ('heating from cold is faster (or slower) than modelled while cooling '
                  'matches; error concentrated in heating from the martensite side')
 

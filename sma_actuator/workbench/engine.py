@@ -8,13 +8,16 @@ on even curves, validate on the rest).
 diagnose: for every candidate effect not in the model, refit with it (same hysteresis
 grid, warm-started from the base fit, so candidates compete on equal terms) and score the
 held-out error. A candidate is significant only if
-  1. held-out NRMSE falls by at least `min_improvement` (default 20 %), and
+  1. held-out NRMSE falls by at least `min_improvement` (default 20 %),
   2. the Bayesian information criterion of the free-run residual over the whole record
      agrees: BIC = n_eff ln(RSS / n) + k ln(n_eff) falls, with n_eff the number of
      effectively independent samples (n divided by the base residual's correlation
-     length), so serially correlated residuals cannot buy extra parameters cheaply.
-Candidates are ranked by held-out improvement; the best significant one is the missing
-effect.
+     length), so serially correlated residuals cannot buy extra parameters cheaply, and
+  3. the training error does not grow (within 2 %): the candidate nests the base model,
+     so a missing effect must fit the training window at least as well; a held-out gain
+     with a worse training fit is luck of the split, not physics.
+Candidates are listed best first: significant ones by held-out improvement, then the
+rest by held-out improvement; the first significant one is the missing effect.
 """
 from dataclasses import dataclass, field
 
@@ -265,18 +268,22 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
         v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
         gain = (v0 - v1) / v0 if v0 > 0 else 0.0
         bic1 = bic(fit.residual, _free_count(fit), n_eff)
-        significant = bool(gain >= min_improvement and bic1 < bic0)
+        train_ok = fit.train['rmse'] <= 1.02 * base.train['rmse']
+        significant = bool(gain >= min_improvement and bic1 < bic0 and train_ok)
         values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
                            if k in eff.parameters) or 'modified PI (saturated plays)'
         out.append({'effect': name, 'validation_nrmse': v1, 'improvement': gain,
                     'significant': significant,
                     'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
-                                    f'({100 * gain:+.0f} % better), BIC change {bic1 - bic0:+.1f}; '
+                                    f'({100 * gain:+.0f} % better), training NRMSE '
+                                    f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
+                                    f'BIC change {bic1 - bic0:+.1f}; '
                                     f'fitted {values}. Signature: {eff.signature}.'),
                     'fit': fit})
     if progress:
         progress(len(names), len(names), 'done')
-    out.sort(key=lambda c: -np.inf if c['improvement'] is None else c['improvement'],
+    out.sort(key=lambda c: (c['significant'],
+                            -np.inf if c['improvement'] is None else c['improvement']),
              reverse=True)
     best = next((c['effect'] for c in out if c['significant']), None)
     return Diagnosis(base, out, best)
