@@ -34,8 +34,7 @@ FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles'
                    'fatigue_offset_rad')
 # parameters solved linearly with the weights (no outer search)
 LINEAR_PARAMS = ('fatigue_offset_rad',)
-# potentiometer polynomial: refitted linearly on the model's pre-sensor angle each round
-SENSOR_PARAMS = ('sensor_c2_rad', 'sensor_c3_rad', 'sensor_c4_rad', 'sensor_c5_rad')
+
 # regression rows are thinned to about this rate: the thermal lag (~1 s) makes denser
 # samples nearly redundant, and the Gram matrix cost scales with the row count
 REGRESSION_RATE_HZ = 20.0
@@ -244,20 +243,6 @@ def set_values(params, values):
     return params.with_changes(**changes)
 
 
-def sensor_inverse(params, y, iterations=8):
-    """φ with p(φ) = y for the potentiometer polynomial of `actuator.sensor_polynomial`,
-    by Newton's method from φ = y (the coefficients are bounded, p stays near identity)."""
-    c = (params.sensor_c2_rad, params.sensor_c3_rad, params.sensor_c4_rad, params.sensor_c5_rad)
-    phi = np.array(y, dtype=float)
-    if not any(c):
-        return phi
-    for _ in range(iterations):
-        f = act.sensor_polynomial(params, phi) - y
-        slope = 1.0 + phi * (2 * c[0] + phi * (3 * c[1] + phi * (4 * c[2] + phi * 5 * c[3])))
-        phi -= f / np.maximum(slope, 0.2)
-    return phi
-
-
 class _Problem:
     """One variable-projection problem: data, split, grid, feedback reference, free layout."""
 
@@ -269,6 +254,9 @@ class _Problem:
         self.n_train, self.burn_in = n_train, burn_in
         self.ref = grid          # hysteresis in the feedback path (normalised weights)
         self.stride = max(1, int(round(1.0 / (data.dt * REGRESSION_RATE_HZ))))
+        # the saturated (modified) operator stays bounded outside the trained temperature
+        # range; a linear k1 (θ_a − θ_b) term would extrapolate without limit
+        self.linear_term = not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all())
         self.amb = (data.ambient if data.ambient is not None
                     else np.full(len(data), base.ambient_c))
 
@@ -285,7 +273,7 @@ class _Problem:
                                           ref.k1, ref.y0, st, fa, fb, ua, ub)
         sb = params.stroke_ratio_b
         fa -= sb * fb
-        X = np.column_stack([fa, ua - sb * ub])
+        X = np.column_stack([fa, (ua - sb * ub) if self.linear_term else np.zeros(n)])
         fatigue = 'fatigue_offset_rad' in self.names or params.fatigue_stroke
         if fatigue:   # shakedown over the cycles of the reference (previous round) model
             g_n = act.fatigue_progress(params, act.transformation_cycles(ya, yb))
@@ -313,7 +301,11 @@ class _Problem:
         X = self.regressors(params, n)[sl]
         y = self.data.position[sl]
         free_cols = 2 if 'fatigue_offset_rad' in self.names else 1
-        b = _nnls_with_offset(X, sensor_inverse(params, y), free_cols=free_cols)
+        # regress the angle before the sensor on y − (p(y) − y), the first-order inverse of
+        # the potentiometer polynomial p (no iteration, so no divergence); the residual is
+        # the exact forward one, p(X b) − y, which the outer search minimises
+        target = 2.0 * y - act.sensor_polynomial(params, y)
+        b = _nnls_with_offset(X, target, free_cols=free_cols)
         return b, act.sensor_polynomial(params, X @ b) - y
 
     def with_linear(self, params, b):
@@ -332,7 +324,7 @@ class _Problem:
 
     def optimise(self, free, x0, max_nfev):
         """Outer nonlinear least squares over the free parameters (linear part projected out)."""
-        names = [k for k in self.names if k not in LINEAR_PARAMS and k not in SENSOR_PARAMS]
+        names = [k for k in self.names if k not in LINEAR_PARAMS]
         if not names:
             return {}, None
         lo = np.array([free[k][0] for k in names], float)
@@ -440,8 +432,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
     if ref is not None:
         prob.ref = ref
-    sensor = [k for k in SENSOR_PARAMS if k in free]
-    feedback = sensor or any(k in FEEDBACK_PARAMS for k in free)
+    feedback = any(k in FEEDBACK_PARAMS for k in free)
     params = None
     for _ in range(rounds if feedback else 1):
         v, _ = prob.optimise(free, values, max_nfev)
@@ -451,10 +442,6 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         b, _ = prob.solve(params)
         params = prob.with_linear(params, b)
         prob.ref = params.hysteresis
-        if sensor:
-            values.update(_refit_sensor(prob, params, free, sensor))
-            prob.values = values
-            params = set_values(params, {k: values[k] for k in sensor})
     values['fatigue_offset_rad'] = params.fatigue_offset_rad
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
@@ -494,16 +481,3 @@ def _prune(grid, w, shape, centre_steps=3):
         return grid
     return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
 
-
-def _refit_sensor(prob, params, free, names):
-    """Potentiometer polynomial by linear least squares: y − φ = Σ c_k φ^k (k = 2..5) on the
-    training window, φ the model's free-run angle before the sensor, c_k clipped to bounds."""
-    d, n = prob.data, prob.n_train
-    da, db, amb = prob.inputs(prob.values)
-    bare = params.with_changes(**{k: 0.0 for k in SENSOR_PARAMS})
-    phi = act.simulate(bare, da[:n], db[:n], d.dt, ambient_c=amb[:n]).position_rad
-    sl = slice(prob.burn_in, n)
-    powers = {'sensor_c2_rad': 2, 'sensor_c3_rad': 3, 'sensor_c4_rad': 4, 'sensor_c5_rad': 5}
-    X = np.column_stack([phi[sl] ** powers[k] for k in names] + [np.ones(n - prob.burn_in)])
-    c = np.linalg.lstsq(X, d.position[sl] - phi[sl], rcond=None)[0]
-    return {k: float(np.clip(c[i], free[k][0], free[k][1])) for i, k in enumerate(names)}
