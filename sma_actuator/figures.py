@@ -9,6 +9,7 @@ Writes PNGs and figures.json (the real-data NRMSE figures).
 import argparse
 import json
 import os
+from pathlib import Path
 
 import matplotlib
 matplotlib.use('Agg')
@@ -22,7 +23,9 @@ from .core.hysteresis import (ModifiedPrandtlIshlinskii, PreisachModel,  # noqa:
 from .core.mainloop import MainLoopHysteresis  # noqa: E402
 from .core.thermal import thermal_step  # noqa: E402
 
-REAL_DATA = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+# the measured loops ship in the workspace's shared/ folder beside the repository
+REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR', Path(__file__).resolve().parents[2] / 'shared'))
+                / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 N_PI = 8
 
 

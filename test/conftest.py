@@ -5,8 +5,22 @@ so that concurrently running test sessions on one machine never see each other's
 """
 import os
 import random
+from pathlib import Path
 
 import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def real_data_path():
+    """The measured morphing-wing loops: $SMA_SHARED_DIR, else shared/ beside the clone."""
+    base = os.environ.get('SMA_SHARED_DIR')
+    candidates = ([Path(base)] if base else []) + [ROOT.parent / 'shared']
+    for c in candidates:
+        path = c / 'data' / 'real' / 'morphing_wing_sma_loops.csv'
+        if path.is_file():
+            return str(path)
+    return str(candidates[-1] / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 

@@ -7,8 +7,9 @@ import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PreisachModel
+from conftest import real_data_path
 
-REAL = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+REAL = real_data_path()
 
 
 def load_real():

@@ -19,8 +19,9 @@ import yaml
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins
 from sma_actuator.workbench.effects import CATALOG
+from conftest import real_data_path
 
-REAL = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+REAL = real_data_path()
 DT = 0.05
 
 

@@ -4,9 +4,10 @@ import pytest
 
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.data import (DataError, check_excitation, describe, is_static,
+from conftest import real_data_path
                                          load_data)
 
-REAL = '/work/shared/data/real/morphing_wing_sma_loops.csv'
+REAL = real_data_path()
 
 
 def _dynamic_rows(n=40, dt=0.05):
