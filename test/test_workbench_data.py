@@ -4,8 +4,8 @@ import pytest
 
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.data import (DataError, check_excitation, describe, is_static,
-from conftest import real_data_path
                                          load_data)
+from conftest import real_data_path
 
 REAL = real_data_path()
 
