@@ -19,7 +19,7 @@
   sensor polynomial is handled by regressing on p^-1(measured position). Train on the
   first `train_fraction` of time; score the free-run simulation of the rest.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy.optimize import least_squares, nnls
@@ -227,16 +227,12 @@ class DynamicFit:
     grid: PlayHysteresis    # the threshold grid of the hysteresis (weights = fitted)
 
 
-_FIELDS = None
+_FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
 
 
 def set_values(params, values):
     """ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
     Names that are not ActuatorParams fields (plug-in parameters) are ignored here."""
-    global _FIELDS
-    if _FIELDS is None:
-        from dataclasses import fields
-        _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
     changes = {k: v for k, v in values.items() if k in _FIELDS}
     if 'tau_s' in changes:
         changes['heat_capacity_j_per_k'] = changes.pop('tau_s') * params.conductance_w_per_k
