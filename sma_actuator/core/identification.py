@@ -309,9 +309,13 @@ class _Problem:
         g, m = self.grid, self.grid.n_operators
         w, k1 = b[:m], b[m]
         drift = b[m + 1] if len(b) == m + 3 else params.fatigue_offset_rad
-        # normalise so the contraction fraction spans [0, 1] over the grid's range
-        y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
-        stroke = max(y_hi - y_lo, 1e-9)
+        if not np.all(np.isfinite(b)):
+            raise ValueError('the fit diverged (non-finite weights); check the data and bounds')
+        if self.linear_term:   # unbounded (classical) operator: no [0, 1] range to normalise to
+            y_lo, stroke = 0.0, 1.0
+        else:   # normalise so the contraction fraction spans [0, 1] over the grid's range
+            y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
+            stroke = max(y_hi - y_lo, 1e-9)
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
         # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b)
         offset = b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
