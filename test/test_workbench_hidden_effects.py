@@ -7,7 +7,7 @@ NRMSE by at least 40 %; on the null cases nothing is significant. Cases vary mag
 excitation (open/closed loop), noise and sample rate (20-100 Hz).
 
 WEAK cases are effects whose footprint the flexible base model largely absorbs on this
-simulator (convection, current limit and phase resistance mostly distort the static
+simulator (convection and phase resistance mostly distort the static
 duty -> temperature map, which the hysteresis thresholds and time constant soak up;
 saturating fatigue is small after shakedown): the residual they leave is comparable to the
 base model's own floor (Preisach data vs Prandtl-Ishlinskii model, ~1-2 % NRMSE). For them
@@ -32,12 +32,12 @@ STRONG = [
     ('stress_coupling', 1.0, 'open', 0.002, 30, 19),
     ('asymmetric_wires', 1.5, 'open', 0.002, 40, 20),
     ('sensor_nonlinearity', 1.5, 'open', 0.002, 40, 21),
+    ('current_limit', 1.2, 'open', 0.002, 60, 23),
 ]
 WEAK = [
     ('convection', 1.5, 'open', 0.002, 40, 16),
     ('phase_resistance', 1.0, 'open', 0.001, 40, 18),
     ('fatigue_drift', 1.5, 'open', 0.002, 40, 22),
-    ('current_limit', 1.2, 'open', 0.002, 60, 23),
 ]
 DURATION_S = 480.0
 

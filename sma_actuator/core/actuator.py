@@ -2,7 +2,9 @@
 
 Signal chain per wire j in {a, b} (one sample, duty held over dt):
 
-  1. heating  q∞_j = G_j · min(d_j, d_lim) · (1 + κ (1 − y_j))       eq. (7) with current limit
+  1. heating  q∞_j = G_j · sat(d_j) · (1 + κ (1 − y_j))             eq. (7) with current limit
+              sat(d) = min(d, d_lim) (hard limiter, n = 0) or the smooth p-norm limiter
+              d_lim x / (1 + x^n)^(1/n), x = d / d_lim (a limiter with current ripple);
               (G_j = R i_on² / hA, d_lim < 1: average-current limit, κ: resistance of the
               martensite phase, y_j: the wire's contraction fraction, 1 − y_j ≈ martensite)
   2. thermal  θ_j by the exact step (7d)/(7f) with time constant T_j and, with convection,
@@ -107,6 +109,7 @@ class ActuatorParams:
     fatigue_stroke: float = 0.0      # fatigue_drift: stroke loss fraction after shakedown
     fatigue_cycles: float = 20.0     # fatigue_drift: shakedown constant N_f [cycles]
     duty_limit: float = 1.0          # current_limit: duty above which mean current saturates
+    duty_limit_sharpness: float = 0.0  # current_limit: p-norm sharpness n (0 = hard min)
     hysteresis: PlayHysteresis = field(default_factory=flexinol_hysteresis)
 
     def __post_init__(self):
@@ -118,7 +121,8 @@ class ActuatorParams:
                      'fatigue_cycles'):
             if getattr(self, name) <= 0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name)}')
-        for name in ('tau_fast_s', 'delay_s', 'gain_ratio_b', 'stroke_ratio_b'):
+        for name in ('tau_fast_s', 'delay_s', 'gain_ratio_b', 'stroke_ratio_b',
+                     'duty_limit_sharpness'):
             if getattr(self, name) < 0:
                 raise ValueError(f'{name} must be non-negative, got {getattr(self, name)}')
         if not 0.0 < self.duty_limit <= 1.0:
@@ -144,7 +148,8 @@ class ActuatorParams:
         """Parameter vector of `simulate_wires` (see KERNEL_PARAMS for the order)."""
         return np.array([self.tau_s, self.gain_k, self.ambient_c, self.tau_fast_s,
                          self.convection_beta_per_k, self.ambient_gain, self.phase_kappa,
-                         self.stress_k, self.gain_ratio_b, self.tau_ratio_b, self.duty_limit])
+                         self.stress_k, self.gain_ratio_b, self.tau_ratio_b, self.duty_limit,
+                         self.duty_limit_sharpness])
 
     def with_changes(self, **changes):
         """A copy with some fields changed (validated)."""
@@ -171,7 +176,7 @@ class ActuatorParams:
 
 KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_beta_per_k',
                  'ambient_gain', 'phase_kappa', 'stress_k', 'gain_ratio_b', 'tau_ratio_b',
-                 'duty_limit')
+                 'duty_limit', 'duty_limit_sharpness')
 
 
 @njit(cache=True)
@@ -190,8 +195,8 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     """
     n = duty_a.shape[0]
     m = r.shape[0]
-    tau, gain, amb0, tau_f, beta, k_amb, kappa, sigma, g_b, t_b, d_lim = (
-        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
+    tau, gain, amb0, tau_f, beta, k_amb, kappa, sigma, g_b, t_b, d_lim, sharp = (
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11])
     out_ya = np.empty(n)
     out_yb = np.empty(n)
     out_ta = np.empty(n)
@@ -213,7 +218,12 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
         y_prev_b = state[5]
         for j in range(2):
             d = duty_a[k] if j == 0 else duty_b[k]
-            d = min(max(d, 0.0), d_lim)
+            d = max(d, 0.0)
+            if sharp > 0.0:
+                x = d / d_lim
+                d = d_lim * x / (1.0 + x ** sharp) ** (1.0 / sharp)
+            else:
+                d = min(d, d_lim)
             y_own = y_prev_a if j == 0 else y_prev_b
             y_other = y_prev_b if j == 0 else y_prev_a
             g = gain if j == 0 else gain * g_b

@@ -54,6 +54,7 @@ EFFECTS = (
     ('fatigue_stroke', 0.0, 0.5, 'fatigue: stroke loss fraction after shakedown'),
     ('fatigue_cycles', 1.0, 1e6, 'fatigue: shakedown constant [transformation cycles]'),
     ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
+    ('duty_limit_sharpness', 0.0, 30.0, 'current limit: p-norm sharpness (0 = hard corner)'),
 )
 
 

@@ -175,9 +175,11 @@ class FatigueDrift(Effect):
 class CurrentLimit(Effect):
     """Current limiter of the amplifier engages within the used duty range: the mean
     current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
-    saturates), so high duties heat less than the linear PWM law predicts."""
+    saturates), so high duties heat less than the linear PWM law predicts. Current ripple
+    rounds the corner: sat(d) = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, n free."""
     name = 'current_limit'
-    parameters = {'duty_limit': (0.02, 1.0, 0.9)}
+    # sharpness n of the p-norm limiter: ~2 (very soft) to 30 (practically a hard corner)
+    parameters = {'duty_limit': (0.02, 1.0, 0.9), 'duty_limit_sharpness': (2.0, 30.0, 6.0)}
     signature = ('model over-heats only at the highest duties: error at full contraction '
                  'after large duty steps, none at small duties')
 
