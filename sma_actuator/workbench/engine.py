@@ -20,6 +20,7 @@ Candidates are listed best first: significant ones by held-out improvement, then
 rest by held-out improvement; the first significant one is the missing effect.
 """
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -128,7 +129,7 @@ def _kind(effects, kind):
     return kind or 'modified'
 
 
-def fit_model(data, effects=(), kind=None, progress=None, base_fit=None, input_hooks=None):
+def fit_model(data, effects=(), kind=None, progress=None, base_fit=None):
     """Fit the base model plus `effects` (catalog names) to dynamic or static data.
 
     kind: 'classical' or 'modified' PI base (default modified; 'saturation' forces
@@ -156,13 +157,13 @@ def fit_model(data, effects=(), kind=None, progress=None, base_fit=None, input_h
         fit = ModelFit(effects, kind, {}, res.train, res.validation, res.prediction, val_ids,
                        int(np.count_nonzero(res.model.w)) + 2, pred_train - y_train, res.model)
     else:
-        fit = _fit_dynamic(data, effects, kind, base_fit, input_hooks)
+        fit = _fit_dynamic(data, effects, kind, base_fit)
     if progress:
         progress(1, 1, 'fit done')
     return fit
 
 
-def _fit_dynamic(data, effects, kind, base_fit, input_hooks):
+def _fit_dynamic(data, effects, kind, base_fit):
     free = {}
     start = dict(base_fit.values) if base_fit else {}
     alternatives = []
@@ -173,25 +174,21 @@ def _fit_dynamic(data, effects, kind, base_fit, input_hooks):
             start.setdefault(k, v)
         if base_fit is None or e not in base_fit.effects:
             alternatives += eff.alternative_starts(data)
-    hooks = _input_hooks(effects)
-
-    def input_hook(da, db, amb, values):
-        return _hooked_inputs(effects, da, db, amb, values)
+    hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
     res = None
     for alt in [{}] + alternatives:
         trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if same_grid else None,
-                            start=dict(start, **alt), input_hook=input_hook if hooks else None,
+                            start=dict(start, **alt), input_hook=hook,
                             ref=base_fit.params.hysteresis if same_grid else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
-    n = len(data)
     resid = res.prediction[res.burn_in:] - data.position[res.burn_in:]
     t = res.trajectory
     return ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
                     res.n_train, res.n_parameters, resid, res.params,
                     {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
-                     'y_b': t.y_b, 'time': data.time[:n]}, res.grid)
+                     'y_b': t.y_b, 'time': data.time}, res.grid)
 
 
 def correlation_length(residual):
