@@ -17,7 +17,10 @@ held-out error. A candidate is significant only if
      so a missing effect must fit the training window at least as well; a held-out gain
      with a worse training fit is luck of the split, not physics.
 Candidates are listed best first: significant ones by held-out improvement, then the
-rest by held-out improvement; the first significant one is the missing effect.
+rest by held-out improvement; the first significant one is the missing effect. When
+several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
+cannot really tell them apart: the one with the lowest BIC (the more parsimonious
+explanation) is put first and every explanation in the group says so.
 """
 from dataclasses import dataclass, field
 from functools import partial
@@ -30,6 +33,9 @@ from ..core.identification import DynamicData, fit_dynamic, fit_static, scores
 from .effects import CATALOG, Effect, get_effect
 
 MIN_IMPROVEMENT = 0.20
+# significant candidates whose held-out gains are this close (relative to the best) explain
+# the data about equally well: parsimony (BIC) decides between them
+NEAR_TIE = 0.10
 
 
 @dataclass
@@ -225,7 +231,7 @@ class Diagnosis:
         """The `sma-model diagnose --json` document."""
         return {'baseline': {'effects': list(self.baseline.effects),
                              'validation_nrmse': self.baseline.validation['nrmse']},
-                'candidates': [{k: v for k, v in c.items() if k != 'fit'}
+                'candidates': [{k: v for k, v in c.items() if k not in ('fit', 'bic')}
                                for c in self.candidates],
                 'missing_effect': self.missing_effect}
 
@@ -276,11 +282,28 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
                                     f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
                                     f'BIC change {bic1 - bic0:+.1f}; '
                                     f'fitted {values}. Signature: {eff.signature}.'),
-                    'fit': fit})
+                    'fit': fit, 'bic': float(bic1)})
     if progress:
         progress(len(names), len(names), 'done')
     out.sort(key=lambda c: (c['significant'],
                             -np.inf if c['improvement'] is None else c['improvement']),
              reverse=True)
+    _settle_near_ties(out)
     best = next((c['effect'] for c in out if c['significant']), None)
     return Diagnosis(base, out, best)
+
+
+def _settle_near_ties(ranked):
+    """Among significant candidates within NEAR_TIE of the best gain, lowest BIC first."""
+    sig = [c for c in ranked if c['significant']]
+    if len(sig) < 2:
+        return
+    group = [c for c in sig if c['improvement'] >= (1.0 - NEAR_TIE) * sig[0]['improvement']]
+    if len(group) < 2:
+        return
+    group.sort(key=lambda c: c['bic'])
+    names = ', '.join(c['effect'] for c in group)
+    for c in group:
+        c['explanation'] += (f' Near tie: {names} improve the held-out error within '
+                             f'{100 * NEAR_TIE:.0f} % of each other; ranked by BIC (parsimony).')
+    ranked[:len(group)] = group
