@@ -1,9 +1,9 @@
 """Bad input through real topics: NaN / inf / out-of-range setpoint and duty are rejected
 with a diagnostics WARN and the last valid value is kept."""
 import math
-import time
 
 import pytest
+from conftest import spin_until
 
 rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
@@ -38,13 +38,6 @@ class TopicProbe:
                 s.level == DiagnosticStatus.WARN and text in s.message]
 
 
-def spin_until(executor, condition, timeout_s):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        executor.spin_once(timeout_sec=0.01)
-        if condition():
-            return True
-    return False
 
 
 @pytest.fixture

@@ -11,6 +11,7 @@ import sys
 import time
 
 import pytest
+from conftest import spin_until
 
 rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
@@ -24,13 +25,6 @@ from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
 
 
-def spin_until(executor, condition, timeout_s):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        executor.spin_once(timeout_sec=0.01)
-        if condition():
-            return True
-    return False
 
 
 def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ros_context):

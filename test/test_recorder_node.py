@@ -1,8 +1,8 @@
 """RecorderNode in-process: records what was published, byte for byte, read back by rosbags."""
-import time
 
 import numpy as np
 import pytest
+from conftest import spin_until
 from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
@@ -39,12 +39,7 @@ CONTRACT = {  # topic: (type, qos, message for index i)
 
 
 def _spin_until(executor, condition, timeout_s=8.0):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.02)
-        if condition():
-            return True
-    return False
+    return spin_until(executor, condition, timeout_s, step_s=0.02)
 
 
 @pytest.fixture

@@ -4,10 +4,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from conftest import spin_until
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
@@ -51,12 +51,7 @@ def _write_bag(path, count=30, period_ms=10):
 
 
 def _spin_until(executor, condition, timeout_s=10.0):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.02)
-        if condition():
-            return True
-    return False
+    return spin_until(executor, condition, timeout_s, step_s=0.02)
 
 
 @pytest.fixture
