@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from sma_actuator.core import actuator as act
 from sma_actuator.core.sensor import Potentiometer
@@ -79,7 +80,7 @@ def duty_pattern(n, dt, seed=0):
 
 def test_streaming_step_equals_batch_simulate():
     params = act.ActuatorParams(tau_fast_s=0.2, phase_kappa=0.3, stress_k=4.0,
-                                convection_beta_per_k=0.004, delay_s=0.05)
+                                convection_exponent=0.25, delay_s=0.05)
     dt, sub = 0.025, 5                     # the actuator splits 25 ms into 5 ms sub-steps
     da, db = duty_pattern(800, dt)
     plant = act.AntagonisticActuator(params, max_substep_s=dt / sub)
@@ -119,15 +120,19 @@ def test_duty_limit_lowers_steady_temperature():
     assert t1 == pytest.approx(BASE.ambient_c + 0.5 * BASE.gain_k, abs=1e-3)
 
 
-def test_convection_lowers_hot_temperature_to_its_fixed_point():
-    beta = 0.01
+def test_convection_moves_the_temperature_to_its_fixed_point():
+    n = 0.3
+    gd = 0.5 * BASE.gain_k                      # 70 K excess without convection
     da, db = step_on_a(level=0.5)
-    hot = run(BASE.with_changes(convection_beta_per_k=beta), da, db).theta_a_c[-1]
-    # steady state of hA(θ) = hA0 (1 + β x): x (1 + β x) = G d
-    gd = 0.5 * BASE.gain_k
-    x = (-1 + np.sqrt(1 + 4 * beta * gd)) / (2 * beta)
+    hot = run(BASE.with_changes(convection_exponent=n), da, db).theta_a_c[-1]
+    # steady state of hA(θ) = hA_ref (x / 50 K)^n: x (x / 50)^n = G d
+    x = brentq(lambda x: x * (x / act.CONVECTION_REF_K) ** n - gd, 1.0, 200.0)
     assert hot == pytest.approx(BASE.ambient_c + x, abs=1e-3)
-    assert hot < BASE.ambient_c + gd - 10
+    assert hot < BASE.ambient_c + gd - 5        # above 50 K excess the wire settles cooler
+    warm = run(BASE.with_changes(convection_exponent=n), *step_on_a(level=0.2)).theta_a_c[-1]
+    x = brentq(lambda x: x * (x / act.CONVECTION_REF_K) ** n - 0.2 * BASE.gain_k, 1.0, 200.0)
+    assert warm == pytest.approx(BASE.ambient_c + x, abs=1e-3)
+    assert warm > BASE.ambient_c + 0.2 * BASE.gain_k + 1   # below it, warmer
 
 
 def time_to_half(y, dt=0.05):
@@ -198,16 +203,20 @@ def test_sensor_polynomial_and_fatigue():
     np.testing.assert_allclose(c2 - p0, 0.1 * p0 ** 2, atol=1e-12)
     c5 = run(BASE.with_changes(sensor_c5_rad=0.05), da, db, dt).position_rad
     np.testing.assert_allclose(c5 - p0, 0.05 * p0 ** 5, atol=1e-12)
-    # fatigue: shakedown g(N) = 1 - exp(-N/N_f) over cycles N = (sum|dy_a| + sum|dy_b|)/2
-    traj = run(BASE, da, db, dt)
-    cycles = 0.5 * np.cumsum(np.abs(np.diff(traj.y_a, prepend=traj.y_a[0]))
-                             + np.abs(np.diff(traj.y_b, prepend=traj.y_b[0])))
-    assert cycles[-1] > 5          # the square wave drives several full transformations
-    g = 1.0 - np.exp(-cycles / 4.0)
-    drift = run(BASE.with_changes(fatigue_offset_rad=0.2, fatigue_cycles=4.0), da, db, dt)
-    np.testing.assert_allclose(drift.position_rad - p0, 0.2 * g, atol=1e-12)
-    shrink = run(BASE.with_changes(fatigue_stroke=0.3, fatigue_cycles=4.0), da, db, dt)
-    np.testing.assert_allclose(shrink.position_rad, p0 * (1 - 0.3 * g), atol=1e-12)
+    # fatigue: each wire's shakedown g_j = 1 - exp(-N_j/N_f) over its own cycles N_j = sum|dy_j|/2
+    da_b = np.where(np.arange(n) % 60 < 20, 0.0, 0.5) * (np.arange(n) > 300)   # b cycles later
+    traj = run(BASE, da, da_b, dt)
+    ga, gb = (1.0 - np.exp(-0.5 * np.cumsum(np.abs(np.diff(y, prepend=y[0]))) / 4.0)
+              for y in (traj.y_a, traj.y_b))
+    assert ga[-1] > 0.7 and gb[300] < 1e-9 and gb[-1] > 0.5   # both wires transform, b later
+    p1 = traj.position_rad
+    drift = run(BASE.with_changes(fatigue_offset_rad=0.2, fatigue_offset_b_rad=-0.1,
+                                  fatigue_cycles=4.0), da, da_b, dt)
+    np.testing.assert_allclose(drift.position_rad - p1, 0.2 * ga - 0.1 * gb, atol=1e-12)
+    shrink = run(BASE.with_changes(fatigue_stroke=0.3, fatigue_cycles=4.0), da, da_b, dt)
+    g, s_b = BASE.stroke_rad, BASE.stroke_ratio_b
+    np.testing.assert_allclose(shrink.position_rad - p1, -0.3 * g * (traj.y_a * ga
+                                                              - s_b * traj.y_b * gb), atol=1e-12)
 
 
 def test_potentiometer_round_trip_within_one_lsb():

@@ -241,6 +241,7 @@ class PwmDeadTime(Effect):
     and the rest is rescaled, d' = max(d - d0, 0) / (1 - d0)."""
     name = 'pwm_dead_time'
     parameters = {'dead_duty': (0.0, 0.4, 0.05)}
+    neutral = {'dead_duty': 0.0}
     signature = 'model heats too much at small duties'
 
     def transform_inputs(self, duty_a, duty_b, ambient, values):

@@ -6,13 +6,13 @@ STRONG cases: diagnose names the hidden effect first and adding it cuts the held
 NRMSE by at least 40 %; on the null cases nothing is significant. Cases vary magnitude,
 excitation (open/closed loop), noise and sample rate (20-100 Hz).
 
-WEAK cases are effects whose footprint the flexible base model largely absorbs on this
-simulator (convection and phase resistance mostly distort the static
-duty -> temperature map, which the hysteresis thresholds and time constant soak up;
-saturating fatigue is small after shakedown): the residual they leave is comparable to the
-base model's own floor (Preisach data vs Prandtl-Ishlinskii model, ~1-2 % NRMSE). For them
-the tested property is the one that still matters to an engineer: diagnose never names a
-wrong effect, and when it names the right one the held-out error falls by >= 20 %.
+WEAK cases are records where the effect is real but the held-out window is not a fair
+test of it: phase resistance (~15 % more heating power while a wire is martensitic) shows
+mostly in a regime the training window hardly visits (base NRMSE 0.74 % training, 2.6 %
+held-out; 0.12 / 0.38 % on the null twin), so kappa fitted on the training window recovers
+only about a quarter of the held-out error. For
+them the tested property is the one that still matters to an engineer: diagnose never
+names a wrong effect, and when it names the right one the held-out error falls by >= 20 %.
 `benchmarks/bench_hidden_effects.py` prints the detection rate over magnitudes.
 """
 import pytest
@@ -33,11 +33,12 @@ STRONG = [
     ('asymmetric_wires', 1.5, 'open', 0.002, 40, 20),
     ('sensor_nonlinearity', 1.5, 'open', 0.002, 40, 21),
     ('current_limit', 1.2, 'open', 0.002, 60, 23),
+    ('fatigue_drift', 1.5, 'open', 0.002, 40, 22),
+    ('fatigue_drift', 0.3, 'open', 0.002, 40, 290),
+    ('convection', 1.5, 'open', 0.002, 40, 16),
 ]
 WEAK = [
-    ('convection', 1.5, 'open', 0.002, 40, 16),
     ('phase_resistance', 1.0, 'open', 0.001, 40, 18),
-    ('fatigue_drift', 1.5, 'open', 0.002, 40, 22),
 ]
 DURATION_S = 480.0
 
@@ -50,7 +51,7 @@ def _data(effect, magnitude, excitation, noise, rate, seed):
 
 
 @pytest.mark.parametrize('effect,magnitude,excitation,noise,rate,seed', STRONG,
-                         ids=[f'{c[0]}-{c[2]}-{c[4]}Hz' for c in STRONG])
+                         ids=[f'{c[0]}-M{c[1]}-{c[2]}-{c[4]}Hz' for c in STRONG])
 def test_diagnose_names_the_hidden_effect(effect, magnitude, excitation, noise, rate, seed):
     data = _data(effect, magnitude, excitation, noise, rate, seed)
     # saturation is judged against a classical-PI base (the paper's eq. 5 model)

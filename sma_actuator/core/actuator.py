@@ -7,17 +7,21 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
               d_lim x / (1 + x^n)^(1/n), x = d / d_lim (a limiter with current ripple);
               (G_j = R i_on² / hA, d_lim < 1: average-current limit, κ: resistance of the
               martensite phase, y_j: the wire's contraction fraction, 1 − y_j ≈ martensite)
-  2. thermal  θ_j by the exact step (7d)/(7f) with time constant T_j and, with convection,
-              hA(θ) = hA0 (1 + β (θ − θa)), i.e. T and G divided by (1 + β (θ − θa))
+  2. thermal  θ_j by the exact step (7d)/(7f) with time constant T_j and, with natural
+              convection, hA(θ) = hA_ref (|θ − θa| / ΔT_ref)^n (Nusselt ∝ Rayleigh^n, so
+              h ∝ ΔT^n; n ≈ 0.06-0.25 for thin wires, more with radiation; ΔT_ref = 50 K),
+              i.e. T and G divided by that factor (T, G: the values at 50 K excess)
               ambient θa(t) = θa0 + k_amb (θa_meas(t) − θa0)
   3. hysteresis  y_j = H[θ_j + x − σ y_other]: one modified-PI operator (`PlayHysteresis`)
               shared by both wires, output = contraction fraction (0 cold, 1 hot); σ [K] is
               the stress coupling (Clausius-Clapeyron shift from the antagonist's pull)
   4. shaft    φ = φ0 + g (y_a − s_b y_b)           (pulley kinematics, g = ε L / 2r)
-  5. sensor   φ_meas(t) = p(φ(t − D)) with functional fatigue: over N accumulated
-              transformation cycles the stroke shrinks by f_s g(N) and the zero drifts by
-              f_o g(N), g(N) = 1 − exp(−N / N_f) (shakedown: most of the loss in the first
-              cycles; N_f large gives a linear drift), and the potentiometer polynomial
+              with functional fatigue of each wire over its own accumulated transformation
+              cycles N_j = Σ|Δy_j| / 2: its recoverable stroke shrinks by f_s g_j and its
+              plastic elongation moves the zero by f_j g_j, g_j = 1 − exp(−N_j / N_f)
+              (shakedown: most of the loss in the first cycles; N_f large: linear drift):
+              φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b
+  5. sensor   φ_meas(t) = p(φ(t − D)), the potentiometer polynomial
               p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad).
 
 Steps 1-3 run in one compiled kernel (`simulate_wires`); steps 4-5 are vectorised output
@@ -93,7 +97,7 @@ class ActuatorParams:
     # effects (neutral values = off)
     tau_fast_s: float = 0.0          # fast_dynamics: lag on the heat input [s]
     delay_s: float = 0.0             # delay: transport delay of the measured position [s]
-    convection_beta_per_k: float = 0.0   # convection: hA(θ) = hA0 (1 + β (θ − θa))
+    convection_exponent: float = 0.0  # convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n
     ambient_gain: float = 1.0        # ambient_drift: weight of measured ambient deviations
                                      # (1 = physical; the workbench base model uses 0)
     phase_kappa: float = 0.0         # phase_resistance: power factor 1 + κ (1 − y)
@@ -105,9 +109,10 @@ class ActuatorParams:
     sensor_c3_rad: float = 0.0       # sensor_nonlinearity: cubic term [rad at 1 rad]
     sensor_c4_rad: float = 0.0       # sensor_nonlinearity: 4th-order term [rad at 1 rad]
     sensor_c5_rad: float = 0.0       # sensor_nonlinearity: 5th-order term [rad at 1 rad]
-    fatigue_offset_rad: float = 0.0  # fatigue_drift: zero drift after shakedown [rad]
+    fatigue_offset_rad: float = 0.0  # fatigue_drift: zero drift from wire a after shakedown [rad]
+    fatigue_offset_b_rad: float = 0.0  # fatigue_drift: zero drift from wire b [rad]
     fatigue_stroke: float = 0.0      # fatigue_drift: stroke loss fraction after shakedown
-    fatigue_cycles: float = 20.0     # fatigue_drift: shakedown constant N_f [cycles]
+    fatigue_cycles: float = 20.0     # fatigue_drift: shakedown constant N_f [cycles of a wire]
     duty_limit: float = 1.0          # current_limit: duty above which mean current saturates
     duty_limit_sharpness: float = 0.0  # current_limit: p-norm sharpness n (0 = hard min)
     hysteresis: PlayHysteresis = field(default_factory=flexinol_hysteresis)
@@ -147,7 +152,7 @@ class ActuatorParams:
     def kernel_vector(self):
         """Parameter vector of `simulate_wires` (see KERNEL_PARAMS for the order)."""
         return np.array([self.tau_s, self.gain_k, self.ambient_c, self.tau_fast_s,
-                         self.convection_beta_per_k, self.ambient_gain, self.phase_kappa,
+                         self.convection_exponent, self.ambient_gain, self.phase_kappa,
                          self.stress_k, self.gain_ratio_b, self.tau_ratio_b, self.duty_limit,
                          self.duty_limit_sharpness])
 
@@ -174,7 +179,9 @@ class ActuatorParams:
         return cls(**d)
 
 
-KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_beta_per_k',
+# reference excess temperature of the convection law [K]: T and G are the values there
+CONVECTION_REF_K = 50.0
+KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_exponent',
                  'ambient_gain', 'phase_kappa', 'stress_k', 'gain_ratio_b', 'tau_ratio_b',
                  'duty_limit', 'duty_limit_sharpness')
 
@@ -195,7 +202,7 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     """
     n = duty_a.shape[0]
     m = r.shape[0]
-    tau, gain, amb0, tau_f, beta, k_amb, kappa, sigma, g_b, t_b, d_lim, sharp = (
+    tau, gain, amb0, tau_f, conv_n, k_amb, kappa, sigma, g_b, t_b, d_lim, sharp = (
         p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11])
     out_ya = np.empty(n)
     out_yb = np.empty(n)
@@ -229,8 +236,8 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
             g = gain if j == 0 else gain * g_b
             t = tau if j == 0 else tau * t_b
             theta = state[j]
-            if beta != 0.0:
-                f = max(1.0 + beta * (theta - th_amb), 0.05)
+            if conv_n != 0.0:   # hA(θ) / hA_ref; below 0.5 K excess the law is held constant
+                f = max((max(abs(theta - th_amb), 0.5) / CONVECTION_REF_K) ** conv_n, 0.05)
                 g = g / f
                 t = t / f
             q_inf = g * d * (1.0 + kappa * (1.0 - y_own))
@@ -262,16 +269,24 @@ def initial_state(params, theta_c=None):
     return np.concatenate([[theta, theta, 0.0, 0.0, y, y], s, s, [theta, theta]])
 
 
-def shaft_angle(params, y_a, y_b):
-    """Step 4: φ = φ0 + g (y_a − s_b y_b) [rad]."""
-    return params.offset_rad + params.stroke_rad * (np.asarray(y_a) - params.stroke_ratio_b * np.asarray(y_b))
+def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
+    """Step 4: φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad],
+    g_j = g(N_j) the fatigue shakedown of wire j after N_j cycles (none if cycles are None)."""
+    y_a, y_b = np.asarray(y_a, float), np.asarray(y_b, float)
+    if cycles_a is None:
+        return params.offset_rad + params.stroke_rad * (y_a - params.stroke_ratio_b * y_b)
+    g_a, g_b = fatigue_progress(params, cycles_a), fatigue_progress(params, cycles_b)
+    loss = params.fatigue_stroke
+    return (params.offset_rad + params.stroke_rad * (
+        y_a * (1.0 - loss * g_a) - params.stroke_ratio_b * y_b * (1.0 - loss * g_b))
+        + params.fatigue_offset_rad * g_a + params.fatigue_offset_b_rad * g_b)
 
 
-def transformation_cycles(y_a, y_b, n0=0.0):
-    """Accumulated transformation cycles N = n0 + (Σ|Δy_a| + Σ|Δy_b|) / 2 per sample
-    (one full contraction and release of one wire counts 1)."""
-    dy = np.abs(np.diff(y_a, prepend=y_a[0])) + np.abs(np.diff(y_b, prepend=y_b[0]))
-    return n0 + 0.5 * np.cumsum(dy)
+def transformation_cycles(y, n0=0.0):
+    """Accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample
+    (a full contraction and release counts 1)."""
+    y = np.asarray(y, float)
+    return n0 + 0.5 * np.cumsum(np.abs(np.diff(y, prepend=y[0])))
 
 
 def fatigue_progress(params, cycles):
@@ -280,17 +295,10 @@ def fatigue_progress(params, cycles):
 
 
 def sensor_polynomial(params, phi):
-    """Potentiometer reading p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad]."""
+    """Step 5 without the delay, the potentiometer reading
+    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad]."""
     return phi + phi * phi * (params.sensor_c2_rad + phi * (params.sensor_c3_rad + phi * (
         params.sensor_c4_rad + phi * params.sensor_c5_rad)))
-
-
-def sensor_map(params, phi, cycles):
-    """Step 5 without the delay: fatigue after N cycles, then the potentiometer polynomial."""
-    g = fatigue_progress(params, cycles)
-    phi0 = params.offset_rad
-    phi = phi0 + (phi - phi0) * (1.0 - params.fatigue_stroke * g) + params.fatigue_offset_rad * g
-    return sensor_polynomial(params, phi)
 
 
 def delay_signal(x, dt, delay_s):
@@ -335,8 +343,8 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
     st = initial_state(params) if state is None else state
     ya, yb, ta, tb = simulate_wires(duty_a, duty_b, amb, dist, dt, params.kernel_vector(),
                                     h.r, h.lo, h.hi, h.w, h.k1, h.y0, st, *NO_FEATURES)
-    phi = shaft_angle(params, ya, yb)
-    phi = sensor_map(params, phi, transformation_cycles(ya, yb))
+    phi = shaft_angle(params, ya, yb, transformation_cycles(ya), transformation_cycles(yb))
+    phi = sensor_polynomial(params, phi)
     return Trajectory(delay_signal(phi, dt, params.delay_s), ta, tb, ya, yb)
 
 
@@ -356,7 +364,7 @@ class AntagonisticActuator:
         """Both wires at ambient (or theta_c), cold and fully martensitic, shaft at rest."""
         self._state = initial_state(self.params, theta_c)
         self._time = 0.0
-        self._cycles = 0.0
+        self._cycles = np.zeros(2)         # per wire
         self._history = [(0.0, self._measured(self._state[4], self._state[5]))]
 
     @property
@@ -370,8 +378,8 @@ class AntagonisticActuator:
         return self._state[4:6].copy()
 
     def _measured(self, y_a, y_b):
-        phi = shaft_angle(self.params, y_a, y_b)
-        return float(sensor_map(self.params, phi, self._cycles))
+        phi = shaft_angle(self.params, y_a, y_b, self._cycles[0], self._cycles[1])
+        return float(sensor_polynomial(self.params, phi))
 
     def step(self, duty_a, duty_b, dt, ambient_c=None, disturbance_k=0.0):
         """Hold the duties for dt seconds; return the (delayed, sensed) shaft angle [rad]."""
@@ -391,7 +399,7 @@ class AntagonisticActuator:
                                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
                                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
                                       h.y0, self._state, *NO_FEATURES)
-        self._cycles += 0.5 * float(np.sum(np.abs(self._state[4:6] - y_before)))
+        self._cycles += 0.5 * np.abs(self._state[4:6] - y_before)
         self._time += dt
         self._history.append((self._time, self._measured(self._state[4], self._state[5])))
         return self._delayed()

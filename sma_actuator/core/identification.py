@@ -22,7 +22,7 @@
 from dataclasses import dataclass, field, fields
 
 import numpy as np
-from scipy.optimize import least_squares, nnls
+from scipy.optimize import least_squares, lsq_linear, nnls
 
 from . import actuator as act
 from . import kernels
@@ -31,9 +31,9 @@ from .validate import finite_array, same_length
 
 # parameters that feed the hysteresis output back into its own regressors
 FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles',
-                   'fatigue_offset_rad')
+                   'fatigue_offset_rad', 'fatigue_offset_b_rad')
 # parameters solved linearly with the weights (no outer search)
-LINEAR_PARAMS = ('fatigue_offset_rad',)
+LINEAR_PARAMS = ('fatigue_offset_rad', 'fatigue_offset_b_rad')
 
 # regression rows are thinned to about this rate: the thermal lag (~1 s) makes denser
 # samples nearly redundant, and the Gram matrix cost scales with the row count
@@ -93,18 +93,33 @@ def _nnls_with_offset(X, y, free_cols=0):
     """
     if free_cols:
         X = np.hstack([X, -X[:, -free_cols:]])
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    Xs = X / scale
-    G = Xs.T @ Xs
-    G[np.diag_indices_from(G)] += RIDGE * np.trace(G) / len(G)   # also: ± column pairs are collinear
-    R = np.linalg.cholesky(G).T
-    z = np.linalg.solve(R.T, Xs.T @ y)
+    R, z, scale = _reduced(X, y)
     b, _ = nnls(R, z, maxiter=50 * X.shape[1])
     b = b / scale
     if free_cols:
         b = np.concatenate([b[:-2 * free_cols], b[-2 * free_cols:-free_cols] - b[-free_cols:]])
     return b
+
+
+def _reduced(X, y):
+    """(R, z, scale): Cholesky factor R of the column-scaled Gram matrix (plus the ridge;
+    it also keeps ± column pairs apart) and z = R^-T Xs^T y, so that ‖R c − z‖ has the
+    minimiser of ‖X b − y‖ with b = c / scale, on an m x m instead of an n x m system."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    G = Xs.T @ Xs
+    G[np.diag_indices_from(G)] += RIDGE * np.trace(G) / len(G)
+    R = np.linalg.cholesky(G).T
+    return R, np.linalg.solve(R.T, Xs.T @ y), scale
+
+
+def _box_ls(X, y, lower, upper):
+    """min ‖X b − y‖ subject to lower <= b <= upper, on the same Cholesky-reduced system as
+    `_nnls_with_offset` (bounded-variable least squares, scipy's BVLS)."""
+    R, z, scale = _reduced(X, y)
+    sol = lsq_linear(R, z, bounds=(lower * scale, upper * scale), method='bvls')
+    return sol.x / scale
 
 
 @dataclass
@@ -257,7 +272,8 @@ class _Problem:
                     else np.full(len(data), base.ambient_c))
 
     def regressors(self, params, n):
-        """Linear-part columns over the first n samples: [s^a − s_b s^b, u_a − s_b u_b, (t), 1]."""
+        """Linear-part columns over the first n samples: [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1]
+        (element states scaled by each wire's fatigue stroke loss; g_j its fatigue drift)."""
         d, g, ref = self.data, self.grid, self.ref
         m = g.n_operators
         fa, fb = np.empty((n, m)), np.empty((n, m))
@@ -268,19 +284,30 @@ class _Problem:
                                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
                                           ref.k1, ref.y0, st, fa, fb, ua, ub)
         sb = params.stroke_ratio_b
+        drift = any(k in self.names for k in LINEAR_PARAMS)
+        if self.fatigued(params):
+            # each wire's shakedown over its own cycles in the reference (previous round)
+            # model; the stroke loss scales the contraction from cold, so element states
+            # count from their lower saturation (then y_j = w (s_j − lo) / stroke exactly)
+            g_a = act.fatigue_progress(params, act.transformation_cycles(ya))
+            g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
+            keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
+            cold = np.where(np.isfinite(g.lo), g.lo, 0.0)
+            fa = (fa - cold) * keep_a[:, None]
+            fb = (fb - cold) * keep_b[:, None]
+            ua, ub = ua * keep_a, ub * keep_b
         fa -= sb * fb
-        X = np.column_stack([fa, (ua - sb * ub) if self.linear_term else np.zeros(n)])
-        fatigue = 'fatigue_offset_rad' in self.names or params.fatigue_stroke
-        if fatigue:   # shakedown over the cycles of the reference (previous round) model
-            g_n = act.fatigue_progress(params, act.transformation_cycles(ya, yb))
-            X *= (1.0 - params.fatigue_stroke * g_n)[:, None]
+        cols = [fa, (ua - sb * ub) if self.linear_term else np.zeros(n)]
+        if drift:
+            cols += [g_a, g_b]
+        X = np.column_stack(cols)
         if params.delay_s > 0:
             X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])
-        cols = [X]
-        if 'fatigue_offset_rad' in self.names:
-            cols.append(g_n[:, None])
-        cols.append(np.ones((n, 1)))
-        return np.hstack(cols)
+        return np.hstack([X, np.ones((n, 1))])
+
+    def fatigued(self, params):
+        """True when the regressors carry functional fatigue (see `regressors`)."""
+        return any(k in self.names for k in LINEAR_PARAMS) or params.fatigue_stroke != 0.0
 
     def inputs(self, values):
         """(duty_a, duty_b, ambient) seen by the thermal model (after a plug-in hook)."""
@@ -296,19 +323,26 @@ class _Problem:
         sl = slice(self.burn_in, n, self.stride)
         X = self.regressors(params, n)[sl]
         y = self.data.position[sl]
-        free_cols = 2 if 'fatigue_offset_rad' in self.names else 1
         # regress the angle before the sensor on y − (p(y) − y), the first-order inverse of
         # the potentiometer polynomial p (no iteration, so no divergence); the residual is
         # the exact forward one, p(X b) − y, which the outer search minimises
         target = 2.0 * y - act.sensor_polynomial(params, y)
-        b = _nnls_with_offset(X, target, free_cols=free_cols)
+        if any(k in self.names for k in LINEAR_PARAMS):
+            # weights >= 0, each wire's fatigue drift within half the measured travel (beyond
+            # that g_a − g_b with huge cancelling offsets fits start-up transients), offset free
+            bound = 0.5 * float(np.ptp(self.data.position))
+            m = X.shape[1] - 3
+            lower = np.r_[np.zeros(m), -bound, -bound, -np.inf]
+            upper = np.r_[np.full(m, np.inf), bound, bound, np.inf]
+            b = _box_ls(X, target, lower, upper)
+        else:
+            b = _nnls_with_offset(X, target, free_cols=1)
         return b, act.sensor_polynomial(params, X @ b) - y
 
     def with_linear(self, params, b):
         """ActuatorParams carrying the NNLS solution as a normalised hysteresis + shaft gain."""
         g, m = self.grid, self.grid.n_operators
         w, k1 = b[:m], b[m]
-        drift = b[m + 1] if len(b) == m + 3 else params.fatigue_offset_rad
         if not np.all(np.isfinite(b)):
             raise ValueError('the fit diverged (non-finite weights); check the data and bounds')
         if self.linear_term:   # unbounded (classical) operator: no [0, 1] range to normalise to
@@ -317,10 +351,13 @@ class _Problem:
             y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
             stroke = max(y_hi - y_lo, 1e-9)
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
-        # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b)
-        offset = b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
-        return params.with_changes(hysteresis=h, stroke_rad=stroke, offset_rad=offset,
-                                   fatigue_offset_rad=drift)
+        # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b), unless the
+        # (fatigue) regressors already count the states from cold
+        offset = b[-1] if self.fatigued(params) else b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
+        drift = {}
+        if len(b) == m + 4:
+            drift = {'fatigue_offset_rad': b[m + 1], 'fatigue_offset_b_rad': b[m + 2]}
+        return params.with_changes(hysteresis=h, stroke_rad=stroke, offset_rad=offset, **drift)
 
     def optimise(self, free, x0, max_nfev):
         """Outer nonlinear least squares over the free parameters (linear part projected out)."""
@@ -331,9 +368,22 @@ class _Problem:
         hi = np.array([free[k][1] for k in names], float)
         x0 = np.clip(np.array([x0[k] for k in names], float), lo, hi)
 
+        feedback = any(k in FEEDBACK_PARAMS for k in names)
+
         def residual(x):
             self.values = dict(zip(names, x))
-            return self.solve(set_values(self.base, self.values))[1]
+            params = set_values(self.base, self.values)
+            b, res = self.solve(params)
+            if not feedback:
+                return res
+            # feedback effects: the regression saw the previous round's hysteresis in the
+            # loop; score the model's own free-run simulation instead (thinned like the rows)
+            n = self.n_train
+            da, db, amb = self.inputs(self.values)
+            pos = act.simulate(self.with_linear(params, b), da[:n], db[:n], self.data.dt,
+                               ambient_c=amb[:n]).position_rad
+            sl = slice(self.burn_in, n, self.stride)
+            return pos[sl] - self.data.position[sl]
 
         span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1.0))
         sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=span, diff_step=1e-3,
@@ -341,22 +391,53 @@ class _Problem:
         return dict(zip(names, sol.x)), sol.cost
 
 
-def _active_range(h, u_lo, u_hi):
-    """Where a fitted saturated-play operator moves: the 1-99 % quantiles of its rising
-    edges weighted by each element's output span, widened by one band; and the 99 %
-    quantile of its half-widths."""
+def _mass_points(x, mass, cell, lo, hi, n):
+    """n sorted points in [lo, hi]: a third spread evenly, the rest at quantiles of `mass`
+    located at x, each mass smeared uniformly over ±cell/2 (a piecewise-linear CDF).
+
+    The fine grid's resolution then follows where the coarse fit put its weight (where the
+    wire transforms), while the even third keeps elements everywhere else in the range.
+    """
+    n_even = max(2, n // 3)
+    even = np.linspace(lo, hi, n_even)
+    ok = (mass > 0) & np.isfinite(x)
+    if not ok.any() or n <= n_even:
+        return np.linspace(lo, hi, n)
+    knots = np.concatenate([x[ok] - 0.5 * cell, x[ok] + 0.5 * cell])
+    order = np.argsort(knots)
+    knots = np.clip(knots[order], lo, hi)
+    steps = np.concatenate([mass[ok], -mass[ok]])[order] / cell    # density changes at knots
+    density = np.cumsum(steps)[:-1]
+    cdf = np.concatenate([[0.0], np.cumsum(np.maximum(density, 0.0) * np.diff(knots))])
+    if cdf[-1] <= 0:
+        return np.linspace(lo, hi, n)
+    q = (np.arange(n - n_even) + 0.5) / (n - n_even)
+    dense = np.interp(q * cdf[-1], cdf, knots)
+    return np.sort(np.concatenate([even, dense]))
+
+
+def _adaptive_grid(h, u_lo, u_hi, n_widths, n_centres):
+    """Fine saturated-play grid refined where the coarse fit `h` carries its weight.
+
+    Rising edges (centre + half-width) and half-widths are placed by `_mass_points` from the
+    coarse elements' output spans w (hi − lo); each element's band covers the cell between
+    its edge and the neighbouring edges, so the edges tile [u_lo, u_hi] for every width.
+    """
     mass = h.w * (h.hi - h.lo)
     if not np.isfinite(mass).all() or mass.sum() <= 0:
-        return u_lo, u_hi, 0.5 * (u_hi - u_lo)
-
-    def quantile(x, q):
-        order = np.argsort(x)
-        cdf = np.cumsum(mass[order]) / mass.sum()
-        return float(x[order][min(np.searchsorted(cdf, q), len(x) - 1)])
+        return play_grid(u_lo, u_hi, 'modified', n_widths, n_centres), (n_widths, n_centres)
     edges = 0.5 * (h.lo + h.hi) + h.r
-    band = float(np.max(h.hi - h.lo))
-    a, b = quantile(edges, 0.01) - band, quantile(edges, 0.99) + band
-    return max(u_lo, a), min(u_hi, b), quantile(h.r, 0.99) + 0.5 * band
+    cell = float(np.max(h.hi - h.lo))
+    r_top = float(np.max(h.r[mass > 1e-3 * mass.sum()])) + cell
+    e = _mass_points(edges, mass, cell, u_lo, u_hi, n_centres)
+    e = e[np.concatenate([[True], np.diff(e) > 1e-3 * (u_hi - u_lo)])]
+    widths = _mass_points(h.r, mass, max(np.diff(np.unique(h.r)).min(initial=cell), 1e-6),
+                          0.0, r_top, n_widths)
+    widths = np.unique(np.round(widths, 9))
+    bounds = np.concatenate([[u_lo], 0.5 * (e[1:] + e[:-1]), [u_hi]])
+    rows = [(r, b0 - r, b1 - r) for r in widths for b0, b1 in zip(bounds[:-1], bounds[1:])]
+    r, lo, hi = np.array(rows).T
+    return PlayHysteresis(r, lo, hi, np.zeros(r.size)), (len(widths), len(e))
 
 
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
@@ -418,22 +499,26 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         values.update(best[0])
         prob.values = values
         b, _ = prob.solve(set_values(base, values))
+        shape = None
         if kind == 'modified':
             coarse_h = prob.with_linear(set_values(base, values), b).hysteresis
-            a, bb, r_max = _active_range(coarse_h, u_lo, u_hi)
-            grid = _fine_grid(a, bb, r_max, *fine)
+            grid, shape = _adaptive_grid(coarse_h, u_lo, u_hi, *fine)
         else:
             grid = play_grid(u_lo, u_hi, kind, *fine)
-        # keep the elements the fine solution uses, and their grid neighbours, so the
-        # nonlinear search (and every candidate effect after it) works on a small basis
+        # re-search on the whole fine grid (the coarse grid's optimum can be off), then keep
+        # the elements the fine solution uses, and their grid neighbours, so the nonlinear
+        # search (and every candidate effect after it) works on a small basis
         prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
+        values['tau_s'] = _scan_tau(prob, base, values, free['tau_s'])
+        values.update(prob.optimise(free, values, max_nfev)[0])
+        prob.values = values
         b, _ = prob.solve(set_values(base, values))
-        grid = _prune(grid, b[:grid.n_operators], fine if kind == 'modified' else None)
+        grid = _prune(grid, b[:grid.n_operators], shape)
     prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
     if ref is not None:
         prob.ref = ref
     feedback = any(k in FEEDBACK_PARAMS for k in free)
-    params = None
+    best = None
     for _ in range(rounds if feedback else 1):
         v, _ = prob.optimise(free, values, max_nfev)
         values.update(v)
@@ -442,7 +527,13 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         b, _ = prob.solve(params)
         params = prob.with_linear(params, b)
         prob.ref = params.hysteresis
-    values['fatigue_offset_rad'] = params.fatigue_offset_rad
+        # the regression sees the feedback through the previous round's model; keep the
+        # round whose own free-run simulation fits the training window best
+        err = _free_run_rmse(prob, params, values) if feedback else 0.0
+        if best is None or err < best[0]:
+            best = (err, params, dict(values))
+    _, params, values = best
+    values.update({k: getattr(params, k) for k in LINEAR_PARAMS})
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
     traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
@@ -453,15 +544,25 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
                       prob.grid)
 
 
-def _fine_grid(u_lo, u_hi, r_max, n_widths, n_centres):
-    """Saturated plays whose rising edges tile [u_lo, u_hi], half-widths 0..r_max."""
-    band = 0.5 * (u_hi - u_lo) / n_centres
-    rows = []
-    for r in np.linspace(0.0, r_max, n_widths):
-        centres = np.linspace(u_lo + band - r, u_hi - band - r, n_centres)
-        rows += [(r, c - band, c + band) for c in centres]
-    r, lo, hi = np.array(rows).T
-    return PlayHysteresis(r, lo, hi, np.zeros(r.size))
+def _free_run_rmse(prob, params, values):
+    """RMS free-run error of `params` on the training window of `prob`."""
+    n = prob.n_train
+    da, db, amb = prob.inputs(values)
+    pos = act.simulate(params, da[:n], db[:n], prob.data.dt, ambient_c=amb[:n]).position_rad
+    sl = slice(prob.burn_in, n)
+    return float(np.sqrt(np.mean((pos[sl] - prob.data.position[sl]) ** 2)))
+
+
+def _scan_tau(prob, base, values, bounds, factors=(0.6, 0.75, 0.9, 1.0, 1.15, 1.35, 1.6)):
+    """Time constant with the lowest training error among `factors` x the current one
+    (within bounds): the error surface in τ has several basins on closed-loop data, and
+    the coarse grid's optimum can sit in the wrong one."""
+    best = (np.inf, values['tau_s'])
+    for f in factors:
+        tau = float(np.clip(f * values['tau_s'], bounds[0], bounds[1]))
+        cost = float(np.sum(prob.solve(set_values(base, dict(values, tau_s=tau)))[1] ** 2))
+        best = min(best, (cost, tau))
+    return best[1]
 
 
 def _prune(grid, w, shape, centre_steps=3):

@@ -39,7 +39,7 @@ from . import common as c
 EFFECTS = (
     ('tau_fast_s', 0.0, 2.0, 'fast dynamics: lag on the heat input [s] (Fig. 13 tau)'),
     ('delay_s', 0.0, 1.0, 'transport delay of the measured position [s]'),
-    ('convection_beta_per_k', 0.0, 0.05, 'convection: hA(θ) = hA0 (1 + β (θ − θa)) [1/K]'),
+    ('convection_exponent', 0.0, 1.0, 'convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n'),
     ('ambient_gain', 0.0, 2.0, 'weight of measured ambient deviations'),
     ('phase_kappa', 0.0, 1.0, 'phase resistance: heating factor 1 + κ (1 − y)'),
     ('stress_k', 0.0, 50.0, 'stress coupling: shift per unit antagonist contraction [K]'),
@@ -50,9 +50,10 @@ EFFECTS = (
     ('sensor_c3_rad', -0.2, 0.2, 'potentiometer cubic term [rad at 1 rad]'),
     ('sensor_c4_rad', -0.2, 0.2, 'potentiometer 4th-order term [rad at 1 rad]'),
     ('sensor_c5_rad', -0.2, 0.2, 'potentiometer 5th-order term [rad at 1 rad]'),
-    ('fatigue_offset_rad', -0.3, 0.3, 'fatigue: zero drift after shakedown [rad]'),
+    ('fatigue_offset_rad', -0.3, 0.3, 'fatigue: zero drift from wire a after shakedown [rad]'),
+    ('fatigue_offset_b_rad', -0.3, 0.3, 'fatigue: zero drift from wire b after shakedown [rad]'),
     ('fatigue_stroke', 0.0, 0.5, 'fatigue: stroke loss fraction after shakedown'),
-    ('fatigue_cycles', 1.0, 1e6, 'fatigue: shakedown constant [transformation cycles]'),
+    ('fatigue_cycles', 1.0, 1e6, 'fatigue: shakedown constant [cycles of one wire]'),
     ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
     ('duty_limit_sharpness', 0.0, 30.0, 'current limit: p-norm sharpness (0 = hard corner)'),
 )

@@ -19,6 +19,7 @@ class Effect:
     name = ''
     signature = ''
     parameters = {}       # ActuatorParams field (or 'tau_s') -> (lower, upper, start)
+    neutral = {}          # plug-in parameter -> value at which the effect is off (ablation)
     needs_dynamic = True  # needs time-series data (not quasi-static curves)
     kind = None           # hysteresis kind the effect requires ('modified' for saturation)
 
@@ -30,6 +31,11 @@ class Effect:
     def applicable(self, data):
         """None if the effect can be fitted on `data`, else the reason it cannot."""
         return None
+
+    def bounds(self, params):
+        """(lower, upper, start) per parameter for a model with `params` (ActuatorParams);
+        default: the `parameters` table."""
+        return dict(self.parameters)
 
     def start_values(self, data):
         """Starting values of the parameters for `data` (default: the table's start)."""
@@ -85,11 +91,13 @@ class Delay(Effect):
 
 
 class Convection(Effect):
-    """Temperature-dependent heat transfer: the film coefficient of natural convection
-    (and radiation) rises with the wire's excess temperature, hA(θ) = hA0 (1 + β (θ − θa)),
-    so a hot wire loses heat faster and settles cooler than the linear eq. (7) predicts."""
+    """Temperature-dependent heat transfer: natural convection from a thin wire follows
+    Nu ∝ Ra^n, so the film coefficient grows with the excess temperature as h ∝ ΔT^n
+    (n ≈ 0.06-0.25 for thin wires, radiation adds to it), hA(θ) = hA_ref (|θ − θa| / 50 K)^n:
+    a hot wire loses heat faster and settles cooler than the linear eq. (7) predicts, and a
+    wire near ambient cools more slowly."""
     name = 'convection'
-    parameters = {'convection_beta_per_k': (-0.005, 0.05, 0.004)}
+    parameters = {'convection_exponent': (-0.2, 1.0, 0.2)}
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
                  'high duty, cooling faster than modelled; residual correlates with temperature')
 
@@ -120,6 +128,19 @@ class PhaseResistance(Effect):
     name = 'phase_resistance'
     # NiTi resistivity differs by roughly 10-25 % between the phases: |κ| <= 0.35
     parameters = {'phase_kappa': (-0.35, 0.35, 0.1)}
+
+    def bounds(self, params):
+        """The sign of κ follows from the drive: a wire's resistance falls as it contracts
+        (martensite R_M above austenite R_A, the basis of SMA self-sensing), so a current-
+        limited amplifier (P = R I_max², V/R > I_max) heats martensite more (κ >= 0) and a
+        voltage drive (P = V²/R) heats it less (κ <= 0). Without this a wrong-signed κ
+        would act as a generic correction of the hysteresis shape."""
+        limited = params.supply_v / params.resistance_ohm > params.current_limit_a
+        return {'phase_kappa': (0.0, 0.35, 0.1) if limited else (-0.35, 0.0, -0.1)}
+
+    def start_values(self, data):
+        """Start inside the drive's sign range (see `bounds`)."""
+        return {}
     signature = ('heating from cold is faster (or slower) than modelled while cooling '
                  'matches; error concentrated in heating from the martensite side')
 
@@ -157,13 +178,17 @@ class SensorNonlinearity(Effect):
 
 
 class FatigueDrift(Effect):
-    """Functional fatigue: with accumulated transformation cycles N the recoverable strain
-    shrinks and the zero point drifts (plastic strain, stabilised martensite), most of it in
-    the first cycles (shakedown): stroke loss f_s g(N) and offset f_o g(N) with
-    g(N) = 1 − exp(−N / N_f)."""
+    """Functional fatigue: with its accumulated transformation cycles N_j each wire loses
+    recoverable strain and elongates plastically (stabilised martensite), most of it in the
+    first cycles (shakedown). Each wire fatigues by its own use: stroke loss f_s g_j and a
+    zero drift f_j g_j of the shaft, g_j = 1 − exp(−N_j / N_f), N_j = Σ|Δy_j| / 2."""
     name = 'fatigue_drift'
-    parameters = {'fatigue_stroke': (-0.5, 0.8, 0.05), 'fatigue_cycles': (0.5, 5000.0, 20.0),
-                  'fatigue_offset_rad': (-float('inf'), float('inf'), 0.0)}
+    # N_f >= 2 cycles: a faster shakedown ends within the first transformation, where
+    # g_a − g_b with huge cancelling offsets only fits the start-up transient
+    parameters = {'fatigue_stroke': (-0.5, 0.8, 0.05), 'fatigue_cycles': (2.0, 5000.0, 20.0),
+                  # solved linearly with the weights, each within ± half the measured travel
+                  'fatigue_offset_rad': (-float('inf'), float('inf'), 0.0),
+                  'fatigue_offset_b_rad': (-float('inf'), float('inf'), 0.0)}
 
     def alternative_starts(self, data):
         """Slow (nearly linear) drift is a different basin from a quick shakedown."""
@@ -187,6 +212,11 @@ class CurrentLimit(Effect):
         """Start below the largest duty used, where the limit has an effect to fit."""
         top = float(max(np.max(data.duty_a), np.max(data.duty_b)))
         return {'duty_limit': float(np.clip(0.85 * top, 0.02, 1.0))}
+
+    def alternative_starts(self, data):
+        """Also start from a limit that is not engaged (the base model itself): a weak
+        limit is a small departure from there, not from a knee inside the duty range."""
+        return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
 CATALOG = {}

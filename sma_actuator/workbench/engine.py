@@ -9,20 +9,26 @@ diagnose: for every candidate effect not in the model, refit with it (same hyste
 grid, warm-started from the base fit, so candidates compete on equal terms) and score the
 held-out error. A candidate is significant only if
   1. held-out NRMSE falls by at least `min_improvement` (default 20 %),
-  2. the Bayesian information criterion of the free-run residual over the whole record
-     agrees: BIC = n_eff ln(RSS / n) + k ln(n_eff) falls, with n_eff the number of
+  2. the Bayesian information criterion of the free-run residual on the training window
+     agrees: BIC = n_eff ln(RSS / n) + k ln(n_eff) falls by more than `BIC_MARGIN` (10,
+     "very strong" evidence), with n_eff the number of
      effectively independent samples (n divided by the base residual's correlation
-     length), so serially correlated residuals cannot buy extra parameters cheaply, and
-  3. the training error does not grow (within 2 %): the candidate nests the base model,
-     so a missing effect must fit the training window at least as well; a held-out gain
-     with a worse training fit is luck of the split, not physics.
+     length), so serially correlated residuals cannot buy extra parameters cheaply; the
+     candidate nests the base model, so a missing effect must fit the training window
+     better by more than its extra parameters' worth (a held-out gain without that is luck
+     of the split, not physics), and
+  3. the effect itself carries the gain (ablation): the candidate with its effect's
+     parameters put back to the base model's values, keeping the re-fitted weights and
+     time constant, must be worse on held-out data by at least `min_improvement` again;
+     otherwise the gain came from re-tuning the base (a fragile held-out window), not
+     from the effect.
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
 cannot really tell them apart: the one with the lowest BIC (the more parsimonious
 explanation) is put first and every explanation in the group says so.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import partial
 
 import numpy as np
@@ -33,6 +39,9 @@ from ..core.identification import DynamicData, fit_dynamic, fit_static, scores
 from .effects import CATALOG, Effect, get_effect
 
 MIN_IMPROVEMENT = 0.20
+# BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
+# scale; smaller falls come from training fits that hardly changed
+BIC_MARGIN = 10.0
 # significant candidates whose held-out gains are this close (relative to the best) explain
 # the data about equally well: parsimony (BIC) decides between them
 NEAR_TIE = 0.10
@@ -60,7 +69,7 @@ class ModelFit:
     prediction: object
     split: object
     n_parameters: int
-    residual: np.ndarray                  # free-run residual after the burn-in, whole record
+    residual: np.ndarray                  # free-run residual on the training window
     params: object = None                 # ActuatorParams (dynamic) or PlayHysteresis (static)
     signals: dict = field(default_factory=dict)
     grid: object = None
@@ -173,9 +182,11 @@ def _fit_dynamic(data, effects, kind, base_fit):
     free = {}
     start = dict(base_fit.values) if base_fit else {}
     alternatives = []
+    params = (base_fit.params if base_fit is not None and hasattr(base_fit.params, 'hysteresis')
+              else act.ActuatorParams())
     for e in effects:
         eff = get_effect(e)
-        free.update(eff.parameters)
+        free.update(eff.bounds(params))
         for k, v in eff.start_values(data).items():
             start.setdefault(k, v)
         if base_fit is None or e not in base_fit.effects:
@@ -189,7 +200,8 @@ def _fit_dynamic(data, effects, kind, base_fit):
                             ref=base_fit.params.hysteresis if same_grid else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
-    resid = res.prediction[res.burn_in:] - data.position[res.burn_in:]
+    train = slice(res.burn_in, res.n_train)
+    resid = res.prediction[train] - data.position[train]
     t = res.trajectory
     return ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
                     res.n_train, res.n_parameters, resid, res.params,
@@ -271,8 +283,12 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
         v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
         gain = (v0 - v1) / v0 if v0 > 0 else 0.0
         bic1 = bic(fit.residual, _free_count(fit), n_eff)
-        train_ok = fit.train['rmse'] <= 1.02 * base.train['rmse']
-        significant = bool(gain >= min_improvement and bic1 < bic0 and train_ok)
+        v_abl = _ablated_nrmse(data, base, fit, eff)
+        # switching the effect off in the refit must cost at least the improvement asked of it
+        carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
+        significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried)
+        ablation = ('' if v_abl is None else
+                    f', {100 * v_abl:.2f} % with the effect switched off in the refit')
         values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
                            if k in eff.parameters) or 'modified PI (saturated plays)'
         out.append({'effect': name, 'validation_nrmse': v1, 'improvement': gain,
@@ -280,7 +296,7 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
                     'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                                     f'({100 * gain:+.0f} % better), training NRMSE '
                                     f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
-                                    f'BIC change {bic1 - bic0:+.1f}; '
+                                    f'BIC change {bic1 - bic0:+.1f}{ablation}; '
                                     f'fitted {values}. Signature: {eff.signature}.'),
                     'fit': fit, 'bic': float(bic1)})
     if progress:
@@ -291,6 +307,27 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     _settle_near_ties(out)
     best = next((c['effect'] for c in out if c['significant']), None)
     return Diagnosis(base, out, best)
+
+
+def _ablated_nrmse(data, base, fit, eff):
+    """Held-out NRMSE of the candidate `fit` with the effect's parameters back at the base
+    model's values (re-fitted weights and time constant kept); None when that cannot be
+    done (static data, no parameters, plug-in parameters without a neutral value)."""
+    if isinstance(data, StaticData) or not eff.parameters or fit.split is None:
+        return None
+    names = {f.name for f in fields(act.ActuatorParams)}
+    changes, plug = {}, {}
+    for k in eff.parameters:
+        if k in names:
+            changes[k] = getattr(base.params, k)
+        elif k in eff.neutral:
+            plug[k] = eff.neutral[k]
+        else:
+            return None
+    off = ModelFit(fit.effects, fit.kind, dict(fit.values, **plug), None, None, None, None, 0,
+                   None, fit.params.with_changes(**changes))
+    pred = off.trajectory(data).position_rad
+    return scores(data.position[fit.split:], pred[fit.split:])['nrmse']
 
 
 def _settle_near_ties(ranked):

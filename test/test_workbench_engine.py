@@ -1,0 +1,115 @@
+"""Workbench engine internals: the adaptive hysteresis grid, per-wire fatigue
+identification, the drive-dependent sign of phase resistance and the ablation check."""
+import numpy as np
+import pytest
+
+from sma_actuator.core import actuator as act
+from sma_actuator.core import identification as idn
+from sma_actuator.core.hysteresis import PlayHysteresis
+from sma_actuator.workbench import engine
+from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
+from test_core_identification import multilevel_duty
+
+DT = 1.0 / 40.0
+
+
+def record(params, seconds=300.0, seed=5, noise=0.002):
+    rng = np.random.default_rng(seed)
+    n = int(seconds / DT)
+    da, db = multilevel_duty(n, DT, rng)
+    y = act.simulate(params, da, db, DT).position_rad + rng.normal(0, noise, n)
+    return idn.DynamicData(np.arange(n) * DT, da, db, y)
+
+
+def test_mass_points_concentrate_where_the_coarse_weight_is():
+    x = np.array([10.0, 60.0, 90.0])
+    mass = np.array([0.0, 1.0, 0.0])
+    pts = idn._mass_points(x, mass, 4.0, 0.0, 100.0, 24)
+    assert len(pts) == 24 and np.all(np.diff(pts) >= 0)
+    assert pts[0] == 0.0 and pts[-1] == 100.0                   # the even third spans the range
+    assert np.sum(np.abs(pts - 60.0) <= 2.0) >= 16              # the rest sits in the mass cell
+
+
+def test_adaptive_grid_tiles_the_range_for_every_width():
+    coarse = PlayHysteresis(np.array([5.0, 10.0]), np.array([50.0, 45.0]),
+                            np.array([56.0, 51.0]), np.array([0.3, 0.7]))
+    grid, (n_w, n_c) = idn._adaptive_grid(coarse, 20.0, 100.0, 6, 12)
+    assert grid.n_operators == n_w * n_c
+    for r in np.unique(grid.r):
+        rows = grid.r == r
+        edges_lo, edges_hi = grid.lo[rows] + r, grid.hi[rows] + r   # where the element rises
+        order = np.argsort(edges_lo)
+        assert edges_lo[order][0] == pytest.approx(20.0) and edges_hi[order][-1] == pytest.approx(100.0)
+        np.testing.assert_allclose(edges_lo[order][1:], edges_hi[order][:-1])   # no gaps
+    # finer where the coarse weight is (both elements rise at 58 degC, cells 6 K wide)
+    cells = grid.hi[grid.r == 0] - grid.lo[grid.r == 0]
+    centre = 0.5 * (grid.lo[grid.r == 0] + grid.hi[grid.r == 0])
+    near, far = np.abs(centre - 58.0) < 3.0, np.abs(centre - 58.0) > 20.0
+    assert near.sum() >= 6 and cells[near].max() < 0.1 * cells[far].min()
+
+
+def test_fatigue_of_each_wire_is_identified_from_its_own_cycles():
+    truth = act.ActuatorParams(fatigue_stroke=0.3, fatigue_cycles=12.0,
+                               fatigue_offset_rad=-0.1, fatigue_offset_b_rad=0.04)
+    data = record(truth)
+    base = engine.fit_model(data, ())
+    fit = engine.fit_model(data, ['fatigue_drift'], base_fit=base)
+    assert fit.validation['nrmse'] < 0.5 * base.validation['nrmse']
+    assert fit.values['fatigue_stroke'] == pytest.approx(0.3, abs=0.06)
+    assert fit.values['fatigue_cycles'] == pytest.approx(12.0, rel=0.35)
+    drift = fit.values['fatigue_offset_rad'] - fit.values['fatigue_offset_b_rad']
+    assert drift == pytest.approx(-0.14, abs=0.04)
+
+
+def test_phase_resistance_sign_follows_the_drive():
+    eff = get_effect('phase_resistance')
+    limited = act.ActuatorParams()                   # 5 V / 13.75 ohm > 0.35 A: current limited
+    lo, hi, start = eff.bounds(limited)['phase_kappa']
+    assert lo == 0.0 and hi > 0 and lo <= start <= hi
+    voltage = act.ActuatorParams(supply_v=3.0)       # 0.22 A < 0.35 A: P = V^2 / R
+    lo, hi, start = eff.bounds(voltage)['phase_kappa']
+    assert hi == 0.0 and lo < 0 and lo <= start <= hi
+
+
+def test_ablation_removes_the_gain_of_a_real_effect():
+    data = record(act.ActuatorParams(delay_s=0.25), seconds=240.0, seed=8)
+    base = engine.fit_model(data, ())
+    fit = engine.fit_model(data, ['delay'], base_fit=base)
+    v_abl = engine._ablated_nrmse(data, base, fit, get_effect('delay'))
+    assert fit.validation['nrmse'] < 0.5 * base.validation['nrmse']
+    assert v_abl > 2.0 * fit.validation['nrmse']      # switched off, the gain is gone
+    assert engine._ablated_nrmse(data, base, fit, get_effect('saturation')) is None
+
+
+class DeadTime(Effect):
+    """PWM dead time d0: d' = max(d - d0, 0) / (1 - d0) (a plug-in with its own parameter)."""
+    name = 'test_dead_time'
+    parameters = {'dead_duty': (0.0, 0.4, 0.05)}
+    neutral = {'dead_duty': 0.0}
+
+    def transform_inputs(self, duty_a, duty_b, ambient, values):
+        d0 = values['dead_duty']
+        return (np.clip((duty_a - d0) / (1 - d0), 0, 1),
+                np.clip((duty_b - d0) / (1 - d0), 0, 1), ambient)
+
+
+def test_plugin_ablation_uses_its_neutral_value():
+    rng = np.random.default_rng(4)
+    n = int(240 / DT)
+    da, db = multilevel_duty(n, DT, rng)
+    heat = [np.clip((d - 0.2) / 0.8, 0, 1) for d in (da, db)]
+    y = act.simulate(act.ActuatorParams(), heat[0], heat[1], DT).position_rad
+    data = idn.DynamicData(np.arange(n) * DT, da, db, y + rng.normal(0, 0.002, n))
+    register_effect(DeadTime)
+    try:
+        diag = engine.diagnose(data, candidates=['test_dead_time', 'delay'])
+        top = diag.candidates[0]
+        assert diag.missing_effect == 'test_dead_time' and top['improvement'] > 0.3
+        assert 'with the effect switched off in the refit' in top['explanation']
+        v_abl = engine._ablated_nrmse(data, diag.baseline, top['fit'], DeadTime())
+        assert v_abl > 2.0 * top['validation_nrmse']
+        DeadTime.neutral = {}                                     # no neutral value: no ablation
+        assert engine._ablated_nrmse(data, diag.baseline, top['fit'], DeadTime()) is None
+    finally:
+        DeadTime.neutral = {'dead_duty': 0.0}
+        CATALOG.pop('test_dead_time', None)
