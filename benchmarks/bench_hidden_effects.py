@@ -49,17 +49,21 @@ def main():
     effects = args.effects or [e for e in EFFECTS if e != 'none']
     print(f'{args.duration:.0f} s at {args.rate:.0f} Hz, {args.excitation} loop, noise {args.noise} rad')
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} {"improvement":>11s} {"s":>5s}')
-    rows = [run_case('none', 0.0, args, seed=100)]
+    rows = []
+
+    def report(row):
+        rows.append(row)
+        imp = '-' if row['improvement'] is None else f'{100 * row["improvement"]:+.0f} %'
+        ok = row['named'] == (None if row['effect'] == 'none' else row['effect'])
+        print(f'{row["effect"]:20s} {row["magnitude"]:5.2f} {100 * row["base_nrmse"]:9.2f}% '
+              f'{str(row["named"]):>20s} {imp:>11s} {row["seconds"]:5.0f}  '
+              f'{"ok" if ok else "MISSED"}', flush=True)
+
+    report(run_case('none', 0.0, args, seed=100))
     for k, effect in enumerate(effects):
         lo, hi = EFFECTS[effect]['magnitude_range']
         for j, m in enumerate(sorted({lo, 0.5 * (lo + hi), hi})):
-            rows.append(run_case(effect, m, args, seed=200 + 10 * k + j))
-    for r in rows:
-        imp = '-' if r['improvement'] is None else f'{100 * r["improvement"]:+.0f} %'
-        ok = r['named'] == (None if r['effect'] == 'none' else r['effect'])
-        print(f'{r["effect"]:20s} {r["magnitude"]:5.2f} {100 * r["base_nrmse"]:9.2f}% '
-              f'{str(r["named"]):>20s} {imp:>11s} {r["seconds"]:5.0f}  {"ok" if ok else "MISSED"}',
-              flush=True)
+            report(run_case(effect, m, args, seed=200 + 10 * k + j))
     hits = sum(r['named'] == (None if r['effect'] == 'none' else r['effect']) for r in rows)
     print(f'named correctly: {hits} of {len(rows)}')
 

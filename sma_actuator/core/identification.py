@@ -271,9 +271,10 @@ class _Problem:
         self.amb = (data.ambient if data.ambient is not None
                     else np.full(len(data), base.ambient_c))
 
-    def regressors(self, params, n):
-        """Linear-part columns over the first n samples: [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1]
-        (element states scaled by each wire's fatigue stroke loss; g_j its fatigue drift)."""
+    def regressors(self, params, n, rows=slice(None)):
+        """Linear-part columns over the first n samples, at `rows` of them:
+        [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1] (element states scaled by each wire's
+        fatigue stroke loss; g_j its fatigue drift)."""
         d, g, ref = self.data, self.grid, self.ref
         m = g.n_operators
         fa, fb = np.empty((n, m)), np.empty((n, m))
@@ -291,19 +292,25 @@ class _Problem:
             # count from their lower saturation (then y_j = w (s_j − lo) / stroke exactly)
             g_a = act.fatigue_progress(params, act.transformation_cycles(ya))
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
+        # the (large) element arrays are thinned to the regression rows first; a delay
+        # interpolates in time, so it needs them whole
+        take = slice(None) if params.delay_s > 0 else rows
+        fa, fb, ua, ub = fa[take], fb[take], ua[take], ub[take]
+        if self.fatigued(params):
+            g_a, g_b = g_a[take], g_b[take]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
             cold = np.where(np.isfinite(g.lo), g.lo, 0.0)
             fa = (fa - cold) * keep_a[:, None]
             fb = (fb - cold) * keep_b[:, None]
             ua, ub = ua * keep_a, ub * keep_b
         fa -= sb * fb
-        cols = [fa, (ua - sb * ub) if self.linear_term else np.zeros(n)]
+        cols = [fa, (ua - sb * ub) if self.linear_term else np.zeros(len(ua))]
         if drift:
             cols += [g_a, g_b]
         X = np.column_stack(cols)
         if params.delay_s > 0:
-            X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])
-        return np.hstack([X, np.ones((n, 1))])
+            X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])[rows]
+        return np.hstack([X, np.ones((len(X), 1))])
 
     def fatigued(self, params):
         """True when the regressors carry functional fatigue (see `regressors`)."""
@@ -321,7 +328,7 @@ class _Problem:
         """NNLS weights on the training window; returns (coefficients, training residual)."""
         n = self.n_train
         sl = slice(self.burn_in, n, self.stride)
-        X = self.regressors(params, n)[sl]
+        X = self.regressors(params, n, sl)
         y = self.data.position[sl]
         # regress the angle before the sensor on y − (p(y) − y), the first-order inverse of
         # the potentiometer polynomial p (no iteration, so no divergence); the residual is
