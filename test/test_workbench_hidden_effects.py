@@ -46,6 +46,7 @@ WEAK = [
 ]
 DURATION_S = 480.0
 ARGS = 'effect,magnitude,excitation,noise,rate,seed'
+BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
 def _diagnose_case(case):
@@ -70,10 +71,20 @@ def diagnosed(request):
              if item.module.__name__ == __name__ and hasattr(item, 'callspec')]
     cases = list(dict.fromkeys(cases))
     workers = max(1, min(len(cases), len(os.sched_getaffinity(0))))
-    # spawn, not fork: earlier tests in this process may have left DDS threads behind
-    spawn = multiprocessing.get_context('spawn')
-    with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
-        return dict(zip(cases, pool.map(_diagnose_case, cases)))
+    # one BLAS thread per worker (the workers already fill the cores); spawn, not fork:
+    # earlier tests in this process may have left DDS threads behind
+    saved = {k: os.environ.get(k) for k in BLAS_THREADS}
+    os.environ.update({k: '1' for k in BLAS_THREADS} if workers > 1 else {})
+    try:
+        spawn = multiprocessing.get_context('spawn')
+        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
+            return dict(zip(cases, pool.map(_diagnose_case, cases)))
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 @pytest.mark.parametrize(ARGS, STRONG, ids=[f'{c[0]}-M{c[1]}-{c[2]}-{c[4]}Hz' for c in STRONG])
