@@ -312,6 +312,15 @@ class _Problem:
             X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])[rows]
         return np.hstack([X, np.ones((len(X), 1))])
 
+    def free_run_error(self, params, values, step=1):
+        """Free-run simulation minus measurement on the training window (every step-th
+        sample) of the full model `params` with nonlinear `values` (plug-in inputs)."""
+        n = self.n_train
+        da, db, amb = self.inputs(values)
+        pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
+        sl = slice(self.burn_in, n, step)
+        return pos[sl] - self.data.position[sl]
+
     def fatigued(self, params):
         """True when the regressors carry functional fatigue (see `regressors`)."""
         return any(k in self.names for k in LINEAR_PARAMS) or params.fatigue_stroke != 0.0
@@ -360,7 +369,9 @@ class _Problem:
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
         # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b), unless the
         # (fatigue) regressors already count the states from cold
-        offset = b[-1] if self.fatigued(params) else b[-1] - stroke * h.y0 * (1.0 - params.stroke_ratio_b)
+        offset = b[-1]
+        if not self.fatigued(params):
+            offset -= stroke * h.y0 * (1.0 - params.stroke_ratio_b)
         drift = {}
         if len(b) == m + 4:
             drift = {'fatigue_offset_rad': b[m + 1], 'fatigue_offset_b_rad': b[m + 2]}
@@ -385,12 +396,7 @@ class _Problem:
                 return res
             # feedback effects: the regression saw the previous round's hysteresis in the
             # loop; score the model's own free-run simulation instead (thinned like the rows)
-            n = self.n_train
-            da, db, amb = self.inputs(self.values)
-            pos = act.simulate(self.with_linear(params, b), da[:n], db[:n], self.data.dt,
-                               ambient_c=amb[:n]).position_rad
-            sl = slice(self.burn_in, n, self.stride)
-            return pos[sl] - self.data.position[sl]
+            return self.free_run_error(self.with_linear(params, b), self.values, self.stride)
 
         span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1.0))
         sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=span, diff_step=1e-3,
@@ -536,7 +542,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         prob.ref = params.hysteresis
         # the regression sees the feedback through the previous round's model; keep the
         # round whose own free-run simulation fits the training window best
-        err = _free_run_rmse(prob, params, values) if feedback else 0.0
+        err = float(np.mean(prob.free_run_error(params, values) ** 2)) if feedback else 0.0
         if best is None or err < best[0]:
             best = (err, params, dict(values))
     _, params, values = best
@@ -549,15 +555,6 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     return DynamicFit(params, values, scores(y[burn_in:n_train], pred[burn_in:n_train]),
                       scores(y[n_train:], pred[n_train:]), pred, traj, n_train, burn_in, n_par,
                       prob.grid)
-
-
-def _free_run_rmse(prob, params, values):
-    """RMS free-run error of `params` on the training window of `prob`."""
-    n = prob.n_train
-    da, db, amb = prob.inputs(values)
-    pos = act.simulate(params, da[:n], db[:n], prob.data.dt, ambient_c=amb[:n]).position_rad
-    sl = slice(prob.burn_in, n)
-    return float(np.sqrt(np.mean((pos[sl] - prob.data.position[sl]) ** 2)))
 
 
 def _scan_tau(prob, base, values, bounds, factors=(0.6, 0.75, 0.9, 1.0, 1.15, 1.35, 1.6)):
