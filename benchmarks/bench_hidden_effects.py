@@ -8,6 +8,8 @@ Also the null case. This is the figure the hidden-effect tests sample from.
 
     python benchmarks/bench_hidden_effects.py [--duration 480] [--rate 40] [--excitation open]
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
+        [--jobs N]             (records diagnosed in parallel, one BLAS thread each; the
+                                seconds column then includes the contention)
 """
 import argparse
 import sys
@@ -16,14 +18,16 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
+from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import EFFECTS, simulate  # noqa: E402
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402
 from sma_actuator.workbench.engine import diagnose  # noqa: E402
 
 
-def run_case(effect, magnitude, args, seed):
-    """Diagnose one simulated record; returns a result row (dict)."""
+def run_case(case):
+    """Diagnose one simulated record (effect, magnitude, args, seed); returns a result row."""
+    effect, magnitude, args, seed = case
     d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
                  duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise, seed=seed)
     data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
@@ -46,6 +50,7 @@ def main():
     ap.add_argument('--noise', type=float, default=0.002)
     ap.add_argument('--excitation', choices=('open', 'closed'), default='open')
     ap.add_argument('--effects', nargs='*', default=None)
+    ap.add_argument('--jobs', type=int, default=1)
     args = ap.parse_args()
     effects = args.effects or [e for e in EFFECTS if e != 'none']
     print(f'{args.duration:.0f} s at {args.rate:.0f} Hz, {args.excitation} loop, noise {args.noise} rad')
@@ -60,14 +65,15 @@ def main():
               f'{str(row["named"]):>20s} {imp:>11s} {row["seconds"]:5.0f}  '
               f'{"ok" if ok else "MISSED"}', flush=True)
 
-    if not args.effects:
-        report(run_case('none', 0.0, args, seed=100))
+    cases = [] if args.effects else [('none', 0.0, args, 100)]
     order = [e for e in EFFECTS if e != 'none']
     for effect in effects:
         k = order.index(effect)          # same seeds whether run alone or with the others
         lo, hi = EFFECTS[effect]['magnitude_range']
         for j, m in enumerate(sorted({lo, 0.5 * (lo + hi), hi})):
-            report(run_case(effect, m, args, seed=200 + 10 * k + j))
+            cases.append((effect, m, args, 200 + 10 * k + j))
+    for _, row in imap_on_cores(run_case, cases, args.jobs):
+        report(row)
     hits = sum(r['named'] == (None if r['effect'] == 'none' else r['effect']) for r in rows)
     print(f'named correctly: {hits} of {len(rows)}')
 

@@ -15,14 +15,11 @@ them the tested property is the one that still matters to an engineer: diagnose 
 names a wrong effect, and when it names the right one the held-out error falls by >= 20 %.
 `benchmarks/bench_hidden_effects.py` prints the detection rate over magnitudes.
 """
-import multiprocessing
-import os
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
 
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.engine import diagnose
+from support.parallel import imap_on_cores
 from support.richsim import simulate
 
 # effect, magnitude, excitation, noise [rad], rate [Hz], seed
@@ -46,7 +43,6 @@ WEAK = [
 ]
 DURATION_S = 480.0
 ARGS = 'effect,magnitude,excitation,noise,rate,seed'
-BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
 def _diagnose_case(case):
@@ -70,21 +66,7 @@ def diagnosed(request):
              for item in request.session.items
              if item.module.__name__ == __name__ and hasattr(item, 'callspec')]
     cases = list(dict.fromkeys(cases))
-    workers = max(1, min(len(cases), len(os.sched_getaffinity(0))))
-    # one BLAS thread per worker (the workers already fill the cores); spawn, not fork:
-    # earlier tests in this process may have left DDS threads behind
-    saved = {k: os.environ.get(k) for k in BLAS_THREADS}
-    os.environ.update({k: '1' for k in BLAS_THREADS} if workers > 1 else {})
-    try:
-        spawn = multiprocessing.get_context('spawn')
-        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
-            return dict(zip(cases, pool.map(_diagnose_case, cases)))
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+    return dict(imap_on_cores(_diagnose_case, cases))
 
 
 @pytest.mark.parametrize(ARGS, STRONG, ids=[f'{c[0]}-M{c[1]}-{c[2]}-{c[4]}Hz' for c in STRONG])

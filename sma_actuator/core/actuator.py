@@ -188,7 +188,7 @@ KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_expon
 
 @njit(cache=True)
 def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state,
-                   feat_a, feat_b, u_a, u_b):
+                   feat_a, feat_b, u_a, u_b, feat_start, feat_step):
     """Steps 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
     duty_*, ambient [°C], disturbance [K]: length-n inputs, sample k held over
@@ -197,8 +197,10 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     p: `ActuatorParams.kernel_vector()`; r, lo, hi, w, k1, y0: the shared hysteresis.
     state (updated in place, ends at t_n): [θ_a, θ_b, q_a, q_b, y_a, y_b, s_a (N), s_b (N),
     u_a, u_b] with u the hysteresis inputs.
-    feat_a/feat_b (n, N) and u_a/u_b (n,): filled with the element states and hysteresis
-    inputs when they have n rows (the regressors of identification), else ignored.
+    feat_a/feat_b (R, N) and u_a/u_b (R,): when R > 0, filled with the element states and
+    hysteresis inputs at samples feat_start + i feat_step, i < R (the regressors of
+    identification, recorded only at the regression rows: the full-rate arrays would be
+    mostly thrown away); ignored when R = 0.
     """
     n = duty_a.shape[0]
     m = r.shape[0]
@@ -208,17 +210,18 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     out_yb = np.empty(n)
     out_ta = np.empty(n)
     out_tb = np.empty(n)
-    want = feat_a.shape[0] == n
+    n_rows = feat_a.shape[0]
     iu = 6 + 2 * m
     for k in range(n):
         # record the state at t_k
         out_ta[k], out_tb[k], out_ya[k], out_yb[k] = state[0], state[1], state[4], state[5]
-        if want:
+        row = (k - feat_start) // feat_step
+        if k >= feat_start and row < n_rows and (k - feat_start) % feat_step == 0:
             for i in range(m):
-                feat_a[k, i] = state[6 + i]
-                feat_b[k, i] = state[6 + m + i]
-            u_a[k] = state[iu]
-            u_b[k] = state[iu + 1]
+                feat_a[row, i] = state[6 + i]
+                feat_b[row, i] = state[6 + m + i]
+            u_a[row] = state[iu]
+            u_b[row] = state[iu + 1]
         # advance to t_k + dt
         th_amb = amb0 + k_amb * (ambient[k] - amb0)
         y_prev_a = state[4]
@@ -257,7 +260,7 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
     return out_ya, out_yb, out_ta, out_tb
 
 
-NO_FEATURES = (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0))
+NO_FEATURES = (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0), 0, 1)
 
 
 def initial_state(params, theta_c=None):

@@ -277,29 +277,34 @@ class _Problem:
         fatigue stroke loss; g_j its fatigue drift)."""
         d, g, ref = self.data, self.grid, self.ref
         m = g.n_operators
-        fa, fb = np.empty((n, m)), np.empty((n, m))
-        ua, ub = np.empty(n), np.empty(n)
+        # the kernel records the (large) element arrays at the regression rows only; a
+        # delay interpolates in time, so it needs them whole
+        take = range(n)[slice(None) if params.delay_s > 0 else rows]
+        fa, fb = np.empty((len(take), m)), np.empty((len(take), m))
+        ua, ub = np.empty(len(take)), np.empty(len(take))
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(self.values)
         ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
                                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
-                                          ref.k1, ref.y0, st, fa, fb, ua, ub)
+                                          ref.k1, ref.y0, st, fa, fb, ua, ub,
+                                          take.start, max(take.step, 1))
         sb = params.stroke_ratio_b
         drift = any(k in self.names for k in LINEAR_PARAMS)
         if self.fatigued(params):
             # each wire's shakedown over its own cycles in the reference (previous round)
             # model; the stroke loss scales the contraction from cold, so element states
-            # count from their lower saturation (then y_j = w (s_j − lo) / stroke exactly)
+            # count from their coldest trained state (then y_j = w (s_j − lo) / stroke exactly)
             g_a = act.fatigue_progress(params, act.transformation_cycles(ya))
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
-        # the (large) element arrays are thinned to the regression rows first; a delay
-        # interpolates in time, so it needs them whole
-        take = slice(None) if params.delay_s > 0 else rows
-        fa, fb, ua, ub = fa[take], fb[take], ua[take], ub[take]
+        take = slice(take.start, take.stop, take.step)
+        # the range each element's state covers in the training window (either wire, at
+        # these rows): the contraction fraction is normalised over it (see `with_linear`)
+        self.state_lo = np.minimum(fa.min(axis=0), fb.min(axis=0))
+        self.state_hi = np.maximum(fa.max(axis=0), fb.max(axis=0))
         if self.fatigued(params):
             g_a, g_b = g_a[take], g_b[take]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
-            cold = np.where(np.isfinite(g.lo), g.lo, 0.0)
+            cold = np.where(np.isfinite(g.lo), self.state_lo, 0.0)
             fa = (fa - cold) * keep_a[:, None]
             fb = (fb - cold) * keep_b[:, None]
             ua, ub = ua * keep_a, ub * keep_b
@@ -320,6 +325,23 @@ class _Problem:
         pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
         sl = slice(self.burn_in, n, step)
         return pos[sl] - self.data.position[sl]
+
+    def trained_bands(self, params):
+        """`params` with each hysteresis element's saturation band narrowed to the states it
+        took in the training window (either wire).
+
+        Unchanged on the training window (every state visited lies in the narrowed band, so
+        the clip never acts there), but beyond it an element stops where the data stopped
+        showing it: a weight fitted to a small part of an element's band is not extrapolated
+        over the rest, and the model saturates outside the trained range instead.
+        """
+        h = params.hysteresis
+        if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()):
+            return params      # classical (unsaturated) elements: no band to narrow
+        self.ref = h           # the model's own states (feedback effects included)
+        self.regressors(params, self.n_train)
+        return params.with_changes(hysteresis=PlayHysteresis(
+            h.r, self.state_lo, self.state_hi, h.w, h.k1, h.y0))
 
     def fatigued(self, params):
         """True when the regressors carry functional fatigue (see `regressors`)."""
@@ -363,8 +385,11 @@ class _Problem:
             raise ValueError('the fit diverged (non-finite weights); check the data and bounds')
         if self.linear_term:   # unbounded (classical) operator: no [0, 1] range to normalise to
             y_lo, stroke = 0.0, 1.0
-        else:   # normalise so the contraction fraction spans [0, 1] over the grid's range
-            y_lo, y_hi = PlayHysteresis(g.r, g.lo, g.hi, w, k1, 0.0).output_range()
+        else:   # normalise so the contraction fraction spans [0, 1] over the states the
+            # training window shows (over the whole bands, a large weight on an element that
+            # barely moved in training would set a stroke far beyond the measured travel)
+            y_lo, y_hi = PlayHysteresis(g.r, self.state_lo, self.state_hi, w, k1,
+                                        0.0).output_range()
             stroke = max(y_hi - y_lo, 1e-9)
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
         # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b), unless the
@@ -455,7 +480,7 @@ def _adaptive_grid(h, u_lo, u_hi, n_widths, n_centres):
 
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
                 start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
-                rounds=3, input_hook=None, ref=None):
+                rounds=3, input_hook=None, ref=None, refine=2):
     """Fit the actuator model to a dynamic run by free-run simulation error.
 
     data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
@@ -469,6 +494,9 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     transform of the inputs with its own free parameters (names not in ActuatorParams).
     ref: hysteresis on `grid` used in the feedback path of the first round (default: the
     grid with zero weights, i.e. no feedback until the first weights are known).
+    refine: passes of the adaptive fine grid (modified PI, no `grid` given), each placed
+    where the previous pass's weights are. The fitted elements' bands are narrowed to the
+    states they took in the training window (`_Problem.trained_bands`).
     Returns a `DynamicFit` scored by free-run error on training and held-out data.
     """
     if not isinstance(data, DynamicData):
@@ -513,19 +541,23 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         prob.values = values
         b, _ = prob.solve(set_values(base, values))
         shape = None
-        if kind == 'modified':
-            coarse_h = prob.with_linear(set_values(base, values), b).hysteresis
-            grid, shape = _adaptive_grid(coarse_h, u_lo, u_hi, *fine)
-        else:
-            grid = play_grid(u_lo, u_hi, kind, *fine)
-        # re-search on the whole fine grid (the coarse grid's optimum can be off), then keep
-        # the elements the fine solution uses, and their grid neighbours, so the nonlinear
-        # search (and every candidate effect after it) works on a small basis
-        prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
-        values['tau_s'] = _scan_tau(prob, base, values, free['tau_s'])
-        values.update(prob.optimise(free, values, max_nfev)[0])
-        prob.values = values
-        b, _ = prob.solve(set_values(base, values))
+        # refine twice: the fine grid follows the coarse fit's weight, then its own fit's
+        # (the coarse weights sit at a lag-distorted temperature when the dynamics are off,
+        # e.g. with unmodelled fast dynamics); each pass re-scans τ and re-searches on the
+        # whole fine grid, whose optimum can lie in another basin than the coarse one
+        for _ in range(refine if kind == 'modified' else 1):
+            if kind == 'modified':
+                h = prob.with_linear(set_values(base, values), b).hysteresis
+                grid, shape = _adaptive_grid(h, u_lo, u_hi, *fine)
+            else:
+                grid = play_grid(u_lo, u_hi, kind, *fine)
+            prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
+            values['tau_s'] = _scan_tau(prob, base, values, free['tau_s'])
+            values.update(prob.optimise(free, values, max_nfev)[0])
+            prob.values = values
+            b, _ = prob.solve(set_values(base, values))
+        # keep the elements the fine solution uses, and their grid neighbours, so the
+        # nonlinear search (and every candidate effect after it) works on a small basis
         grid = _prune(grid, b[:grid.n_operators], shape)
     prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
     if ref is not None:
@@ -546,6 +578,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         if best is None or err < best[0]:
             best = (err, params, dict(values))
     _, params, values = best
+    prob.values = values
+    params = prob.trained_bands(params)
     values.update({k: getattr(params, k) for k in LINEAR_PARAMS})
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
