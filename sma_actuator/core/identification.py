@@ -327,21 +327,10 @@ class _Problem:
         return pos[sl] - self.data.position[sl]
 
     def trained_bands(self, params):
-        """`params` with each hysteresis element's saturation band narrowed to the states it
-        took in the training window (either wire).
-
-        Unchanged on the training window (every state visited lies in the narrowed band, so
-        the clip never acts there), but beyond it an element stops where the data stopped
-        showing it: a weight fitted to a small part of an element's band is not extrapolated
-        over the rest, and the model saturates outside the trained range instead.
-        """
-        h = params.hysteresis
-        if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()):
-            return params      # classical (unsaturated) elements: no band to narrow
-        self.ref = h           # the model's own states (feedback effects included)
-        self.regressors(params, self.n_train)
-        return params.with_changes(hysteresis=PlayHysteresis(
-            h.r, self.state_lo, self.state_hi, h.w, h.k1, h.y0))
+        """`narrow_bands` over this problem's training window."""
+        da, db, amb = self.inputs(self.values)
+        n = self.n_train
+        return narrow_bands(params, da[:n], db[:n], amb[:n], self.data.dt)
 
     def fatigued(self, params):
         """True when the regressors carry functional fatigue (see `regressors`)."""
@@ -427,6 +416,29 @@ class _Problem:
         sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=span, diff_step=1e-3,
                             max_nfev=max_nfev)
         return dict(zip(names, sol.x)), sol.cost
+
+
+def narrow_bands(params, duty_a, duty_b, ambient, dt):
+    """`params` with each hysteresis element's saturation band [lo, hi] narrowed to the
+    states it takes (either wire) when `params` is simulated on these (training) inputs.
+
+    The simulation on these inputs is unchanged (every state visited lies in the narrowed
+    band, so the clip never acts there), but beyond them an element stops where the data
+    stopped showing it: a weight fitted to a small part of an element's band is not
+    extrapolated over the rest, and the model saturates outside the trained range instead.
+    Classical (unsaturated) elements are returned as they are.
+    """
+    h, n = params.hysteresis, len(duty_a)
+    if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()) or n == 0:
+        return params
+    fa, fb = np.empty((n, h.n_operators)), np.empty((n, h.n_operators))
+    act.simulate_wires(np.asarray(duty_a, float), np.asarray(duty_b, float),
+                       np.asarray(ambient, float), np.zeros(n), dt, params.kernel_vector(),
+                       h.r, h.lo, h.hi, h.w, h.k1, h.y0, act.initial_state(params),
+                       fa, fb, np.empty(n), np.empty(n), 0, 1)
+    lo = np.minimum(fa.min(axis=0), fb.min(axis=0))
+    hi = np.maximum(fa.max(axis=0), fb.max(axis=0))
+    return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
 
 
 def _mass_points(x, mass, cell, lo, hi, n):

@@ -22,6 +22,9 @@ class Effect:
     neutral = {}          # plug-in parameter -> value at which the effect is off (ablation)
     needs_dynamic = True  # needs time-series data (not quasi-static curves)
     kind = None           # hysteresis kind the effect requires ('modified' for saturation)
+    # refit from scratch instead of on the base fit's hysteresis grid: for effects that
+    # move the operating temperatures so far that the base grid sits in the wrong place
+    own_grid = False
 
     @property
     def doc(self):
@@ -108,6 +111,9 @@ class AmbientDrift(Effect):
     position at a given duty."""
     name = 'ambient_drift'
     parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
+    # a drifting ambient shifts every temperature; without it the base fit (often with a
+    # wrong time constant) puts its grid where the wires would be at constant ambient
+    own_grid = True
     signature = ('slow residual that follows the measured ambient temperature; '
                  'cross-correlation with ambient well outside the 99 % band')
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..core import actuator as act
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import DynamicData, fit_dynamic, fit_static, scores
+from ..core.identification import DynamicData, fit_dynamic, fit_static, narrow_bands, scores
 from .effects import CATALOG, Effect, get_effect
 
 MIN_IMPROVEMENT = 0.20
@@ -192,7 +192,9 @@ def _fit_dynamic(data, effects, kind, base_fit):
         if base_fit is None or e not in base_fit.effects:
             alternatives += eff.alternative_starts(data)
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
-    same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
+    same_grid = (base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
+                 and not any(get_effect(e).own_grid for e in effects
+                             if e not in base_fit.effects))
     res = None
     for alt in [{}] + alternatives:
         trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if same_grid else None,
@@ -324,8 +326,18 @@ def _ablated_nrmse(data, base, fit, eff):
             plug[k] = eff.neutral[k]
         else:
             return None
-    off = ModelFit(fit.effects, fit.kind, dict(fit.values, **plug), None, None, None, None, 0,
-                   None, fit.params.with_changes(**changes))
+    # the refit's bands are narrowed to the states it visits in training; switched off, the
+    # effect moves the states elsewhere, so start from the whole bands and narrow again
+    h, g = fit.params.hysteresis, fit.grid
+    if g is not None and g.n_operators == h.n_operators:
+        h = PlayHysteresis(g.r, g.lo, g.hi, h.w, h.k1, h.y0)
+    values = dict(fit.values, **plug)
+    params = fit.params.with_changes(hysteresis=h, **changes)
+    amb = data.ambient if data.ambient is not None else np.full(len(data), params.ambient_c)
+    da, db, amb = _hooked_inputs(fit.effects, data.duty_a, data.duty_b, amb, values)
+    n = fit.split
+    params = narrow_bands(params, da[:n], db[:n], amb[:n], data.dt)
+    off = ModelFit(fit.effects, fit.kind, values, None, None, None, None, 0, None, params)
     pred = off.trajectory(data).position_rad
     return scores(data.position[fit.split:], pred[fit.split:])['nrmse']
 
