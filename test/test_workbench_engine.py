@@ -113,3 +113,69 @@ def test_plugin_ablation_uses_its_neutral_value():
     finally:
         DeadTime.neutral = {'dead_duty': 0.0}
         CATALOG.pop('test_dead_time', None)
+
+
+def test_narrow_bands_keep_the_training_run_and_saturate_beyond_it():
+    params = act.ActuatorParams()
+    rng = np.random.default_rng(8)
+    n = int(120 / DT)
+    da, db = multilevel_duty(n, DT, rng)
+    da, db = 0.5 * da, 0.5 * db                                  # training: mild heating only
+    amb = np.full(n, params.ambient_c)
+    narrow = idn.narrow_bands(params, da, db, amb, DT)
+    h, hn = params.hysteresis, narrow.hysteresis
+    assert np.all(hn.lo >= h.lo) and np.all(hn.hi <= h.hi) and np.any(hn.hi < h.hi)
+    np.testing.assert_array_equal(act.simulate(narrow, da, db, DT).position_rad,
+                                  act.simulate(params, da, db, DT).position_rad)
+    # hotter than anything in training: the full model contracts further, the narrowed one
+    # stops where the training data stopped
+    hot = np.r_[da, np.full(400, 1.0)], np.r_[db, np.zeros(400)]
+    full_end = act.simulate(params, *hot, DT).position_rad[-1]
+    narrow_end = act.simulate(narrow, *hot, DT).position_rad[-1]
+    trained_max = act.simulate(params, da, db, DT).position_rad.max()
+    assert narrow_end <= trained_max + 1e-9 < full_end
+
+
+@pytest.mark.parametrize('delay_s', [0.0, 0.3137])
+def test_regressors_at_the_rows_equal_the_full_rate_columns(delay_s):
+    params = act.ActuatorParams(delay_s=delay_s)
+    data = record(act.ActuatorParams(), seconds=60.0)
+    grid = idn.play_grid(20.0, 120.0, 'modified', 4, 6)
+    prob = idn._Problem(data, params, grid, {'tau_s': None}, 2000, 40)
+    rows = slice(40, 2000, 3)
+    full = prob.regressors(params.with_changes(delay_s=0.0), 2000)
+    if delay_s:
+        full = np.column_stack([act.delay_signal(c, DT, delay_s) for c in full.T])
+    np.testing.assert_allclose(prob.regressors(params, 2000, rows), full[rows], atol=1e-12)
+
+
+class OwnGrid(Effect):
+    """Test plug-in: a constant offset of the ambient that needs its own grid."""
+    name = 'test_own_grid'
+    parameters = {'ambient_shift': (-5.0, 5.0, 0.0)}
+    own_grid = True
+
+    def transform_inputs(self, duty_a, duty_b, ambient, values):
+        return duty_a, duty_b, ambient + values['ambient_shift']
+
+
+def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
+    data = record(act.ActuatorParams(), seconds=120.0)
+    base = engine.fit_model(data, ())
+    grids = []
+    real = engine.fit_dynamic
+
+    def spy(*args, **kw):
+        grids.append(kw.get('grid'))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(engine, 'fit_dynamic', spy)
+    register_effect(OwnGrid)
+    try:
+        engine.fit_model(data, ['delay'], base_fit=base)
+        assert all(g is base.grid for g in grids)                 # warm starts only
+        grids.clear()
+        engine.fit_model(data, ['test_own_grid'], base_fit=base)
+        assert grids[0] is base.grid and grids[-1] is None        # warm, then from scratch
+    finally:
+        CATALOG.pop('test_own_grid', None)

@@ -314,7 +314,11 @@ class _Problem:
             cols += [g_a, g_b]
         X = np.column_stack(cols)
         if params.delay_s > 0:
-            X = np.column_stack([act.delay_signal(c, d.dt, params.delay_s) for c in X.T])[rows]
+            # act.delay_signal of every column, evaluated at the regression rows only
+            f = np.maximum(np.arange(n)[rows] - params.delay_s / d.dt, 0.0)
+            i0 = np.floor(f).astype(int)
+            a = (f - i0)[:, None]
+            X = (1.0 - a) * X[i0] + a * X[np.minimum(i0 + 1, n - 1)]
         return np.hstack([X, np.ones((len(X), 1))])
 
     def free_run_error(self, params, values, step=1):

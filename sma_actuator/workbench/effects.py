@@ -22,8 +22,9 @@ class Effect:
     neutral = {}          # plug-in parameter -> value at which the effect is off (ablation)
     needs_dynamic = True  # needs time-series data (not quasi-static curves)
     kind = None           # hysteresis kind the effect requires ('modified' for saturation)
-    # refit from scratch instead of on the base fit's hysteresis grid: for effects that
-    # move the operating temperatures so far that the base grid sits in the wrong place
+    # in diagnose, also refit from scratch besides on the base fit's hysteresis grid (the
+    # better training fit is kept): for effects that can move the operating temperatures
+    # so far that the base grid sits in the wrong place
     own_grid = False
 
     @property

@@ -192,14 +192,15 @@ def _fit_dynamic(data, effects, kind, base_fit):
         if base_fit is None or e not in base_fit.effects:
             alternatives += eff.alternative_starts(data)
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
-    same_grid = (base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
-                 and not any(get_effect(e).own_grid for e in effects
-                             if e not in base_fit.effects))
+    same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
+    trials = [(alt, same_grid) for alt in [{}] + alternatives]
+    if same_grid and any(get_effect(e).own_grid for e in effects if e not in base_fit.effects):
+        trials.append(({}, False))      # also from scratch, on a grid of its own
     res = None
-    for alt in [{}] + alternatives:
-        trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if same_grid else None,
+    for alt, warm in trials:
+        trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if warm else None,
                             start=dict(start, **alt), input_hook=hook,
-                            ref=base_fit.params.hysteresis if same_grid else None)
+                            ref=base_fit.params.hysteresis if warm else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
     train = slice(res.burn_in, res.n_train)
