@@ -279,15 +279,15 @@ class _Problem:
         m = g.n_operators
         # the kernel records the (large) element arrays at the regression rows only; a
         # delay interpolates in time, so it needs them whole
-        take = range(n)[slice(None) if params.delay_s > 0 else rows]
-        fa, fb = np.empty((len(take), m)), np.empty((len(take), m))
-        ua, ub = np.empty(len(take)), np.empty(len(take))
+        at = range(n)[slice(None) if params.delay_s > 0 else rows]
+        fa, fb = np.empty((len(at), m)), np.empty((len(at), m))
+        ua, ub = np.empty(len(at)), np.empty(len(at))
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(self.values)
         ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
                                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
                                           ref.k1, ref.y0, st, fa, fb, ua, ub,
-                                          take.start, max(take.step, 1))
+                                          at.start, max(at.step, 1))
         sb = params.stroke_ratio_b
         drift = any(k in self.names for k in LINEAR_PARAMS)
         if self.fatigued(params):
@@ -296,13 +296,12 @@ class _Problem:
             # count from their coldest trained state (then y_j = w (s_j − lo) / stroke exactly)
             g_a = act.fatigue_progress(params, act.transformation_cycles(ya))
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
-        take = slice(take.start, take.stop, take.step)
         # the range each element's state covers in the training window (either wire, at
         # these rows): the contraction fraction is normalised over it (see `with_linear`)
         self.state_lo = np.minimum(fa.min(axis=0), fb.min(axis=0))
         self.state_hi = np.maximum(fa.max(axis=0), fb.max(axis=0))
         if self.fatigued(params):
-            g_a, g_b = g_a[take], g_b[take]
+            g_a, g_b = g_a[at.start:at.stop:at.step], g_b[at.start:at.stop:at.step]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
             cold = np.where(np.isfinite(g.lo), self.state_lo, 0.0)
             fa = (fa - cold) * keep_a[:, None]
@@ -329,12 +328,6 @@ class _Problem:
         pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
         sl = slice(self.burn_in, n, step)
         return pos[sl] - self.data.position[sl]
-
-    def trained_bands(self, params):
-        """`narrow_bands` over this problem's training window."""
-        da, db, amb = self.inputs(self.values)
-        n = self.n_train
-        return narrow_bands(params, da[:n], db[:n], amb[:n], self.data.dt)
 
     def fatigued(self, params):
         """True when the regressors carry functional fatigue (see `regressors`)."""
@@ -512,7 +505,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     grid with zero weights, i.e. no feedback until the first weights are known).
     refine: passes of the adaptive fine grid (modified PI, no `grid` given), each placed
     where the previous pass's weights are. The fitted elements' bands are narrowed to the
-    states they took in the training window (`_Problem.trained_bands`).
+    states they took in the training window (`narrow_bands`).
     Returns a `DynamicFit` scored by free-run error on training and held-out data.
     """
     if not isinstance(data, DynamicData):
@@ -594,11 +587,10 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         if best is None or err < best[0]:
             best = (err, params, dict(values))
     _, params, values = best
-    prob.values = values
-    params = prob.trained_bands(params)
     values.update({k: getattr(params, k) for k in LINEAR_PARAMS})
     values = {k: float(values[k]) for k in free}
     da, db, amb = prob.inputs(values)
+    params = narrow_bands(params, da[:n_train], db[:n_train], amb[:n_train], data.dt)
     traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
     pred, y = traj.position_rad, data.position
     n_par = int(np.count_nonzero(params.hysteresis.w)) + 3 + len(free)

@@ -91,11 +91,15 @@ class ModelFit:
                     for c in dict.fromkeys(data.curve.tolist())]
         return self.trajectory(data).position_rad
 
-    def trajectory(self, data):
-        """Free-run `core.actuator.Trajectory` of this model on dynamic data (plug-in input
-        transforms applied with the fitted values)."""
+    def inputs(self, data):
+        """(duty_a, duty_b, ambient) the thermal model sees on dynamic data: plug-in input
+        transforms applied with the fitted values, constant ambient if none was measured."""
         amb = data.ambient if data.ambient is not None else np.full(len(data), self.params.ambient_c)
-        da, db, amb = _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
+        return _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
+
+    def trajectory(self, data):
+        """Free-run `core.actuator.Trajectory` of this model on dynamic data."""
+        da, db, amb = self.inputs(data)
         return act.simulate(self.params, da, db, data.dt, ambient_c=amb)
 
 
@@ -332,13 +336,11 @@ def _ablated_nrmse(data, base, fit, eff):
     h, g = fit.params.hysteresis, fit.grid
     if g is not None and g.n_operators == h.n_operators:
         h = PlayHysteresis(g.r, g.lo, g.hi, h.w, h.k1, h.y0)
-    values = dict(fit.values, **plug)
-    params = fit.params.with_changes(hysteresis=h, **changes)
-    amb = data.ambient if data.ambient is not None else np.full(len(data), params.ambient_c)
-    da, db, amb = _hooked_inputs(fit.effects, data.duty_a, data.duty_b, amb, values)
+    off = ModelFit(fit.effects, fit.kind, dict(fit.values, **plug), None, None, None, None, 0,
+                   None, fit.params.with_changes(hysteresis=h, **changes))
     n = fit.split
-    params = narrow_bands(params, da[:n], db[:n], amb[:n], data.dt)
-    off = ModelFit(fit.effects, fit.kind, values, None, None, None, None, 0, None, params)
+    da, db, amb = off.inputs(data)
+    off.params = narrow_bands(off.params, da[:n], db[:n], amb[:n], data.dt)
     pred = off.trajectory(data).position_rad
     return scores(data.position[fit.split:], pred[fit.split:])['nrmse']
 
