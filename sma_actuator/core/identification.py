@@ -298,8 +298,7 @@ class _Problem:
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
         # the range each element's state covers in the training window (either wire, at
         # these rows): the contraction fraction is normalised over it (see `with_linear`)
-        self.state_lo = np.minimum(fa.min(axis=0), fb.min(axis=0))
-        self.state_hi = np.maximum(fa.max(axis=0), fb.max(axis=0))
+        self.state_lo, self.state_hi = _state_range(fa, fb)
         if self.fatigued(params):
             g_a, g_b = g_a[at.start:at.stop:at.step], g_b[at.start:at.stop:at.step]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
@@ -433,9 +432,13 @@ def narrow_bands(params, duty_a, duty_b, ambient, dt):
                        np.asarray(ambient, float), np.zeros(n), dt, params.kernel_vector(),
                        h.r, h.lo, h.hi, h.w, h.k1, h.y0, act.initial_state(params),
                        fa, fb, np.empty(n), np.empty(n), 0, 1)
-    lo = np.minimum(fa.min(axis=0), fb.min(axis=0))
-    hi = np.maximum(fa.max(axis=0), fb.max(axis=0))
+    lo, hi = _state_range(fa, fb)
     return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
+
+
+def _state_range(fa, fb):
+    """(lowest, highest) state of each element over the rows of either wire."""
+    return np.minimum(fa.min(axis=0), fb.min(axis=0)), np.maximum(fa.max(axis=0), fb.max(axis=0))
 
 
 def _mass_points(x, mass, cell, lo, hi, n):
