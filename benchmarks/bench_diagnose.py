@@ -7,7 +7,10 @@ antagonistic duty segments, with a measured ambient that drifts by 2 K (so that
 what `sma-model diagnose DATA` does after loading: the base fit plus one refit per
 candidate effect. Data generation and one small warm-up fit (numba kernels) are not timed.
 
-    .venv/bin/python benchmarks/bench_diagnose.py [--minutes 10] [--rate 40] [--check]
+    .venv/bin/python benchmarks/bench_diagnose.py [--minutes 10] [--rate 40] [--jobs 1 0] [--check]
+
+Times the run in one process (--jobs 1) and on every core (0, what `sma-model diagnose`
+does by default) side by side.
 
 --check: exit status 1 if the timed part exceeds the target.
 """
@@ -21,6 +24,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.effects import CATALOG
 from sma_actuator.workbench.engine import diagnose, fit_model
+from sma_actuator.workbench.parallel import available_cores
 
 TARGET_S = 60.0
 
@@ -55,25 +59,33 @@ def main(argv=None):
     ap.add_argument('--minutes', type=float, default=10.0)
     ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz]')
     ap.add_argument('--seed', type=int, default=0)
+    ap.add_argument('--jobs', type=int, nargs='+', default=[1, 0],
+                    help='process counts to time side by side (0 = every core, what '
+                         'sma-model diagnose uses); the last one is checked')
     ap.add_argument('--check', action='store_true', help='exit 1 if over the target')
     args = ap.parse_args(argv)
     data = make_record(args.minutes, args.rate, args.seed)
     fit_model(make_record(0.5, args.rate, args.seed + 1))          # warm-up (JIT caches)
-    start = time.perf_counter()
-    base = fit_model(data)
-    t_base = time.perf_counter() - start
-    stamps = []   # (effect, time) at the start of each candidate refit
-    diag = diagnose(data, base=base,
-                    progress=lambda done, n, label: stamps.append((label, time.perf_counter())))
-    total = time.perf_counter() - start
-    seconds = {a[0]: b[1] - a[1] for a, b in zip(stamps[:-1], stamps[1:])}
     print(f'record: {len(data)} samples ({args.minutes:g} min at {args.rate:g} Hz), '
-          f'{len(CATALOG)} catalog effects')
-    print(f'base fit: {t_base:.1f} s; diagnose total: {total:.1f} s (target < {TARGET_S:g} s)')
+          f'{len(CATALOG)} catalog effects, {available_cores()} cores')
+    runs = {}
+    for jobs in args.jobs:
+        start = time.perf_counter()
+        base = fit_model(data)
+        t_base = time.perf_counter() - start
+        diag = diagnose(data, base=base, jobs=jobs)
+        runs[jobs] = (time.perf_counter() - start, t_base, diag)
+    print(f'{"jobs":>4}  {"base fit":>8}  {"total":>7}  (target < {TARGET_S:g} s)')
+    for jobs, (total, t_base, _) in runs.items():
+        print(f'{jobs:>4}  {t_base:7.1f}s  {total:6.1f}s')
+    if len(runs) > 1:
+        first, last = list(runs.values())[0][0], list(runs.values())[-1][0]
+        print(f'speed-up jobs={args.jobs[-1]} over jobs={args.jobs[0]}: {first / last:.2f}x')
+    total, _, diag = runs[args.jobs[-1]]
+    print(f'candidates (jobs={args.jobs[-1]}; seconds are each refit\'s own wall time):')
     for c in diag.candidates:
         imp = 'n/a' if c['improvement'] is None else f'{100 * c["improvement"]:+.1f} %'
-        took = seconds.get(c['effect'], float('nan'))
-        print(f'  {c["effect"]:<20} {imp:>9}  {took:6.1f} s  '
+        print(f'  {c["effect"]:<20} {imp:>9}  {c.get("seconds", 0.0):6.1f} s  '
               f'{"significant" if c["significant"] else ""}')
     print(f'missing effect: {diag.missing_effect}')
     ok = total < TARGET_S

@@ -52,6 +52,16 @@ def test_every_actuator_effect_is_a_plant_parameter():
     assert effects == {name for name, *_ in EFFECTS}
 
 
+def test_every_plant_effect_range_lies_within_the_workbench_fit_bounds():
+    # data made with any plant setting can be fitted by `sma-model` (same parameter names)
+    from sma_actuator.workbench.effects import BUILTIN
+    bounds = {k: v[:2] for cls in BUILTIN.values() for k, v in cls.parameters.items()}
+    for name, lo, hi, _ in EFFECTS:
+        if name == 'duty_limit_sharpness':
+            continue    # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
+        assert bounds[name][0] <= lo and hi <= bounds[name][1], (name, lo, hi, bounds[name])
+
+
 def test_plant_effect_parameters_reach_the_model(ros_context):
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('delay_s', value=0.3), Parameter('gain_ratio_b', value=1.4)])

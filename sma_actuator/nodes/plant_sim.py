@@ -35,25 +35,26 @@ from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 from . import common as c
 
-# (parameter, range, description) for every switchable effect of ActuatorParams
+# (parameter, range, description) for every switchable effect of ActuatorParams; each range
+# lies within the workbench's fit bounds, so any record the plant makes can be diagnosed
 EFFECTS = (
     ('tau_fast_s', 0.0, 2.0, 'fast dynamics: lag on the heat input [s] (Fig. 13 tau)'),
     ('delay_s', 0.0, 1.0, 'transport delay of the measured position [s]'),
     ('convection_exponent', 0.0, 1.0, 'convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n'),
     ('ambient_gain', 0.0, 2.0, 'weight of measured ambient deviations'),
-    ('phase_kappa', 0.0, 1.0, 'phase resistance: heating factor 1 + κ (1 − y)'),
+    ('phase_kappa', -0.5, 0.5, 'phase resistance: heating factor 1 + κ (1 − y)'),
     ('stress_k', 0.0, 50.0, 'stress coupling: shift per unit antagonist contraction [K]'),
     ('gain_ratio_b', 0.5, 2.0, 'asymmetric wires: heating gain of wire b relative to a'),
     ('tau_ratio_b', 0.5, 2.0, 'asymmetric wires: time constant of wire b relative to a'),
     ('stroke_ratio_b', 0.5, 2.0, 'asymmetric wires: stroke of wire b relative to a'),
     ('sensor_c2_rad', -0.2, 0.2, 'potentiometer quadratic term [rad at 1 rad]'),
     ('sensor_c3_rad', -0.2, 0.2, 'potentiometer cubic term [rad at 1 rad]'),
-    ('sensor_c4_rad', -0.2, 0.2, 'potentiometer 4th-order term [rad at 1 rad]'),
-    ('sensor_c5_rad', -0.2, 0.2, 'potentiometer 5th-order term [rad at 1 rad]'),
+    ('sensor_c4_rad', -0.15, 0.15, 'potentiometer 4th-order term [rad at 1 rad]'),
+    ('sensor_c5_rad', -0.15, 0.15, 'potentiometer 5th-order term [rad at 1 rad]'),
     ('fatigue_offset_rad', -0.3, 0.3, 'fatigue: zero drift from wire a after shakedown [rad]'),
     ('fatigue_offset_b_rad', -0.3, 0.3, 'fatigue: zero drift from wire b after shakedown [rad]'),
     ('fatigue_stroke', 0.0, 0.5, 'fatigue: stroke loss fraction after shakedown'),
-    ('fatigue_cycles', 1.0, 1e6, 'fatigue: shakedown constant [cycles of one wire]'),
+    ('fatigue_cycles', 2.0, 5000.0, 'fatigue: shakedown constant [cycles of one wire]'),
     ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
     ('duty_limit_sharpness', 0.0, 30.0, 'current limit: p-norm sharpness (0 = hard corner)'),
 )

@@ -277,7 +277,8 @@ def cmd_diagnose(args):
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
         progress.stage = 'diagnose'
-        diag = diagnose(data, base=base, candidates=args.candidates, progress=progress)
+        diag = diagnose(data, base=base, candidates=args.candidates, progress=progress,
+                        jobs=args.jobs)
     finally:
         progress.close()
     doc = diag.to_json()
@@ -381,6 +382,8 @@ def build_parser():
     dia.add_argument('--candidates', nargs='+', action='extend', metavar='EFFECT',
                      help='only try these effects (default: every catalog effect)')
     dia.add_argument('--report', metavar='DIR', help='write an HTML report with figures')
+    dia.add_argument('--jobs', type=_non_negative_int, default=0, metavar='N',
+                     help='processes for the candidate refits (default 0: every core)')
     dia.set_defaults(func=cmd_diagnose)
     eff = sub.add_parser('effects', help='list the effect catalog (with plug-ins)',
                          description='List every effect: parameters, physics, signature.')
@@ -398,6 +401,16 @@ def _positive_float(text):
         raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
     if not np.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
+    return value
+
+
+def _non_negative_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not an integer') from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f'{text!r} is negative')
     return value
 
 

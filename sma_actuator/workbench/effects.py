@@ -27,6 +27,11 @@ class Effect:
     # so far that the base grid sits in the wrong place
     own_grid = False
 
+    def scratch_start(self, params):
+        """Start values of that from-scratch refit (`own_grid`), for a model with `params`;
+        default: the same as the warm start."""
+        return {}
+
     @property
     def doc(self):
         """The physics docstring."""
@@ -133,8 +138,9 @@ class PhaseResistance(Effect):
     austenite, so at a given duty the Joule power R i² (current-limited) or V²/R changes as
     the wire transforms: P = P0 d (1 + κ (1 − y)), y the contraction fraction."""
     name = 'phase_resistance'
-    # NiTi resistivity differs by roughly 10-25 % between the phases: |κ| <= 0.35
-    parameters = {'phase_kappa': (-0.35, 0.35, 0.1)}
+    # NiTi resistivity differs by roughly 10-25 % between the phases; the bound leaves
+    # room for a current limiter that is not perfectly stiff and covers the plant's range
+    parameters = {'phase_kappa': (-0.5, 0.5, 0.1)}
 
     def bounds(self, params):
         """The sign of κ follows from the drive: a wire's resistance falls as it contracts
@@ -143,11 +149,23 @@ class PhaseResistance(Effect):
         voltage drive (P = V²/R) heats it less (κ <= 0). Without this a wrong-signed κ
         would act as a generic correction of the hysteresis shape."""
         limited = params.supply_v / params.resistance_ohm > params.current_limit_a
-        return {'phase_kappa': (0.0, 0.35, 0.1) if limited else (-0.35, 0.0, -0.1)}
+        return {'phase_kappa': (0.0, 0.5, 0.1) if limited else (-0.5, 0.0, -0.1)}
 
     def start_values(self, data):
         """Start inside the drive's sign range (see `bounds`)."""
         return {}
+
+    # heating from martensite runs hotter (or cooler) than the base model's, so the base
+    # grid sits where the base put the transformation: at the true kappa its refit was
+    # worse than the base (1.3 % against 0.83 % training NRMSE on the package's own plant),
+    # from scratch it fits to 0.08 %. From scratch the search does not leave kappa ~ 0 (the
+    # coarse grid hides the effect), so that refit starts from a strong effect.
+    own_grid = True
+
+    def scratch_start(self, params):
+        """Start the from-scratch refit from a strong effect of the drive's sign."""
+        lo, hi, start = self.bounds(params)['phase_kappa']
+        return {'phase_kappa': 0.7 * (hi if start > 0 else lo)}
     signature = ('heating from cold is faster (or slower) than modelled while cooling '
                  'matches; error concentrated in heating from the martensite side')
 
@@ -157,7 +175,7 @@ class StressCoupling(Effect):
     other, raising its stress and, by Clausius-Clapeyron (~6-7 MPa/K), its transformation
     temperatures; equivalently the wire sees an effective temperature lowered by σ y_other."""
     name = 'stress_coupling'
-    parameters = {'stress_k': (0.0, 40.0, 4.0)}
+    parameters = {'stress_k': (0.0, 50.0, 4.0)}
     signature = ('loop of each wire shifts with the state of the other: error larger when '
                  'the antagonist is contracted (near the ends of travel), depends on history')
 
@@ -237,9 +255,18 @@ def register_effect(cls):
     return cls
 
 
-for _cls in (Saturation, FastDynamics, Delay, Convection, AmbientDrift, PhaseResistance,
-             StressCoupling, AsymmetricWires, SensorNonlinearity, FatigueDrift, CurrentLimit):
+# the package's own effects: every process that imports this module has them (plug-ins
+# exist only where they were registered)
+BUILTIN = {c.name: c for c in (Saturation, FastDynamics, Delay, Convection, AmbientDrift,
+                               PhaseResistance, StressCoupling, AsymmetricWires,
+                               SensorNonlinearity, FatigueDrift, CurrentLimit)}
+for _cls in BUILTIN.values():
     register_effect(_cls)
+
+
+def is_builtin(name):
+    """True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
+    return name in BUILTIN and type(CATALOG.get(name)) is BUILTIN[name]
 
 
 def get_effect(name):

@@ -28,6 +28,7 @@ several significant candidates come within `NEAR_TIE` (10 %) of the best gain, t
 cannot really tell them apart: the one with the lowest BIC (the more parsimonious
 explanation) is put first and every explanation in the group says so.
 """
+import time
 from dataclasses import dataclass, field, fields
 from functools import partial
 
@@ -36,7 +37,8 @@ import numpy as np
 from ..core import actuator as act
 from ..core.hysteresis import PlayHysteresis
 from ..core.identification import DynamicData, fit_dynamic, fit_static, narrow_bands, scores
-from .effects import CATALOG, Effect, get_effect
+from .effects import CATALOG, Effect, get_effect, is_builtin
+from .parallel import available_cores, imap_on_cores
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -198,8 +200,10 @@ def _fit_dynamic(data, effects, kind, base_fit):
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
     trials = [(alt, same_grid) for alt in [{}] + alternatives]
-    if same_grid and any(get_effect(e).own_grid for e in effects if e not in base_fit.effects):
-        trials.append(({}, False))      # also from scratch, on a grid of its own
+    for e in effects:
+        if same_grid and e not in base_fit.effects and get_effect(e).own_grid:
+            # also from scratch, on a grid of its own
+            trials.append((get_effect(e).scratch_start(params), False))
     res = None
     for alt, warm in trials:
         trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if warm else None,
@@ -250,62 +254,46 @@ class Diagnosis:
         """The `sma-model diagnose --json` document."""
         return {'baseline': {'effects': list(self.baseline.effects),
                              'validation_nrmse': self.baseline.validation['nrmse']},
-                'candidates': [{k: v for k, v in c.items() if k not in ('fit', 'bic')}
+                'candidates': [{k: v for k, v in c.items() if k not in ('fit', 'bic', 'seconds')}
                                for c in self.candidates],
                 'missing_effect': self.missing_effect}
 
 
 def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MIN_IMPROVEMENT,
-             kind=None):
+             kind=None, jobs=1):
     """Rank candidate effects by held-out error reduction; name the missing one (or None).
 
     base: a ModelFit (or None: fit the paper's base model, `kind` PI). candidates: effect
-    names (default: every catalog effect not in the base).
+    names (default: every catalog effect not in the base). jobs: processes for the
+    candidate refits (independent fits; 0 = every core). Plug-in effects are refitted in
+    this process, since a worker process would not have them registered.
     """
     if base is None:
         base = fit_model(data, (), kind=kind)
     names = [n for n in (candidates or CATALOG) if n not in base.effects]
-    out = []
     n_eff = max(len(base.residual) / correlation_length(base.residual), 2.0)
     bic0 = bic(base.residual, _free_count(base), n_eff)
-    for i, name in enumerate(names):
+    tasks = [(data, base, name, n_eff, bic0, min_improvement) for name in names]
+    builtin = all(is_builtin(e) for e in base.effects)
+    # the slowest refits (a second one from scratch) first, so no core idles at the end
+    pooled = sorted((t for t in tasks if builtin and is_builtin(t[2])),
+                    key=lambda t: not get_effect(t[2]).own_grid)
+    local = [t for t in tasks if not (builtin and is_builtin(t[2]))]
+    workers = min(jobs or available_cores(), len(pooled))
+    out = []
+
+    def done(entry):
+        out.append(entry)
         if progress:
-            progress(i, len(names), name)
-        eff = get_effect(name)
-        reason = eff.applicable(data)
-        if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
-            reason = 'needs dynamic (time-series) data'
-        if reason is None and name == 'saturation' and base.kind == 'modified':
-            reason = 'the base model already saturates (modified PI)'
-        if reason:
-            out.append({'effect': name, 'validation_nrmse': None, 'improvement': None,
-                        'significant': False, 'explanation': f'not applicable: {reason}'})
-            continue
-        try:
-            fit = fit_model(data, list(base.effects) + [name], kind=base.kind, base_fit=base)
-        except ValueError as err:
-            out.append({'effect': name, 'validation_nrmse': None, 'improvement': None,
-                        'significant': False, 'explanation': f'fit failed: {err}'})
-            continue
-        v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
-        gain = (v0 - v1) / v0 if v0 > 0 else 0.0
-        bic1 = bic(fit.residual, _free_count(fit), n_eff)
-        v_abl = _ablated_nrmse(data, base, fit, eff)
-        # switching the effect off in the refit must cost at least the improvement asked of it
-        carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
-        significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried)
-        ablation = ('' if v_abl is None else
-                    f', {100 * v_abl:.2f} % with the effect switched off in the refit')
-        values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
-                           if k in eff.parameters) or 'modified PI (saturated plays)'
-        out.append({'effect': name, 'validation_nrmse': v1, 'improvement': gain,
-                    'significant': significant,
-                    'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
-                                    f'({100 * gain:+.0f} % better), training NRMSE '
-                                    f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
-                                    f'BIC change {bic1 - bic0:+.1f}{ablation}; '
-                                    f'fitted {values}. Signature: {eff.signature}.'),
-                    'fit': fit, 'bic': float(bic1)})
+            progress(len(out), len(names), entry['effect'])
+
+    if progress:
+        progress(0, len(names), 'candidates')
+    for task in local + (pooled if workers <= 1 else []):
+        done(_candidate(task))
+    if workers > 1:
+        for _, entry in imap_on_cores(_candidate, pooled, workers):
+            done(entry)
     if progress:
         progress(len(names), len(names), 'done')
     out.sort(key=lambda c: (c['significant'],
@@ -314,6 +302,51 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     _settle_near_ties(out)
     best = next((c['effect'] for c in out if c['significant']), None)
     return Diagnosis(base, out, best)
+
+
+def _candidate(task):
+    """Refit with one candidate effect and judge it (see the module docstring); returns
+    the candidate's entry of `Diagnosis.candidates` (module level: runs in worker processes)."""
+    started = time.perf_counter()
+    entry = _judge(*task)
+    entry['seconds'] = time.perf_counter() - started
+    return entry
+
+
+def _judge(data, base, name, n_eff, bic0, min_improvement):
+    eff = get_effect(name)
+    reason = eff.applicable(data)
+    if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
+        reason = 'needs dynamic (time-series) data'
+    if reason is None and name == 'saturation' and base.kind == 'modified':
+        reason = 'the base model already saturates (modified PI)'
+    if reason:
+        return {'effect': name, 'validation_nrmse': None, 'improvement': None,
+                'significant': False, 'explanation': f'not applicable: {reason}'}
+    try:
+        fit = fit_model(data, list(base.effects) + [name], kind=base.kind, base_fit=base)
+    except ValueError as err:
+        return {'effect': name, 'validation_nrmse': None, 'improvement': None,
+                'significant': False, 'explanation': f'fit failed: {err}'}
+    v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
+    gain = (v0 - v1) / v0 if v0 > 0 else 0.0
+    bic1 = bic(fit.residual, _free_count(fit), n_eff)
+    v_abl = _ablated_nrmse(data, base, fit, eff)
+    # switching the effect off in the refit must cost at least the improvement asked of it
+    carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
+    significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried)
+    ablation = ('' if v_abl is None else
+                f', {100 * v_abl:.2f} % with the effect switched off in the refit')
+    values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
+                       if k in eff.parameters) or 'modified PI (saturated plays)'
+    return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
+            'significant': significant,
+            'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
+                            f'({100 * gain:+.0f} % better), training NRMSE '
+                            f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
+                            f'BIC change {bic1 - bic0:+.1f}{ablation}; '
+                            f'fitted {values}. Signature: {eff.signature}.'),
+            'fit': fit, 'bic': float(bic1)}
 
 
 def _ablated_nrmse(data, base, fit, eff):
