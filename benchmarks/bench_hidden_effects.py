@@ -1,12 +1,16 @@
-"""Detection limits of `sma-model diagnose` on data from the independent rich simulator.
+"""Detection limits of `sma-model diagnose` on data with one hidden effect.
 
-For every catalog effect and a few magnitudes (the simulator's range, see
-test/support/richsim.py EFFECTS), generate a record with that one hidden effect, run
-diagnose, and print: the base model's held-out NRMSE, whether the hidden effect is named
-first and significant, its held-out improvement, and what was named instead.
-Also the null case. This is the figure the hidden-effect tests sample from.
+For every catalog effect and a few magnitudes, generate a record with that one hidden
+effect, run diagnose, and print: the base model's held-out NRMSE, whether the hidden effect
+is named first and significant, its held-out improvement, and what was named instead.
+Also the null case. Two sources of records:
+  --source richsim (default): the independent rich simulator over its magnitude range
+      (test/support/richsim.py EFFECTS); the figure the hidden-effect tests sample from;
+  --source plant: the package's own plant model with the effect switched on, as
+      `plant_sim` makes it (test/support/plant_records.py; weak, middle, strong setting).
 
-    python benchmarks/bench_hidden_effects.py [--duration 480] [--rate 40] [--excitation open]
+    python benchmarks/bench_hidden_effects.py [--source richsim|plant] [--duration 480]
+        [--rate 40] [--excitation open]
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
         [--jobs N]             (records diagnosed in parallel, one BLAS thread each; the
                                 seconds column then includes the contention)
@@ -18,6 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
+from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import EFFECTS, simulate  # noqa: E402
 
@@ -28,8 +33,13 @@ from sma_actuator.workbench.engine import diagnose  # noqa: E402
 def run_case(case):
     """Diagnose one simulated record (effect, magnitude, args, seed); returns a result row."""
     effect, magnitude, args, seed = case
-    d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
-                 duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise, seed=seed)
+    if args.source == 'plant':
+        d = plant_records.simulate(effect, int(magnitude), duration_s=args.duration,
+                                   rate_hz=args.rate, noise_rad=args.noise, seed=seed)
+    else:
+        d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
+                     duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise,
+                     seed=seed)
     data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                        d.get('ambient_temperature'))
     t0 = time.perf_counter()
@@ -47,13 +57,21 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--duration', type=float, default=480.0)
     ap.add_argument('--rate', type=float, default=40.0)
-    ap.add_argument('--noise', type=float, default=0.002)
+    ap.add_argument('--source', choices=('richsim', 'plant'), default='richsim')
+    ap.add_argument('--noise', type=float, default=None,
+                    help='position noise [rad] (default 0.002 richsim, 0.001 plant)')
     ap.add_argument('--excitation', choices=('open', 'closed'), default='open')
     ap.add_argument('--effects', nargs='*', default=None)
     ap.add_argument('--jobs', type=int, default=1)
     args = ap.parse_args()
-    effects = args.effects or [e for e in EFFECTS if e != 'none']
-    print(f'{args.duration:.0f} s at {args.rate:.0f} Hz, {args.excitation} loop, noise {args.noise} rad')
+    plant = args.source == 'plant'
+    if args.noise is None:
+        args.noise = 0.001 if plant else 0.002
+    catalog = plant_records.EFFECTS if plant else EFFECTS
+    effects = args.effects or [e for e in catalog if e != 'none']
+    print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
+          f'{"open" if plant else args.excitation} loop, noise {args.noise} rad'
+          + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else ''))
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} {"improvement":>11s} {"s":>5s}')
     rows = []
 
@@ -66,11 +84,15 @@ def main():
               f'{"ok" if ok else "MISSED"}', flush=True)
 
     cases = [] if args.effects else [('none', 0.0, args, 100)]
-    order = [e for e in EFFECTS if e != 'none']
+    order = [e for e in catalog if e != 'none']
     for effect in effects:
         k = order.index(effect)          # same seeds whether run alone or with the others
-        lo, hi = EFFECTS[effect]['magnitude_range']
-        for j, m in enumerate(sorted({lo, 0.5 * (lo + hi), hi})):
+        if plant:
+            levels = range(len(catalog[effect]))
+        else:
+            lo, hi = catalog[effect]['magnitude_range']
+            levels = sorted({lo, 0.5 * (lo + hi), hi})
+        for j, m in enumerate(levels):
             cases.append((effect, m, args, 200 + 10 * k + j))
     for _, row in imap_on_cores(run_case, cases, args.jobs):
         report(row)

@@ -236,3 +236,11 @@ def test_candidates_refitted_on_two_cores_equal_one_core_and_plugins_stay_local(
         assert b['validation_nrmse'] == pytest.approx(a['validation_nrmse'], rel=1e-6)
         assert a['significant'] == b['significant']
     assert one.missing_effect == two.missing_effect
+
+
+def test_a_delay_below_one_sample_period_is_not_resolved():
+    data = record(act.ActuatorParams(), seconds=20.0)
+    eff = get_effect('delay')
+    assert 'below one sample period' in eff.unresolved({'delay_s': 0.6 * DT}, data)
+    assert eff.unresolved({'delay_s': 2.0 * DT}, data) is None
+    assert get_effect('convection').unresolved({'convection_exponent': 1e-6}, data) is None

@@ -54,6 +54,11 @@ class Effect:
         """Further starting points tried when the fit may have several minima (default none)."""
         return []
 
+    def unresolved(self, values, data):
+        """None if the fitted `values` describe the effect at a size the data can resolve,
+        else why not (diagnose then does not call it significant). Default None."""
+        return None
+
     def transform_inputs(self, duty_a, duty_b, ambient, values):
         """Plug-in hook: inputs (arrays) seen by the thermal model, given this effect's
         parameter values (dict). Duties must stay in [0, 1]. Identity by default."""
@@ -95,6 +100,15 @@ class Delay(Effect):
     def alternative_starts(self, data):
         """Delays longer than a few samples sit in another basin of the error surface."""
         return [{'delay_s': 0.3}]
+
+    def unresolved(self, values, data):
+        """A delay below one sample period is how the recorder aligned duty and position
+        samples (zero-order hold over the interval), not a transport delay."""
+        dt = getattr(data, 'dt', None)
+        if dt and values.get('delay_s', 0.0) < dt:
+            return (f'the fitted delay {1e3 * values["delay_s"]:.0f} ms is below one sample '
+                    f'period ({1e3 * dt:.0f} ms): sample alignment, not a transport delay')
+        return None
     signature = ('residual looks like the derivative of the position (leads the motion); '
                  'cross-correlation of residual and position rate peaks at lag 0')
 

@@ -21,7 +21,9 @@ held-out error. A candidate is significant only if
      parameters put back to the base model's values, keeping the re-fitted weights and
      time constant, must be worse on held-out data by at least `min_improvement` again;
      otherwise the gain came from re-tuning the base (a fragile held-out window), not
-     from the effect.
+     from the effect, and
+  4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
+     delay must exceed one sample period).
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
@@ -275,10 +277,15 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     bic0 = bic(base.residual, _free_count(base), n_eff)
     tasks = [(data, base, name, n_eff, bic0, min_improvement) for name in names]
     builtin = all(is_builtin(e) for e in base.effects)
+
+    def poolable(name):   # a dynamic refit (worth a process) of an effect every process has
+        return (builtin and is_builtin(name) and isinstance(data, DynamicData)
+                and get_effect(name).applicable(data) is None)
+
     # the slowest refits (a second one from scratch) first, so no core idles at the end
-    pooled = sorted((t for t in tasks if builtin and is_builtin(t[2])),
+    pooled = sorted((t for t in tasks if poolable(t[2])),
                     key=lambda t: not get_effect(t[2]).own_grid)
-    local = [t for t in tasks if not (builtin and is_builtin(t[2]))]
+    local = [t for t in tasks if not poolable(t[2])]
     workers = min(jobs or available_cores(), len(pooled))
     out = []
 
@@ -314,6 +321,7 @@ def _candidate(task):
 
 
 def _judge(data, base, name, n_eff, bic0, min_improvement):
+    """The candidate entry of `name` (without its time)."""
     eff = get_effect(name)
     reason = eff.applicable(data)
     if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
@@ -334,9 +342,13 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
     v_abl = _ablated_nrmse(data, base, fit, eff)
     # switching the effect off in the refit must cost at least the improvement asked of it
     carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
-    significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried)
+    unresolved = eff.unresolved(fit.values, data)
+    significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried
+                       and unresolved is None)
     ablation = ('' if v_abl is None else
                 f', {100 * v_abl:.2f} % with the effect switched off in the refit')
+    if unresolved:
+        ablation += f'; not significant: {unresolved}'
     values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
                        if k in eff.parameters) or 'modified PI (saturated plays)'
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
