@@ -504,7 +504,9 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     base: starting ActuatorParams (Flexinol defaults; its G and ambient stay fixed, the
     ambient defaulting to the first measured ambient values, ambient_gain 0 (constant
     ambient) unless freed). grid/start: reuse a previous fit's threshold grid and warm
-    start values (diagnose does, so candidates are compared on equal terms).
+    start values (diagnose does, so candidates are compared on equal terms). starts: the
+    coarse multi-start, time constants as multiples of base.tau_s / 2, unless `start`
+    gives tau_s (a previous fit's), which is then the one start.
     input_hook(duty_a, duty_b, ambient, values) -> (duty_a, duty_b, ambient): plug-in
     transform of the inputs with its own free parameters (names not in ActuatorParams).
     ref: hysteresis on `grid` used in the feedback path of the first round (default: the

@@ -28,7 +28,7 @@ class Effect:
     own_grid = False
 
     def scratch_start(self, params):
-        """Start values of that from-scratch refit (`own_grid`), for a model with `params`;
+        """Start values of the from-scratch refit (`own_grid`) for a model with `params`;
         default: the same as the warm start."""
         return {}
 
