@@ -539,6 +539,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     n_train = int(round(train_fraction * n))
     burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
     values = {k: v[2] for k, v in free.items()}
+    feedback = any(k in FEEDBACK_PARAMS for k in free)
     if start:
         values.update({k: v for k, v in start.items() if k in values})
 
@@ -548,7 +549,6 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
         prob = _Problem(data, base, play_grid(u_lo, u_hi, kind, *coarse), free, n_train, burn_in,
                         input_hook, values)
-        feedback = any(k in FEEDBACK_PARAMS for k in free)
         if feedback:   # a first reference, so the search sees the feedback at all
             _settle(prob, base, values)
         best = None
@@ -587,7 +587,6 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
     if ref is not None:
         prob.ref = ref
-    feedback = any(k in FEEDBACK_PARAMS for k in free)
     best = None
     for _ in range(rounds if feedback else 1):
         if feedback:

@@ -282,10 +282,11 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
         return (builtin and is_builtin(name) and isinstance(data, DynamicData)
                 and get_effect(name).applicable(data) is None)
 
+    pooled, local = [], []
+    for t in tasks:
+        (pooled if poolable(t[2]) else local).append(t)
     # the slowest refits (a second one from scratch) first, so no core idles at the end
-    pooled = sorted((t for t in tasks if poolable(t[2])),
-                    key=lambda t: not get_effect(t[2]).own_grid)
-    local = [t for t in tasks if not poolable(t[2])]
+    pooled.sort(key=lambda t: not get_effect(t[2]).own_grid)
     workers = min(jobs or available_cores(), len(pooled))
     out = []
 
@@ -345,10 +346,10 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
     unresolved = eff.unresolved(fit.values, data)
     significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried
                        and unresolved is None)
-    ablation = ('' if v_abl is None else
-                f', {100 * v_abl:.2f} % with the effect switched off in the refit')
+    checks = ('' if v_abl is None else
+              f', {100 * v_abl:.2f} % with the effect switched off in the refit')
     if unresolved:
-        ablation += f'; not significant: {unresolved}'
+        checks += f'; not significant: {unresolved}'
     values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
                        if k in eff.parameters) or 'modified PI (saturated plays)'
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
@@ -356,7 +357,7 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
-                            f'BIC change {bic1 - bic0:+.1f}{ablation}; '
+                            f'BIC change {bic1 - bic0:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
             'fit': fit, 'bic': float(bic1)}
 
