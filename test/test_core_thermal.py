@@ -194,6 +194,24 @@ def test_ambient_gain_weights_measured_ambient():
     assert t1 - t0 == pytest.approx(5.0, abs=1e-3)
 
 
+def test_sensor_inverse_is_exact_on_the_rising_branch_and_first_order_beyond():
+    # the plant's strongest setting: the first-order inverse 2y - p(y) is off by 0.26 rad
+    p = BASE.with_changes(sensor_c2_rad=0.15, sensor_c3_rad=-0.1, sensor_c4_rad=0.05)
+    phi = np.linspace(-1.1, 1.1, 501)
+    reading = act.sensor_polynomial(p, phi)
+    np.testing.assert_allclose(act.sensor_inverse(p, reading), phi, atol=1e-5)
+    assert np.max(np.abs(2 * reading - act.sensor_polynomial(p, reading) - phi)) > 0.1
+    for y in (-0.6, 0.3, 1.0):      # cross-check one value with a scalar root finder
+        root = brentq(lambda f: float(act.sensor_polynomial(p, f)) - y, -1.1, 1.5)
+        assert act.sensor_inverse(p, np.array([y, -0.5, 1.2]))[0] == pytest.approx(root, abs=1e-6)
+    # p turns within the readings (c5 = -0.15 with c2 = 0.25 falls below -1.1 rad): no
+    # single-valued inverse, so the first-order one
+    bent = BASE.with_changes(sensor_c2_rad=0.25, sensor_c5_rad=-0.15)
+    y = np.linspace(-1.2, 1.2, 50)
+    np.testing.assert_allclose(act.sensor_inverse(bent, y), 2 * y - act.sensor_polynomial(bent, y))
+    np.testing.assert_array_equal(act.sensor_inverse(BASE, y), y)     # no polynomial
+
+
 def test_sensor_polynomial_and_fatigue():
     n, dt = 600, 1.0
     da = np.where(np.arange(n) % 40 < 20, 0.5, 0.0)

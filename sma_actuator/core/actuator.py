@@ -304,6 +304,31 @@ def sensor_polynomial(params, phi):
         params.sensor_c4_rad + phi * params.sensor_c5_rad)))
 
 
+def sensor_inverse(params, reading, n_grid=8193):
+    """Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
+
+    p is evaluated on a dense grid over the readings' span widened by that span each
+    side, and inverted by interpolation on its rising branch through the middle of the
+    readings. Where that branch does not reach every reading (the bounds allow p to turn
+    far from the travel), the first-order inverse 2y − p(y), exact to O(c²), is returned.
+    """
+    y = np.asarray(reading, float)
+    if not (params.sensor_c2_rad or params.sensor_c3_rad or params.sensor_c4_rad
+            or params.sensor_c5_rad):
+        return y
+    lo, hi = float(np.min(y)), float(np.max(y))
+    span = max(hi - lo, 1e-3)
+    phi = np.linspace(lo - span, hi + span, n_grid)
+    p = sensor_polynomial(params, phi)
+    falls = np.flatnonzero(np.diff(p) <= 0)        # p[i + 1] <= p[i]
+    mid = n_grid // 2
+    a = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
+    b = int(falls[falls >= mid].min()) if np.any(falls >= mid) else n_grid - 1
+    if p[a] <= lo and p[b] >= hi:
+        return np.interp(y, p[a:b + 1], phi[a:b + 1])
+    return 2.0 * y - sensor_polynomial(params, y)
+
+
 def delay_signal(x, dt, delay_s):
     """x(t − D) on the sample grid, linear interpolation, holding the first value before t0."""
     if delay_s <= 0:

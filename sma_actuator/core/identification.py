@@ -349,10 +349,9 @@ class _Problem:
         sl = slice(self.burn_in, n, self.stride)
         X = self.regressors(params, n, sl)
         y = self.data.position[sl]
-        # regress the angle before the sensor on y − (p(y) − y), the first-order inverse of
-        # the potentiometer polynomial p (no iteration, so no divergence); the residual is
-        # the exact forward one, p(X b) − y, which the outer search minimises
-        target = 2.0 * y - act.sensor_polynomial(params, y)
+        # regress the angle before the sensor, p⁻¹(y); the residual is the forward one,
+        # p(X b) − y, which the outer search minimises
+        target = act.sensor_inverse(params, y)
         if any(k in self.names for k in LINEAR_PARAMS):
             # weights >= 0, each wire's fatigue drift within half the measured travel (beyond
             # that g_a − g_b with huge cancelling offsets fits start-up transients), offset free
@@ -469,14 +468,18 @@ def _mass_points(x, mass, cell, lo, hi, n):
     return np.sort(np.concatenate([even, dense]))
 
 
-def _adaptive_grid(h, u_lo, u_hi, n_widths, n_centres):
+def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
     """Fine saturated-play grid refined where the coarse fit `h` carries its weight.
 
-    Rising edges (centre + half-width) and half-widths are placed by `_mass_points` from the
-    coarse elements' output spans w (hi − lo); each element's band covers the cell between
-    its edge and the neighbouring edges, so the edges tile [u_lo, u_hi] for every width.
+    Rising edges (centre + half-width) and half-widths are placed by `_mass_points` from
+    each coarse element's share of the output in the training window, w · span (span: the
+    range its state covers there, `_Problem.state_hi − state_lo`). Weighting by the whole
+    band instead (w (hi − lo)) let a heavily weighted element the data hardly moves (one
+    near the hottest state, fitting a few samples) pull the resolution away from where the
+    wire transforms. Each element's band covers the cell between its edge and the
+    neighbouring edges, so the edges tile [u_lo, u_hi] for every width.
     """
-    mass = h.w * (h.hi - h.lo)
+    mass = h.w * span
     if not np.isfinite(mass).all() or mass.sum() <= 0:
         return play_grid(u_lo, u_hi, 'modified', n_widths, n_centres), (n_widths, n_centres)
     edges = 0.5 * (h.lo + h.hi) + h.r
@@ -571,7 +574,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         for _ in range(refine if kind == 'modified' else 1):
             if kind == 'modified':
                 h = prob.with_linear(set_values(base, values), b).hysteresis
-                grid, shape = _adaptive_grid(h, u_lo, u_hi, *fine)
+                grid, shape = _adaptive_grid(h, prob.state_hi - prob.state_lo, u_lo, u_hi,
+                                             *fine)
             else:
                 grid = play_grid(u_lo, u_hi, kind, *fine)
             prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)

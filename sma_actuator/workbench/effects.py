@@ -209,7 +209,8 @@ class SensorNonlinearity(Effect):
     divider, so the reading is a smooth function of the angle, here the polynomial
     p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad; enough for bow and S shapes)."""
     name = 'sensor_nonlinearity'
-    # bounded so p stays monotone over about ±1.2 rad of travel
+    # bounded so each term alone keeps p monotone over about ±1 rad of travel (together
+    # they may turn earlier: `core.actuator.sensor_inverse` then falls back to first order)
     parameters = {'sensor_c2_rad': (-0.25, 0.25, 0.0), 'sensor_c3_rad': (-0.3, 0.3, 0.0),
                   'sensor_c4_rad': (-0.15, 0.15, 0.0), 'sensor_c5_rad': (-0.15, 0.15, 0.0)}
     signature = ('static, memoryless error that is a smooth function of the position '
