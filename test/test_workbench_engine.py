@@ -216,7 +216,7 @@ def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
     monkeypatch.setattr(engine, 'fit_dynamic', spy)
     register_effect(OwnGrid)
     try:
-        engine.fit_model(data, ['delay'], base_fit=base)
+        engine.fit_model(data, ['sensor_nonlinearity'], base_fit=base)
         assert all(g is base.grid for g in grids)                 # warm starts only
         grids.clear()
         starts.clear()
