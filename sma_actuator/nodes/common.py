@@ -1,10 +1,16 @@
-"""Helpers shared by the nodes: topic names, QoS, parameter descriptors, diagnostics, config."""
+"""Helpers shared by the nodes: topic names, QoS, parameter descriptors, diagnostics, config,
+and the signal-safe spin loop every console script runs."""
+import signal
+import threading
 from pathlib import Path
 
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
 
 # topic names (issue 3); kept in one place so nodes, tests and the demo agree
 SETPOINT = '/sma/setpoint'
@@ -25,6 +31,44 @@ DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
+
+
+def install_stop_signals():
+    """SIGINT and SIGTERM set the returned Event and raise nothing.
+
+    Why not rclpy's handler: it chains to Python's default SIGINT handler, and the
+    KeyboardInterrupt it raises can land inside a pybind11 call of the executor
+    (`take_message`), which turns it into "RuntimeError: Unable to convert call argument"
+    and exit status 1 (ros/joint_state_publisher#117; seen here under load). A flag that the
+    spin loop polls stops every node between callbacks, with its context still valid, so
+    the shutdown path can still publish a zero duty.
+    """
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def init_with_stop_signals(args=None):
+    """`rclpy.init(args)` without rclpy's signal handlers; returns `install_stop_signals()`."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    return install_stop_signals()
+
+
+def spin_until_stopped(node, stop, done=None, poll_s=0.05):
+    """Spin `node` until `stop` is set, `done()` is true or its context is shut down.
+
+    A signal is seen within poll_s (the wait returns at least that often). Returns the
+    executor, so a caller can still drain queued messages after the stop.
+    """
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    try:
+        while not stop.is_set() and node.context.ok() and not (done and done()):
+            executor.spin_once(timeout_sec=poll_s)
+    except ExternalShutdownException:
+        pass   # someone else shut the context down: a normal stop
+    return executor
 
 
 def declare_float(node, name, default, description, lo=None, hi=None, read_only=False):

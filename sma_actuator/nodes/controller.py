@@ -17,7 +17,6 @@ from dataclasses import fields
 
 import numpy as np
 import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import JointState, Temperature
@@ -225,13 +224,11 @@ class Controller(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
+    stop = c.init_with_stop_signals(args)
     node = None
     try:
         node = Controller()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        c.spin_until_stopped(node, stop)
     finally:
         if node is not None:
             # last word on the duty topic: heat off (the plant's timeout is the backstop)

@@ -25,7 +25,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.exceptions import InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
@@ -194,13 +193,11 @@ class HardwareBridge(Node):
 
 def main(args=None):
     """Console script: run the bridge until SIGINT/SIGTERM; exit status 1 on bad parameters."""
-    rclpy.init(args=args)
+    stop = c.init_with_stop_signals(args)
     node = None
     try:
         node = HardwareBridge()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        c.spin_until_stopped(node, stop)
     except (ValueError, InvalidParameterValueException) as exc:
         # a configuration mistake: say which parameter, without a traceback
         rclpy.logging.get_logger('hardware_bridge').fatal(f'not started: {exc}')

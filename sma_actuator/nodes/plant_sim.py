@@ -23,7 +23,6 @@ import numpy as np
 import rclpy
 import yaml
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -227,13 +226,11 @@ def _header(stamp, frame):
 
 
 def main(args=None):
-    rclpy.init(args=args)
+    stop = c.init_with_stop_signals(args)
     node = None
     try:
         node = PlantSim()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        c.spin_until_stopped(node, stop)
     finally:
         if node is not None:
             node.destroy_node()

@@ -11,15 +11,11 @@ Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor,
 ``close()`` (or ``destroy_node()``) when the run ends.
 """
 import functools
-import signal
 import sys
-import threading
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 
 from sma_actuator.bag.errors import BagError
 from sma_actuator.bag.msgdefs import type_description_hash
@@ -30,6 +26,7 @@ from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, d
                                           message_class, parameter_overrides, publisher_offers,
                                           qos_profile, take_pending)
 from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
+from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
 
 PARAMETERS = {
     'topics': (list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also matches /)',
@@ -197,19 +194,13 @@ class RecorderNode(Node):
 
 def main(args=None):
     """Console entry point: record until SIGINT/SIGTERM, take what is queued, close the bag."""
-    # Own signal handling: rclpy's would shut the context down at once, dropping messages
-    # that already arrived but were not taken yet.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    interrupted = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: interrupted.set())
+    # The stop flag leaves the context up, so messages that already arrived but were not
+    # taken yet are still drained into the bag.
+    stop = init_with_stop_signals(args)
     node, code = None, 0
     try:
         node = RecorderNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while not interrupted.is_set():
-            executor.spin_once(timeout_sec=0.1)
+        executor = spin_until_stopped(node, stop, poll_s=0.1)
         for _ in range(DRAIN_CYCLES):
             executor.spin_once(timeout_sec=0.02)
     except (BagError, ValueError) as err:

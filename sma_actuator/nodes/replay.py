@@ -11,7 +11,6 @@ the node publishes duty ``[0, 0]`` on it, so a replay never leaves a wire heated
 Run: ``replay --ros-args -p bag_path:=runs/step1/bag -p rate:=2.0
 -p "remap:=['/sma/joint_states:=/measured/joint_states']"``
 """
-import signal
 import sys
 import threading
 import time
@@ -21,11 +20,9 @@ import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64MultiArray
 
@@ -35,6 +32,7 @@ from sma_actuator.bag.qos import adapt_offer_to_recorded_offers, load_offered_qo
 from sma_actuator.bag.reader import BagReader
 from sma_actuator.bag.ros_interop import (ERROR, OK, declare_parameters, diagnostics,
                                           message_class, parameter_overrides, qos_profile)
+from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
 
 PARAMETERS = {
     'bag_path': ('', 'Bag directory or .mcap file to play (required)', None),
@@ -235,19 +233,13 @@ class ReplayNode(Node):
 
 def main(args=None):
     """Console entry point: play the bag; SIGINT/SIGTERM stop it and zero the duty first."""
-    # Own signal handling: rclpy's would shut the context down before the duty is zeroed.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    interrupted = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: interrupted.set())
+    # The stop flag leaves the context up, so the duty can still be zeroed on the way out.
+    stop = init_with_stop_signals(args)
     node, code = None, 0
     try:
         node = ReplayNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
         node.start()
-        while not interrupted.is_set() and not node.finished.is_set():
-            executor.spin_once(timeout_sec=0.05)
+        spin_until_stopped(node, stop, done=node.finished.is_set)
         code = 1 if node._error else 0
     except (BagError, ValueError) as err:
         print(f'replay: {err}', file=sys.stderr)

@@ -8,11 +8,11 @@ exit (for users without the ros2 CLI):
     setpoint --ros-args -p one_shot:=true -p offset:=0.3
 """
 import sys
+import threading
 import time
 from dataclasses import fields, replace
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
 from std_msgs.msg import Float64
@@ -76,11 +76,18 @@ class Setpoint(Node):
                           {'profile': p.kind, 'amplitude_rad': p.amplitude, 'offset_rad': p.offset,
                            'period_s': p.period_s, 'setpoint_rad': self.value})
 
-    def publish_once(self, wait_s=5.0):
-        """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement."""
+    def publish_once(self, wait_s=5.0, stop=None):
+        """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
+
+        `stop` (a threading.Event, set by SIGINT/SIGTERM) ends the wait early.
+        """
+        stop = stop or threading.Event()
         deadline = time.monotonic() + wait_s
-        while self.pub.get_subscription_count() == 0 and time.monotonic() < deadline:
-            time.sleep(0.05)
+        while (self.pub.get_subscription_count() == 0 and time.monotonic() < deadline
+               and not stop.wait(0.05)):
+            pass
+        if stop.is_set():
+            return False
         if self.pub.get_subscription_count() == 0:
             self.get_logger().error(f'no subscriber on {c.SETPOINT} within {wait_s:g} s')
             return False
@@ -105,17 +112,14 @@ class Setpoint(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
+    stop = c.init_with_stop_signals(args)
     node, ok = None, True
     try:
         node = Setpoint()
         if node.one_shot:
-            ok = node.publish_once()
+            ok = node.publish_once(stop=stop)
         else:
-            while rclpy.ok() and not node.done:
-                rclpy.spin_once(node, timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+            c.spin_until_stopped(node, stop, done=lambda: node.done, poll_s=0.1)
     finally:
         if node is not None:
             node.destroy_node()

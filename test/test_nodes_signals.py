@@ -1,0 +1,112 @@
+"""SIGINT/SIGTERM handling shared by every console script (nodes.common)."""
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from std_msgs.msg import Float64MultiArray
+
+from sma_actuator.nodes import common as c
+
+
+@pytest.fixture
+def restore_signal_handlers():
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    for sig, handler in saved.items():
+        signal.signal(sig, handler)
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_sets_the_stop_flag_and_raises_nothing(restore_signal_handlers, sig):
+    stop = c.install_stop_signals()
+    assert not stop.is_set()
+    os.kill(os.getpid(), sig)   # a KeyboardInterrupt here would fail the test
+    assert stop.wait(2.0)
+
+
+def test_spin_until_stopped_returns_on_the_flag_with_the_context_still_up(ros_context):
+    node = rclpy.create_node('spinner', context=ros_context)
+    stop, ticks = threading.Event(), []
+
+    def tick():
+        ticks.append(time.monotonic())
+        if len(ticks) == 5:
+            stop.set()
+    node.create_timer(0.01, tick)
+    try:
+        executor = c.spin_until_stopped(node, stop)
+        assert len(ticks) == 5           # no callback after the flag
+        assert ros_context.ok()          # the caller can still publish its last word
+        assert isinstance(executor, SingleThreadedExecutor)
+        executor.shutdown()
+    finally:
+        node.destroy_node()
+
+
+def test_spin_until_stopped_returns_when_done_or_the_context_is_shut_down(ros_domain_id):
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros_domain_id)
+    node = rclpy.create_node('spinner', context=context)
+    count = []
+    node.create_timer(0.01, lambda: count.append(1))
+    c.spin_until_stopped(node, threading.Event(), done=lambda: len(count) >= 3)
+    assert len(count) == 3
+    threading.Timer(0.1, context.try_shutdown).start()
+    t0 = time.monotonic()
+    c.spin_until_stopped(node, threading.Event())   # returns once the context is down
+    assert time.monotonic() - t0 < 5.0 and not context.ok()
+    node.destroy_node()
+
+
+def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_traffic(
+        ros_context, ros_domain_id):
+    """Regression: under load, rclpy's SIGINT handler could interrupt a `take_message` and
+    end the process with status 1 (bridge CI failure). Flood the controller with setpoints
+    and joint states, interrupt it mid-stream, and expect exit 0 and a final zero duty."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+    probe = rclpy.create_node('probe', context=ros_context)
+    duties = []
+    probe.create_subscription(Float64MultiArray, c.DUTY, lambda m: duties.append(list(m.data)),
+                              c.COMMAND_QOS)
+    sp_pub = probe.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
+    js_pub = probe.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(probe)
+    proc = subprocess.Popen([sys.executable, '-m', 'sma_actuator.nodes.controller'],
+                            env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 20
+        while not duties and time.monotonic() < deadline:
+            sp_pub.publish(Float64(data=0.2))
+            js = JointState(name=[c.JOINT_NAME], position=[0.0], velocity=[0.0])
+            js.header.stamp = probe.get_clock().now().to_msg()
+            js_pub.publish(js)
+            executor.spin_once(timeout_sec=0.002)
+        assert duties, 'controller never published a duty'
+        t_signal, sent = time.monotonic() + 0.3, False
+        while proc.poll() is None and time.monotonic() < t_signal + 10:
+            if not sent and time.monotonic() >= t_signal:
+                proc.send_signal(signal.SIGINT)   # mid-stream: traffic goes on while it stops
+                sent = True
+            js.header.stamp = probe.get_clock().now().to_msg()
+            js_pub.publish(js)
+            executor.spin_once(timeout_sec=0.001)
+        _, err = proc.communicate(timeout=10)
+        for _ in range(20):
+            executor.spin_once(timeout_sec=0.02)
+        assert proc.returncode == 0, err
+        assert 'Traceback' not in err
+        assert duties[-1] == [0.0, 0.0]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        executor.shutdown()
+        probe.destroy_node()
