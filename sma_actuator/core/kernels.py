@@ -159,3 +159,21 @@ def relay_states(u, alpha, beta, x0):
                 x[i] = -1
             out[k, i] = x[i]
     return out, x
+
+
+@njit(cache=True)
+def column_range(a, b):
+    """(lowest, highest) value of each column over the rows of both (n, m) arrays, in one
+    pass (the regression needs each element's visited state range at every solve)."""
+    m = a.shape[1]
+    lo = np.full(m, np.inf)
+    hi = np.full(m, -np.inf)
+    for x in (a, b):
+        for k in range(x.shape[0]):
+            for i in range(m):
+                v = x[k, i]
+                if v < lo[i]:
+                    lo[i] = v
+                if v > hi[i]:
+                    hi[i] = v
+    return lo, hi
