@@ -87,3 +87,27 @@ def test_scores_on_hand_checkable_example():
     assert s['max_error'] == pytest.approx(2.0)
     perfect = idn.scores(y, y)
     assert perfect['rmse'] == 0 and perfect['fit_percent'] == 100
+
+
+def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_system():
+    """`_nnls_with_offset` never builds [X, −x_last]; its minimiser must be that of scipy's
+    NNLS on the explicit system (weights >= 0, last coefficient of either sign)."""
+    from scipy.optimize import nnls
+    rng = np.random.default_rng(3)
+    X = np.column_stack([np.abs(rng.normal(size=(400, 6))), np.ones(400)])
+    b_true = np.array([0.0, 1.5, 0.0, 0.7, 2.0, 0.0, -3.0])   # negative offset
+    y = X @ b_true + 0.01 * rng.normal(size=400)
+    b = idn._nnls_with_offset(X, y, free_cols=1)
+    c, _ = nnls(np.hstack([X, -X[:, -1:]]), y)
+    expected = np.r_[c[:-2], c[-2] - c[-1]]
+    np.testing.assert_allclose(b, expected, atol=1e-6)
+    assert b[-1] < -2.9 and np.all(b[:-1] >= 0)
+
+
+def test_column_range_is_the_min_and_max_over_both_arrays():
+    from sma_actuator.core.kernels import column_range
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(size=(50, 7)), rng.normal(size=(30, 7)) + 1.0
+    lo, hi = column_range(a, b)
+    np.testing.assert_array_equal(lo, np.minimum(a.min(0), b.min(0)))
+    np.testing.assert_array_equal(hi, np.maximum(a.max(0), b.max(0)))
