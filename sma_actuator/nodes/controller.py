@@ -234,6 +234,9 @@ def main(args=None):
             # last word on the duty topic: heat off (the plant's timeout is the backstop)
             if rclpy.ok():
                 node.duty_pub.publish(Float64MultiArray(data=[0.0, 0.0]))
+                # reliable QoS: wait (bounded) until subscribers have it before the process
+                # and its DDS participant go away
+                node.duty_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=0.5))
             node.destroy_node()
         rclpy.try_shutdown()
 
