@@ -201,16 +201,20 @@ class OwnGrid(Effect):
     def scratch_start(self, params):
         return {'ambient_shift': 2.5}
 
+    def scratch_bounds(self, params):
+        return {'ambient_shift': (1.0, 5.0, 2.5)}
+
 
 def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
     data = record(act.ActuatorParams(), seconds=120.0)
     base = engine.fit_model(data, ())
-    grids, starts = [], []
+    grids, starts, frees = [], [], []
     real = engine.fit_dynamic
 
     def spy(*args, **kw):
         grids.append(kw.get('grid'))
         starts.append(kw.get('start'))
+        frees.append(kw.get('free'))
         return real(*args, **kw)
 
     monkeypatch.setattr(engine, 'fit_dynamic', spy)
@@ -220,11 +224,26 @@ def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
         assert all(g is base.grid for g in grids)                 # warm starts only
         grids.clear()
         starts.clear()
+        frees.clear()
         engine.fit_model(data, ['test_own_grid'], base_fit=base)
         assert grids[0] is base.grid and grids[-1] is None        # warm, then from scratch
         assert starts[0]['ambient_shift'] == 0.0 and starts[-1]['ambient_shift'] == 2.5
+        # the scratch bounds apply to the refit from scratch only
+        assert frees[0]['ambient_shift'] == (-5.0, 5.0, 0.0)
+        assert frees[-1]['ambient_shift'] == (1.0, 5.0, 2.5)
     finally:
         CATALOG.pop('test_own_grid', None)
+
+
+def test_fast_dynamics_from_scratch_keeps_the_base_time_constant_the_slow_lag():
+    # the two lags in series are interchangeable; from scratch tau stays >= tau_base / 2,
+    # so tau >= tau_fast whenever the pair keeps the base fit's mean delay tau + tau_fast
+    eff = get_effect('fast_dynamics')
+    assert eff.own_grid
+    for tau in (0.8, 2.0, 6.0):
+        lo, hi, start = eff.scratch_bounds(act.ActuatorParams().with_changes(
+            heat_capacity_j_per_k=tau * act.ActuatorParams().conductance_w_per_k))['tau_s']
+        assert lo == pytest.approx(0.5 * tau) and start == pytest.approx(tau) and hi >= 20.0
 
 
 def test_phase_resistance_scratch_start_is_a_strong_effect_of_the_drives_sign():

@@ -201,14 +201,16 @@ def _fit_dynamic(data, effects, kind, base_fit):
             alternatives += eff.alternative_starts(data)
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
-    trials = [(alt, same_grid) for alt in [{}] + alternatives]
+    trials = [(alt, same_grid, {}) for alt in [{}] + alternatives]
     for e in effects:
         if same_grid and e not in base_fit.effects and get_effect(e).own_grid:
             # also from scratch, on a grid of its own
-            trials.append((get_effect(e).scratch_start(params), False))
+            eff = get_effect(e)
+            trials.append((eff.scratch_start(params), False, eff.scratch_bounds(params)))
     res = None
-    for alt, warm in trials:
-        trial = fit_dynamic(data, free=free, kind=kind, grid=base_fit.grid if warm else None,
+    for alt, warm, bounds in trials:
+        trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,
+                            grid=base_fit.grid if warm else None,
                             start=dict(start, **alt), input_hook=hook,
                             ref=base_fit.params.hysteresis if warm else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
