@@ -120,7 +120,7 @@ def _reduced(X, y, negated=0):
         tail = slice(G.shape[0] - negated, None)
         G = np.block([[G, -G[:, tail]], [-G[tail, :], G[tail, tail]]])
         Xty = np.concatenate([Xty, -Xty[tail]])
-    scale = np.sqrt(np.diag(G)).copy()
+    scale = np.sqrt(np.diag(G))   # a new array (np.diag of a 2-D array is a read-only view)
     scale[scale == 0] = 1.0
     G = G / np.outer(scale, scale)
     G[np.diag_indices_from(G)] += RIDGE * np.trace(G) / len(G)

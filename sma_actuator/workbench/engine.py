@@ -202,10 +202,9 @@ def _fit_dynamic(data, effects, kind, base_fit):
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
     trials = [(alt, same_grid, {}) for alt in [{}] + alternatives]
-    for e in effects:
-        if same_grid and e not in base_fit.effects and get_effect(e).own_grid:
+    for eff in map(get_effect, effects):
+        if same_grid and eff.name not in base_fit.effects and eff.own_grid:
             # also from scratch, on a grid of its own
-            eff = get_effect(e)
             trials.append((eff.scratch_start(params), False, eff.scratch_bounds(params)))
     res = None
     for alt, warm, bounds in trials:
