@@ -138,7 +138,7 @@ def test_bad_requests_are_named(ros_context, tmp_path):
         bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
     with pytest.raises(BagError, match='nothing to play'):
         ReplayNode(context=ros_context, bag_path=str(empty))
-    with pytest.raises(ValueError, match="parameter 'rate'.*out of range"):
+    with pytest.raises(ValueError, match='parameter rate: .* outside the allowed range'):
         ReplayNode(context=ros_context, bag_path=str(tmp_path / 'bag'), rate=0.0)
 
 

@@ -1,16 +1,13 @@
 """The rclpy side of recording and replay (the only module of sma_actuator.bag importing ROS).
 
 Small helpers shared by the recorder and replay nodes: message classes by type name, QoS
-profiles from rosbag2 policy names, parameter declaration with descriptors, diagnostics.
+profiles from rosbag2 policy names, diagnostics.
 """
 import importlib
 from typing import Any, Dict, Iterable, Iterator, Tuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .errors import UnknownTypeError
@@ -21,11 +18,6 @@ _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
                 'best_effort': ReliabilityPolicy.BEST_EFFORT}
 _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
                'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
-
-#: A parameter spec: (default, description, (min, max) or None). A default of
-#: Parameter.Type.STRING_ARRAY declares a string list with no default (unset = None).
-ParamSpec = Tuple[Any, str, Any]
-
 
 def message_class(type_name: str):
     """Import and return the Python class of ``pkg/msg/Type``.
@@ -73,49 +65,6 @@ def take_pending(subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
         if taken is None:
             return
         yield taken
-
-
-def declare_parameters(node: Node, specs: Dict[str, ParamSpec]) -> Dict[str, Any]:
-    """Declare parameters with descriptors (description, numeric range); return their values."""
-    values = {}
-    for name, (default, description, limits) in specs.items():
-        descriptor = ParameterDescriptor(description=description)
-        if limits is not None and isinstance(default, float):
-            descriptor.floating_point_range = [
-                FloatingPointRange(from_value=float(limits[0]), to_value=float(limits[1]))]
-        elif limits is not None and isinstance(default, int) and not isinstance(default, bool):
-            descriptor.integer_range = [
-                IntegerRange(from_value=int(limits[0]), to_value=int(limits[1]))]
-        try:
-            values[name] = node.declare_parameter(name, default, descriptor).value
-        except (InvalidParameterValueException, InvalidParameterTypeException) as err:
-            raise ValueError(f"parameter '{name}': {err}") from err
-    return values
-
-
-#: Parameters every rclpy node declares itself; accepted as keyword arguments too.
-NODE_PARAMETERS = ('use_sim_time',)
-
-
-def parameter_overrides(specs: Dict[str, ParamSpec], params: Dict[str, Any]):
-    """Turn ``name=value`` keyword arguments into rclpy parameter overrides.
-
-    :raises ValueError: A name that is not one of the node's parameters.
-    """
-    unknown = sorted(set(params) - set(specs) - set(NODE_PARAMETERS))
-    if unknown:
-        raise ValueError(f'unknown parameters {unknown}; known: {sorted(specs)}')
-    overrides = []
-    for name, value in params.items():
-        default = specs[name][0] if name in specs else value
-        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)  # 2 for a double parameter means 2.0
-        if isinstance(value, (list, tuple)) and not value:
-            # rclpy types an empty list as a byte array; these lists are string lists
-            overrides.append(Parameter(name, Parameter.Type.STRING_ARRAY, []))
-            continue
-        overrides.append(Parameter(name, value=list(value) if isinstance(value, tuple) else value))
-    return overrides
 
 
 def diagnostics(node: Node, name: str, level: bytes, message: str,

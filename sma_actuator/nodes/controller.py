@@ -27,7 +27,8 @@ from ..control.inputs import LastValid, setpoint_problem
 from ..control.model_file import load_model
 from . import common as c
 
-# runtime-tunable settings: (name, range or None, description)
+_D = ControllerSettings()
+# runtime-tunable settings of ControllerSettings: (name, lo, hi, description)
 TUNABLE = (
     ('kp', 0.0, 100.0, 'Proportional gain [duty/rad].'),
     ('ki', 0.0, 100.0, 'Integral gain [duty/(rad s)].'),
@@ -39,6 +40,24 @@ TUNABLE = (
     ('on_off_duty', 0.0, 1.0, 'on_off: duty of the heated wire.'),
     ('ff_horizon_s', 0.0, 10.0, 'pi_inverse: thermal inverse horizon [s]; 0 = static map.'),
 )
+PARAMETERS = (
+    c.Param('mode', _D.mode, 'Control mode (changeable at runtime).', choices=MODES),
+    *(c.Param(name, getattr(_D, name), desc, (lo, hi)) for name, lo, hi, desc in TUNABLE),
+    c.Param('period_s', 0.025, 'Control period and watchdog timer [s].', (0.001, 1.0),
+            read_only=True),
+    c.Param('feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR '
+            '[s].', (0.01, 10.0)),
+    c.Param('setpoint_min_rad', -1.0, 'Lowest accepted setpoint [rad].', (-3.2, 3.2),
+            read_only=True),
+    c.Param('setpoint_max_rad', 1.0, 'Highest accepted setpoint [rad].', (-3.2, 3.2),
+            read_only=True),
+    c.Param('initial_setpoint_rad', 0.0, 'Setpoint until one arrives [rad].', (-3.2, 3.2),
+            read_only=True),
+    c.Param('model_file', '', 'Identified model YAML (ActuatorParams.to_dict); empty: '
+            'config/controller_model.yaml.', read_only=True),
+    c.Param('use_ambient_topic', False, 'Feed /sma/ambient_temperature to the model.',
+            read_only=True),
+)
 
 
 class Controller(Node):
@@ -46,35 +65,26 @@ class Controller(Node):
 
     def __init__(self, **kwargs):
         super().__init__('controller', **kwargs)
-        d = ControllerSettings()
-        mode = c.declare_str(self, 'mode', d.mode, 'Control mode.', MODES)
-        values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
-                  for name, lo, hi, desc in TUNABLE}
-        self.period_s = c.declare_float(self, 'period_s', 0.025, 'Control period and watchdog '
-                                        'timer [s].', 0.001, 1.0, read_only=True)
-        self.feedback_timeout_s = c.declare_float(
-            self, 'feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR.',
-            0.01, 10.0)
-        self.sp_min = c.declare_float(self, 'setpoint_min_rad', -1.0, 'Lowest accepted '
-                                      'setpoint [rad].', -3.2, 3.2, read_only=True)
-        self.sp_max = c.declare_float(self, 'setpoint_max_rad', 1.0, 'Highest accepted '
-                                      'setpoint [rad].', -3.2, 3.2, read_only=True)
-        initial = c.declare_float(self, 'initial_setpoint_rad', 0.0, 'Setpoint until one '
-                                  'arrives [rad].', -3.2, 3.2, read_only=True)
-        model_file = c.declare_str(self, 'model_file', '', 'Identified model YAML (Actuator'
-                                   'Params.to_dict); empty: config/controller_model.yaml.',
-                                   read_only=True)
-        self.use_ambient_topic = c.declare_bool(self, 'use_ambient_topic', False, 'Feed '
-                                                '/sma/ambient_temperature to the model.',
-                                                read_only=True)
+        p = c.declare_parameters(self, PARAMETERS)
+        mode, model_file = p['mode'], p['model_file']
+        values = {name: p[name] for name, *_ in TUNABLE}
+        self.period_s, self.feedback_timeout_s = p['period_s'], p['feedback_timeout_s']
+        self.sp_min, self.sp_max = p['setpoint_min_rad'], p['setpoint_max_rad']
+        initial = p['initial_setpoint_rad']
+        self.use_ambient_topic = p['use_ambient_topic']
         self.model_path = model_file or str(c.config_path('controller_model.yaml'))
-        model = load_model(self.model_path)
+        try:
+            model = load_model(self.model_path)
+        except (OSError, ValueError) as err:
+            raise c.ParameterError(f'parameter model_file: cannot load {self.model_path}: '
+                                   f'{err}') from err
         self.core = ControllerCore(model, ControllerSettings(mode=mode, **values))
         # run every compiled kernel once now, so the first real sample is not late
         ControllerCore(model, ControllerSettings(mode='pi_inverse')).step(0.1, 0.0, self.period_s)
         self.setpoint = LastValid(lambda v: setpoint_problem(v, self.sp_min, self.sp_max), initial)
         if setpoint_problem(initial, self.sp_min, self.sp_max):
-            raise ValueError('initial_setpoint_rad outside [setpoint_min_rad, setpoint_max_rad]')
+            raise c.ParameterError('parameter initial_setpoint_rad: outside [setpoint_min_rad, '
+                                   'setpoint_max_rad]')
         self.ambient_c = None
         self.last_feedback = None     # node-clock time [s] of the last valid joint state
         self.last_sample = None       # header stamp [s] of the last sample used for control
@@ -224,10 +234,11 @@ class Controller(Node):
 
 
 def main(args=None):
-    stop = c.init_with_stop_signals(args)
+    c.handle_command_line('controller', __doc__, PARAMETERS, args)
+    stop = c.init_with_stop_signals(args, 'controller')
     node = None
     try:
-        node = Controller()
+        node = c.create_node('controller', Controller, args)
         c.spin_until_stopped(node, stop)
     finally:
         if node is not None:

@@ -16,15 +16,12 @@ topics:
 
 On shutdown a zero-duty frame is sent before the port closes.
 """
-import functools
 import sys
 import threading
 import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor, ParameterType
-from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
@@ -40,12 +37,47 @@ LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
           'error': DiagnosticStatus.ERROR, 'stale': DiagnosticStatus.STALE}
 
 
+# every parameter is read-only: they take effect at start
+PARAMETERS = (
+    c.Param('port', '/dev/ttyACM0', 'Serial device or pyserial URL (socket://host:port, '
+            'loop://).', read_only=True),
+    c.Param('baud', 115200, 'Serial baud rate [bit/s].', (1200, 4_000_000), read_only=True),
+    c.Param('adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts [rad].', (-10.0, 10.0),
+            read_only=True),
+    c.Param('adc_scale_rad_per_count', 2.4 / 4095, 'Shaft angle per ADC count [rad].',
+            (-1.0, 1.0), read_only=True),
+    c.Param('adc_polynomial', [0.0], 'With 2 or more coefficients: angle [rad] = '
+            'polyval(coefficients, counts), highest power first, replacing offset and scale. '
+            '[0.0] = not used (YAML has no typed empty list).', read_only=True),
+    c.Param('publish_rate_hz', 200.0, 'ADC report (and joint state) rate requested from the '
+            'MCU; each duty frame also gets an immediate report [Hz].', (1.0, 1000.0),
+            read_only=True),
+    c.Param('duty_refresh_hz', 50.0, 'Re-send the current duty at this rate (> 10 Hz keeps '
+            'the 100 ms MCU watchdog fed) [Hz].', (11.0, 1000.0), read_only=True),
+    c.Param('max_duty', 1.0, 'Per-wire duty limit.', (0.0, 1.0), read_only=True),
+    c.Param('interlock_threshold', 0.3, 'The two duties are never both above this (the '
+            'firmware caps it at 0.5).', (0.0, 0.5), read_only=True),
+    c.Param('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long -> zero duty + '
+            'WARN [s].', (0.01, 10.0), read_only=True),
+    c.Param('link_timeout_s', 0.5, 'No valid frame from the MCU this long -> link lost, zero '
+            'duty, re-handshake [s].', (0.05, 10.0), read_only=True),
+    c.Param('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', (0.1, 100.0), read_only=True),
+    c.Param('reconnect_backoff_min_s', 0.1, 'First reopen delay [s]; doubles per failure.',
+            (0.01, 10.0), read_only=True),
+    c.Param('reconnect_backoff_max_s', 5.0, 'Longest reopen delay [s].', (0.1, 60.0),
+            read_only=True),
+    c.Param('velocity_filter_tau_s', 0.02, 'Low-pass time constant of the velocity estimate '
+            '[s].', (0.0, 1.0), read_only=True),
+    c.Param('diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].', (0.1, 50.0), read_only=True),
+)
+
+
 class HardwareBridge(Node):
     """Bridge node (see module docstring)."""
 
     def __init__(self, **kwargs):
         super().__init__('hardware_bridge', **kwargs)
-        f = self._declare_parameters()
+        f = c.declare_parameters(self, PARAMETERS)
         self.port, baud, poly = f['port'], f['baud'], f['adc_polynomial']
         calibration = AdcCalibration(f['adc_offset_rad'], f['adc_scale_rad_per_count'],
                                      poly if len(poly) >= 2 else ())
@@ -70,47 +102,6 @@ class HardwareBridge(Node):
                                f['reconnect_backoff_max_s'])
         self.link.start()
         self.get_logger().info(f'hardware_bridge on {self.port} at {baud} baud')
-
-    def _declare_parameters(self):
-        """Declare every parameter (all read-only: they take effect at start); name -> value."""
-        fl = functools.partial(c.declare_float, self, read_only=True)
-        return {
-            'port': c.declare_str(self, 'port', '/dev/ttyACM0', 'Serial device or pyserial URL '
-                                  '(socket://host:port, loop://).', read_only=True),
-            'baud': c.declare_int(self, 'baud', 115200, 'Serial baud rate [bit/s].', 1200,
-                                  4_000_000, read_only=True),
-            'adc_offset_rad': fl('adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts [rad].',
-                                 -10.0, 10.0),
-            'adc_scale_rad_per_count': fl('adc_scale_rad_per_count', 2.4 / 4095,
-                                          'Shaft angle per ADC count [rad].', -1.0, 1.0),
-            'adc_polynomial': self.declare_parameter('adc_polynomial', [0.0], ParameterDescriptor(
-                description='With 2 or more coefficients: angle [rad] = polyval(coefficients, '
-                'counts), highest power first, replacing offset and scale. [0.0] = not used '
-                '(YAML has no typed empty list).', type=ParameterType.PARAMETER_DOUBLE_ARRAY,
-                read_only=True)).value,
-            'publish_rate_hz': fl('publish_rate_hz', 200.0, 'ADC report (and joint state) rate '
-                                  'requested from the MCU; each duty frame also gets an '
-                                  'immediate report [Hz].', 1.0, 1000.0),
-            'duty_refresh_hz': fl('duty_refresh_hz', 50.0, 'Re-send the current duty at this '
-                                  'rate (> 10 Hz keeps the 100 ms MCU watchdog fed) [Hz].',
-                                  11.0, 1000.0),
-            'max_duty': fl('max_duty', 1.0, 'Per-wire duty limit.', 0.0, 1.0),
-            'interlock_threshold': fl('interlock_threshold', 0.3, 'The two duties are never both '
-                                      'above this (the firmware caps it at 0.5).', 0.0, 0.5),
-            'duty_timeout_s': fl('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long '
-                                 '-> zero duty + WARN [s].', 0.01, 10.0),
-            'link_timeout_s': fl('link_timeout_s', 0.5, 'No valid frame from the MCU this long '
-                                 '-> link lost, zero duty, re-handshake [s].', 0.05, 10.0),
-            'heartbeat_hz': fl('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', 0.1, 100.0),
-            'reconnect_backoff_min_s': fl('reconnect_backoff_min_s', 0.1, 'First reopen delay '
-                                          '[s]; doubles per failure.', 0.01, 10.0),
-            'reconnect_backoff_max_s': fl('reconnect_backoff_max_s', 5.0, 'Longest reopen delay '
-                                          '[s].', 0.1, 60.0),
-            'velocity_filter_tau_s': fl('velocity_filter_tau_s', 0.02, 'Low-pass time constant '
-                                        'of the velocity estimate [s].', 0.0, 1.0),
-            'diagnostics_rate_hz': fl('diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].',
-                                      0.1, 50.0),
-        }
 
     # --- callbacks (executor thread) ----------------------------------------------------
 
@@ -192,16 +183,16 @@ class HardwareBridge(Node):
 
 
 def main(args=None):
-    """Console script: run the bridge until SIGINT/SIGTERM; exit status 1 on bad parameters."""
-    stop = c.init_with_stop_signals(args)
+    """Run the bridge until SIGINT/SIGTERM; exit status 2 on bad parameters."""
+    c.handle_command_line('hardware_bridge', __doc__, PARAMETERS, args)
+    stop = c.init_with_stop_signals(args, 'hardware_bridge')
     node = None
     try:
-        node = HardwareBridge()
+        node = c.create_node('hardware_bridge', HardwareBridge, args)
         c.spin_until_stopped(node, stop)
-    except (ValueError, InvalidParameterValueException) as exc:
-        # a configuration mistake: say which parameter, without a traceback
-        rclpy.logging.get_logger('hardware_bridge').fatal(f'not started: {exc}')
-        return 1
+    except ValueError as exc:
+        # a configuration mistake the parameter table cannot see (e.g. a bad calibration)
+        c.fail('hardware_bridge', f'not started: {exc}')
     finally:
         if node is not None:
             node.destroy_node()

@@ -59,47 +59,47 @@ EFFECTS = (
 )
 
 
+_BASE = ActuatorParams()
+PARAMETERS = (
+    c.Param('rate_hz', 40.0, 'Publication and step rate [Hz].', (1.0, 1000.0), read_only=True),
+    c.Param('accelerated', False, 'Own the time: step sim time on a wall timer and publish '
+            '/clock (other nodes: use_sim_time).', read_only=True),
+    c.Param('real_time_factor', 10.0, 'Sim seconds per wall second in accelerated mode.',
+            (0.1, 1000.0), read_only=True),
+    c.Param('lockstep', False, 'Accelerated mode: advance only after the duty reply to the '
+            'last joint state arrived (or lockstep_timeout_s wall seconds passed), so the '
+            'loop delay does not depend on the host speed.', read_only=True),
+    c.Param('lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
+            (0.001, 10.0), read_only=True),
+    c.Param('duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero duty.',
+            (0.01, 10.0)),
+    c.Param('model_file', '', 'Optional YAML (ActuatorParams.to_dict) for the plant; the '
+            'effect parameters override it.', read_only=True),
+    c.Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', (-40.0, 80.0),
+            read_only=True),
+    c.Param('use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
+            read_only=True),
+    c.Param('adc_bits', 12, 'ADC resolution [bit].', (4, 24), read_only=True),
+    c.Param('noise_rad', 0.001, 'Potentiometer noise std [rad].', (0.0, 0.1), read_only=True),
+    c.Param('seed', 0, 'Noise seed.', (0, 2 ** 31 - 1), read_only=True),
+) + tuple(c.Param(name, getattr(_BASE, name), f'{desc} (default: model_file, else neutral)',
+                  (lo, hi), read_only=True) for name, lo, hi, desc in EFFECTS)
+
+
 class PlantSim(Node):
     """Simulated actuator node (see module docstring)."""
 
     def __init__(self, **kwargs):
         super().__init__('plant_sim', **kwargs)
-        self.rate_hz = c.declare_float(self, 'rate_hz', 40.0, 'Publication and step rate [Hz].',
-                                       1.0, 1000.0, read_only=True)
-        self.accelerated = c.declare_bool(
-            self, 'accelerated', False, 'Own the time: step sim time on a wall timer and '
-            'publish /clock (other nodes: use_sim_time).', read_only=True)
-        self.rtf = c.declare_float(self, 'real_time_factor', 10.0, 'Sim seconds per wall '
-                                   'second in accelerated mode.', 0.1, 1000.0, read_only=True)
-        self.lockstep = c.declare_bool(
-            self, 'lockstep', False, 'Accelerated mode: advance only after the duty reply to '
-            'the last joint state arrived (or lockstep_timeout_s wall seconds passed), so the '
-            'loop delay does not depend on the host speed.', read_only=True)
-        self.lockstep_timeout_s = c.declare_float(
-            self, 'lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
-            0.001, 10.0, read_only=True)
-        self.duty_timeout_s = c.declare_float(
-            self, 'duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero '
-            'duty.', 0.01, 10.0)
-        model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
-                                   'to_dict) for the plant; the effect parameters override it.',
-                                   read_only=True)
-        ambient = c.declare_float(self, 'ambient_c', 22.0, 'Nominal ambient temperature [°C].',
-                                  -40.0, 80.0, read_only=True)
-        self.use_ambient_topic = c.declare_bool(
-            self, 'use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
-            read_only=True)
-        bits = c.declare_int(self, 'adc_bits', 12, 'ADC resolution [bit].', 4, 24, read_only=True)
-        noise = c.declare_float(self, 'noise_rad', 0.001, 'Potentiometer noise std [rad].',
-                                0.0, 0.1, read_only=True)
-        seed = c.declare_int(self, 'seed', 0, 'Noise seed.', 0, 2 ** 31 - 1, read_only=True)
-        base = ActuatorParams()
-        if model_file:
-            with open(model_file) as f:
-                base = ActuatorParams.from_dict(yaml.safe_load(f))
-        effects = {name: c.declare_float(self, name, getattr(base, name), desc, lo, hi,
-                                         read_only=True)
-                   for name, lo, hi, desc in EFFECTS}
+        base = _base_model(c.initial_value(self, PARAMETERS, 'model_file'))
+        p = c.declare_parameters(self, PARAMETERS,
+                                 defaults={name: getattr(base, name) for name, *_ in EFFECTS})
+        self.rate_hz, self.accelerated = p['rate_hz'], p['accelerated']
+        self.rtf, self.lockstep = p['real_time_factor'], p['lockstep']
+        self.lockstep_timeout_s, self.duty_timeout_s = p['lockstep_timeout_s'], p['duty_timeout_s']
+        ambient, self.use_ambient_topic = p['ambient_c'], p['use_ambient_topic']
+        bits, noise, seed = p['adc_bits'], p['noise_rad'], p['seed']
+        effects = {name: p[name] for name, *_ in EFFECTS}
         self.params = base.with_changes(ambient_c=ambient, **effects)
         self.actuator = AntagonisticActuator(self.params)
         self.pot = Potentiometer(bits, -1.2, 1.2, noise)
@@ -221,15 +221,27 @@ class PlantSim(Node):
                 'rejected_duties': self.duty.rejected, 'sim_time_s': float(self.now_s())}
 
 
+def _base_model(model_file):
+    """Return the ActuatorParams of `model_file` (empty: the defaults)."""
+    if not model_file:
+        return ActuatorParams()
+    try:
+        with open(model_file) as f:
+            return ActuatorParams.from_dict(yaml.safe_load(f))
+    except (OSError, ValueError, TypeError, yaml.YAMLError) as err:
+        raise c.ParameterError(f'parameter model_file: cannot load {model_file}: {err}') from err
+
+
 def _header(stamp, frame):
     return Header(stamp=stamp, frame_id=frame)
 
 
 def main(args=None):
-    stop = c.init_with_stop_signals(args)
+    c.handle_command_line('plant_sim', __doc__, PARAMETERS, args)
+    stop = c.init_with_stop_signals(args, 'plant_sim')
     node = None
     try:
-        node = PlantSim()
+        node = c.create_node('plant_sim', PlantSim, args)
         c.spin_until_stopped(node, stop)
     finally:
         if node is not None:

@@ -22,37 +22,38 @@ from sma_actuator.bag.msgdefs import type_description_hash
 from sma_actuator.bag.qos import adapt_request_to_offers
 from sma_actuator.bag.recording import (DEFAULT_NAME_TEMPLATE, DEFAULT_TOPICS, TopicSelector,
                                         bag_directory)
-from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, diagnostics,
-                                          message_class, parameter_overrides, publisher_offers,
-                                          qos_profile, take_pending)
+from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, diagnostics, message_class,
+                                          publisher_offers, qos_profile, take_pending)
 from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
-from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
+from sma_actuator.nodes.common import (create_node, declare_parameters, handle_command_line,
+                                       init_with_stop_signals, overrides_from_kwargs, Param,
+                                       spin_until_stopped)
 
-PARAMETERS = {
-    'topics': (list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also matches /)',
-               None),
-    'bag_path': ('', 'Bag directory to write; empty: output_dir/<name from name_template>',
-                 None),
-    'output_dir': ('runs', 'Directory in which the bag directory is created', None),
-    'run_name': ('run', 'Run name used in name_template', None),
-    'name_template': (DEFAULT_NAME_TEMPLATE, 'Bag directory name; fields {run_name}, '
-                      '{date:<strftime>}', None),
-    'overwrite': (False, 'Replace an existing bag at the same path (else refuse to start)',
-                  None),
-    'compression': ('zstd', 'Chunk compression: zstd, lz4 or none', None),
-    'chunk_size_bytes': (256 * 1024, 'Close a chunk at this size [bytes]', (1024, 1 << 30)),
-    'chunk_max_age_s': (1.0, 'Close a chunk at this age [s]: bounds data lost on SIGKILL',
-                        (0.0, 60.0)),
-    'max_file_size_bytes': (0, 'Start a new .mcap file past this size [bytes]; 0: never',
-                            (0, 1 << 50)),
-    'max_file_duration_s': (0.0, 'Start a new .mcap file past this span [s]; 0: never',
-                            (0.0, 1e6)),
-    'queue_depth': (1000, 'Subscription queue depth [messages]', (1, 100000)),
-    'discovery_period_s': (0.5, 'Look for new matching topics every this many seconds [s]',
-                           (0.01, 60.0)),
-    'diagnostics_period_s': (1.0, 'Publish /diagnostics every this many seconds [s]',
-                             (0.1, 60.0)),
-}
+PARAMETERS = (
+    Param('topics', list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also '
+          'matches /)'),
+    Param('bag_path', '', 'Bag directory to write; empty: output_dir/<name from '
+          'name_template>'),
+    Param('output_dir', 'runs', 'Directory in which the bag directory is created'),
+    Param('run_name', 'run', 'Run name used in name_template'),
+    Param('name_template', DEFAULT_NAME_TEMPLATE, 'Bag directory name; fields {run_name}, '
+          '{date:<strftime>}'),
+    Param('overwrite', False, 'Replace an existing bag at the same path (else refuse to '
+          'start)'),
+    Param('compression', 'zstd', 'Chunk compression', choices=tuple(sorted(COMPRESSIONS))),
+    Param('chunk_size_bytes', 256 * 1024, 'Close a chunk at this size [bytes]', (1024, 1 << 30)),
+    Param('chunk_max_age_s', 1.0, 'Close a chunk at this age [s]: bounds data lost on SIGKILL',
+          (0.0, 60.0)),
+    Param('max_file_size_bytes', 0, 'Start a new .mcap file past this size [bytes]; 0: never',
+          (0, 1 << 50)),
+    Param('max_file_duration_s', 0.0, 'Start a new .mcap file past this span [s]; 0: never',
+          (0.0, 1e6)),
+    Param('queue_depth', 1000, 'Subscription queue depth [messages]', (1, 100000)),
+    Param('discovery_period_s', 0.5, 'Look for new matching topics every this many seconds '
+          '[s]', (0.01, 60.0)),
+    Param('diagnostics_period_s', 1.0, 'Publish /diagnostics every this many seconds [s]',
+          (0.1, 60.0)),
+)
 # executor cycles after SIGINT/SIGTERM to take messages that already arrived
 DRAIN_CYCLES = 10
 
@@ -68,11 +69,8 @@ class RecorderNode(Node):
 
     def __init__(self, *, context=None, node_name='recorder', **params):
         super().__init__(node_name, context=context,
-                         parameter_overrides=parameter_overrides(PARAMETERS, params))
+                         parameter_overrides=overrides_from_kwargs(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
-        if p['compression'] not in COMPRESSIONS:
-            raise ValueError(f"compression '{p['compression']}' is not one of "
-                             f'{sorted(COMPRESSIONS)}')
         self._selector = TopicSelector(p['topics'])
         path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
                                               p['name_template'])
@@ -196,10 +194,11 @@ def main(args=None):
     """Console entry point: record until SIGINT/SIGTERM, take what is queued, close the bag."""
     # The stop flag leaves the context up, so messages that already arrived but were not
     # taken yet are still drained into the bag.
-    stop = init_with_stop_signals(args)
+    handle_command_line('recorder', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'recorder')
     node, code = None, 0
     try:
-        node = RecorderNode()
+        node = create_node('recorder', RecorderNode, args)
         executor = spin_until_stopped(node, stop, poll_s=0.1)
         for _ in range(DRAIN_CYCLES):
             executor.spin_once(timeout_sec=0.02)

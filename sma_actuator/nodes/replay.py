@@ -21,7 +21,6 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64MultiArray
@@ -30,27 +29,28 @@ from sma_actuator.bag.errors import BagError, UnknownTypeError
 from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings
 from sma_actuator.bag.qos import adapt_offer_to_recorded_offers, load_offered_qos_profiles
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.ros_interop import (ERROR, OK, declare_parameters, diagnostics,
-                                          message_class, parameter_overrides, qos_profile)
-from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
+from sma_actuator.bag.ros_interop import ERROR, OK, diagnostics, message_class, qos_profile
+from sma_actuator.nodes.common import (create_node, declare_parameters, handle_command_line,
+                                       init_with_stop_signals, overrides_from_kwargs, Param,
+                                       spin_until_stopped)
 
-PARAMETERS = {
-    'bag_path': ('', 'Bag directory or .mcap file to play (required)', None),
-    'rate': (1.0, 'Speed factor: 2.0 plays twice as fast', (0.01, 100.0)),
-    'loop': (False, 'Start again after the last message', None),
-    'start_offset_s': (0.0, 'Skip this much bag time from the start [s]', (0.0, 1e6)),
-    'topics': (Parameter.Type.STRING_ARRAY, 'Topics to play; unset: all in the bag', None),
-    'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
-    'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
-    'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
-    'wait_for_subscribers_s': (2.0, 'Before the first message, wait until every played '
-                               'topic has a subscriber, at most this long [s]', (0.0, 600.0)),
-    'zero_duty_on_stop': (True, 'On end/stop publish duty [0, 0] on the (remapped) duty topic',
-                          None),
-    'duty_topic': ('/sma/duty', 'Bag topic that carries the duty commands', None),
-    'diagnostics_period_s': (1.0, 'Publish /diagnostics every this many seconds [s]',
-                             (0.1, 60.0)),
-}
+PARAMETERS = (
+    Param('bag_path', '', 'Bag directory or .mcap file to play (required)'),
+    Param('rate', 1.0, 'Speed factor: 2.0 plays twice as fast', (0.01, 100.0)),
+    Param('loop', False, 'Start again after the last message'),
+    Param('start_offset_s', 0.0, 'Skip this much bag time from the start [s]', (0.0, 1e6)),
+    Param('topics', None, 'Topics to play; unset: all in the bag', kind='string_array'),
+    Param('remap', None, "Topic remappings, entries '/from:=/to'", kind='string_array'),
+    Param('clock', False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time'),
+    Param('clock_frequency_hz', 100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
+    Param('wait_for_subscribers_s', 2.0, 'Before the first message, wait until every played '
+          'topic has a subscriber, at most this long [s]', (0.0, 600.0)),
+    Param('zero_duty_on_stop', True, 'On end/stop publish duty [0, 0] on the (remapped) duty '
+          'topic'),
+    Param('duty_topic', '/sma/duty', 'Bag topic that carries the duty commands'),
+    Param('diagnostics_period_s', 1.0, 'Publish /diagnostics every this many seconds [s]',
+          (0.1, 60.0)),
+)
 DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
 
 
@@ -65,7 +65,7 @@ class ReplayNode(Node):
 
     def __init__(self, *, context=None, node_name='replay', **params):
         super().__init__(node_name, context=context,
-                         parameter_overrides=parameter_overrides(PARAMETERS, params))
+                         parameter_overrides=overrides_from_kwargs(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
         if not p['bag_path']:
             raise ValueError('bag_path is required: the bag directory or .mcap file to play')
@@ -234,10 +234,11 @@ class ReplayNode(Node):
 def main(args=None):
     """Console entry point: play the bag; SIGINT/SIGTERM stop it and zero the duty first."""
     # The stop flag leaves the context up, so the duty can still be zeroed on the way out.
-    stop = init_with_stop_signals(args)
+    handle_command_line('replay', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'replay')
     node, code = None, 0
     try:
-        node = ReplayNode()
+        node = create_node('replay', ReplayNode, args)
         node.start()
         spin_until_stopped(node, stop, done=node.finished.is_set)
         code = 1 if node._error else 0

@@ -20,6 +20,8 @@ from std_msgs.msg import Float64
 from ..profiles import PROFILES, Profile
 from . import common as c
 
+_D = Profile()
+# Profile fields: (name, lo, hi, description)
 PROFILE_PARAMS = (
     ('amplitude', -3.0, 3.0, 'Profile amplitude A [rad].'),
     ('offset', -3.0, 3.0, 'Profile offset r0 [rad] (the one-shot value).'),
@@ -28,6 +30,14 @@ PROFILE_PARAMS = (
     ('chirp_end_hz', 0.001, 20.0, 'Chirp end frequency f1 [Hz].'),
     ('chirp_duration_s', 0.1, 3600.0, 'Chirp sweep duration D [s].'),
 )
+PARAMETERS = (
+    c.Param('profile', _D.kind, 'Setpoint profile (changeable at runtime).', choices=PROFILES),
+    *(c.Param(name, getattr(_D, name), desc, (lo, hi)) for name, lo, hi, desc in PROFILE_PARAMS),
+    c.Param('rate_hz', 40.0, 'Publication rate [Hz].', (0.1, 1000.0), read_only=True),
+    c.Param('duration_s', 0.0, 'Stop publishing after this long [s] of the node clock (sim '
+            'time with use_sim_time) and exit; 0 = never.', (0.0, 1e6), read_only=True),
+    c.Param('one_shot', False, 'Publish `offset` once and exit.', read_only=True),
+)
 
 
 class Setpoint(Node):
@@ -35,17 +45,9 @@ class Setpoint(Node):
 
     def __init__(self, **kwargs):
         super().__init__('setpoint', **kwargs)
-        d = Profile()
-        kind = c.declare_str(self, 'profile', d.kind, 'Setpoint profile.', PROFILES)
-        values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
-                  for name, lo, hi, desc in PROFILE_PARAMS}
-        self.profile = Profile(kind, **values)
-        rate = c.declare_float(self, 'rate_hz', 40.0, 'Publication rate [Hz].', 0.1, 1000.0,
-                               read_only=True)
-        self.duration_s = c.declare_float(self, 'duration_s', 0.0, 'Stop publishing after this '
-                                          'long [s]; 0 = never.', 0.0, 1e6, read_only=True)
-        self.one_shot = c.declare_bool(self, 'one_shot', False, 'Publish `offset` once and exit.',
-                                       read_only=True)
+        p = c.declare_parameters(self, PARAMETERS)
+        self.profile = Profile(p['profile'], **{name: p[name] for name, *_ in PROFILE_PARAMS})
+        rate, self.duration_s, self.one_shot = p['rate_hz'], p['duration_s'], p['one_shot']
         self.pub = self.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
         self.diag = c.Diagnostics(self, 'setpoint')
         self.add_on_set_parameters_callback(self.on_set_parameters)
@@ -112,10 +114,11 @@ class Setpoint(Node):
 
 
 def main(args=None):
-    stop = c.init_with_stop_signals(args)
+    c.handle_command_line('setpoint', __doc__, PARAMETERS, args)
+    stop = c.init_with_stop_signals(args, 'setpoint')
     node, ok = None, True
     try:
-        node = Setpoint()
+        node = c.create_node('setpoint', Setpoint, args)
         if node.one_shot:
             ok = node.publish_once(stop=stop)
         else:
