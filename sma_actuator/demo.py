@@ -1,29 +1,39 @@
-"""closed_loop_demo: the simulated closed loop end to end (the README's main command).
+"""
+closed_loop_demo: the simulated closed loop end to end (the README's main command).
 
 For each reference (step, ramp, sine: the paper's Figs. 15-17) and each mode (pi,
-pi_inverse) it runs plant_sim (accelerated, owning /clock), controller and setpoint as
-separate nodes on one executor in this process, talking over the real topics, and writes
+pi_inverse) it runs plant_sim (accelerated and lockstep, owning /clock), controller and
+setpoint as separate nodes on one executor in this process, talking over the real topics,
+and writes
 
-  runs/<name>/summary.json        {"profiles": {profile: {mode: {"rms_error": rad,
-                                    "max_error": rad, "settling_time": s or null}}}}
-  runs/<name>/<profile>_<mode>.png setpoint and measured position vs time (+ duties)
-  runs/<name>/<profile>_<mode>.csv the trace behind the figure
+  runs/<name>/summary.json          {"profiles": {profile: {mode: metrics}}}, see below
+  runs/<name>/<profile>.png         setpoint and both modes' positions vs time, duties below
+  runs/<name>/<profile>_<mode>.csv  the trace behind the figure
   runs/<name>/bags/<profile>_<mode>/ an MCAP bag of the run, when sma_actuator's recorder
                                     (sma_actuator.nodes.recorder.RecorderNode) is available
 
-Metrics are taken from the start of each reference (t >= delay_s), settling band
-`--tolerance` (default 0.025 rad = 5 % of the 0.5 rad amplitude); settling_time is null
-when the response is still outside the band at the end of the run.
+Metrics (`sma_actuator.control.metrics`; from the start of each reference, t >= delay_s):
+  every profile  rms_error_rad, max_error_rad
+  step           rise_time_s (10-90 %), overshoot_pct, steady_state_error_rad (mean of
+                 the last 2 s), settling_time_s
+  ramp           steady_state_error_rad, settling_time_s (from the end of the ramp)
+  sine           phase_lag_s and phase_lag_deg (positive: the shaft trails), gain (amplitude
+                 ratio), over the second period
+settling_time_s is the time until |e| stays within `--tolerance` (default 0.025 rad = 5 %
+of the 0.5 rad amplitude), null when the run ends outside the band; a sine has none.
+The loop runs in lockstep on sim time, so the figures do not depend on the host's load.
+An existing `--name` is refused (exit 2) unless `--force` is given.
 """
 import argparse
 import csv
 import json
-import time
 from pathlib import Path
+import sys
+import time
 
 import rclpy
 
-from .control.metrics import summarize
+from .control import metrics
 
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
@@ -34,40 +44,74 @@ REFERENCES = {
 MODES = ('pi', 'pi_inverse')
 
 
-def recorder_factory(bag_dir):
-    """Hook for MCAP recording: a factory(context) -> RecorderNode writing to bag_dir, or
-    None when the recorder (sma_actuator.nodes.recorder) is not importable."""
+def recorder_factory(bag_dir, overwrite=False):
+    """
+    Return a factory(context) -> RecorderNode writing to bag_dir, for MCAP recording.
+
+    None when the recorder (sma_actuator.nodes.recorder) is not importable.
+    """
     try:
         from .nodes.recorder import RecorderNode
     except ImportError:
         return None
     # the demo runs on the plant's accelerated /clock: log times must be sim time too
-    return lambda context: RecorderNode(context=context, bag_path=str(bag_dir), use_sim_time=True)
+    return lambda context: RecorderNode(context=context, bag_path=str(bag_dir),
+                                        use_sim_time=True, overwrite=overwrite)
 
 
-def plot_response(path, title, t, setpoint, position, duty):
-    """PNG like the paper's Figs. 15-17: desired and measured angle vs time, duties below."""
+def plot_profile(path, title, runs):
+    """
+    Write a PNG like the paper's Figs. 15-17 with every mode overlaid.
+
+    runs: {mode: (t [s], setpoint [rad], position [rad], duty (n, 2))}; the duty panel
+    shows the net command u = duty_a − duty_b of each mode.
+    """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     fig, (ax, ax_d) = plt.subplots(2, 1, sharex=True, figsize=(8, 5),
                                    gridspec_kw={'height_ratios': [3, 1]})
-    ax.plot(t, setpoint, 'k--', lw=1.2, label='setpoint')
-    ax.plot(t, position, 'C0', lw=1.2, label='measured')
+    first = next(iter(runs.values()))
+    ax.plot(first[0], first[1], 'k--', lw=1.2, label='setpoint')
+    for k, (mode, (t, _, position, duty)) in enumerate(runs.items()):
+        ax.plot(t, position, f'C{k}', lw=1.2, label=f'measured, {mode}')
+        ax_d.plot(t, duty[:, 0] - duty[:, 1], f'C{k}', lw=0.8, label=mode)
     ax.set_ylabel('shaft angle [rad]')
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(loc='best')
-    ax_d.plot(t, duty[:, 0], 'C3', lw=0.8, label='duty a')
-    ax_d.plot(t, duty[:, 1], 'C2', lw=0.8, label='duty b')
-    ax_d.set_ylim(-0.05, 1.05)
+    ax_d.set_ylim(-1.05, 1.05)
     ax_d.set_xlabel('time [s]')
-    ax_d.set_ylabel('duty')
+    ax_d.set_ylabel('duty a − b')
     ax_d.grid(alpha=0.3)
     ax_d.legend(loc='upper right', fontsize='small')
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def profile_metrics(profile, t, setpoint, position, tolerance):
+    """Return the summary.json metrics of one run of reference `profile` (module doc)."""
+    params, _ = REFERENCES[profile]
+    t0 = params['delay_s']
+    keep = t >= t0
+    m = {'rms_error_rad': metrics.rms_error(setpoint[keep], position[keep]),
+         'max_error_rad': metrics.max_error(setpoint[keep], position[keep])}
+    if profile == 'step':
+        m.update(rise_time_s=metrics.rise_time(t, setpoint, position, t0),
+                 overshoot_pct=metrics.overshoot_pct(t, setpoint, position, t0),
+                 steady_state_error_rad=metrics.steady_state_error(t, setpoint, position),
+                 settling_time_s=metrics.settling_time(t, setpoint, position, tolerance, t0))
+    elif profile == 'ramp':
+        end = t0 + params['period_s']
+        m.update(steady_state_error_rad=metrics.steady_state_error(t, setpoint, position),
+                 settling_time_s=metrics.settling_time(t, setpoint, position, tolerance, end))
+    elif profile == 'sine':
+        period = params['period_s']
+        # the second period on: the first holds the start-up transient
+        start = t0 + period if t[-1] - t0 >= 2 * period else t0
+        m.update(metrics.phase_lag(t, setpoint, position, period, start))
+    return m
 
 
 def write_csv(path, t, a):
@@ -80,7 +124,8 @@ def write_csv(path, t, a):
 
 
 def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance=0.025,
-            real_time_factor=100.0, record=True, controller=None, plant=None, log=print):
+            real_time_factor=100.0, record=True, controller=None, plant=None, log=print,
+            overwrite=False):
     """Run every (profile, mode); write figures, traces and summary.json; return the summary."""
     from .nodes.harness import run_closed_loop
     out_dir = Path(out_dir)
@@ -88,32 +133,45 @@ def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance
     summary = {'profiles': {}}
     for profile in profiles:
         params, duration = REFERENCES[profile]
+        runs = {}
         for mode in modes:
             name = f'{profile}_{mode}'
-            factory = recorder_factory(out_dir / 'bags' / name) if record else None
+            factory = (recorder_factory(out_dir / 'bags' / name, overwrite) if record
+                       else None)
             t0 = time.monotonic()
             trace = run_closed_loop(context, params, duration, mode=mode,
                                     real_time_factor=real_time_factor, plant=plant,
                                     controller=controller, attach=[factory] if factory else ())
             a = trace.arrays()
             t = a['time_s'] - a['time_s'][0]
-            m = summarize(t, a['setpoint'], a['position'], tolerance, t_start=params['delay_s'])
+            m = profile_metrics(profile, t, a['setpoint'], a['position'], tolerance)
             summary['profiles'].setdefault(profile, {})[mode] = m
-            plot_response(out_dir / f'{name}.png', f'{profile} response, mode {mode}', t,
-                          a['setpoint'], a['position'], a['duty'])
+            runs[mode] = (t, a['setpoint'], a['position'], a['duty'])
             write_csv(out_dir / f'{name}.csv', t, a)
-            settle = 'never' if m['settling_time'] is None else f"{m['settling_time']:.2f} s"
-            log(f'{profile:5s} {mode:10s} rms {m["rms_error"]:.4f} rad  max '
-                f'{m["max_error"]:.4f} rad  settling {settle}  '
-                f'({duration:g} sim s in {time.monotonic() - t0:.1f} wall s'
-                f'{", recorded" if factory else ""})')
+            log(f'{profile:5s} {mode:10s} {describe(m)}  ({duration:g} sim s in '
+                f'{time.monotonic() - t0:.1f} wall s{", recorded" if factory else ""})')
+        plot_profile(out_dir / f'{profile}.png', f'{profile} response', runs)
     with open(out_dir / 'summary.json', 'w') as f:
         json.dump(summary, f, indent=2)
     return summary
 
 
+def describe(m):
+    """Return one log line of a run's metrics, with units."""
+    parts = []
+    for key, value in m.items():
+        name, unit = key, ''
+        for suffix in ('_rad', '_pct', '_deg', '_s'):
+            if key.endswith(suffix):
+                name, unit = key[:-len(suffix)], ' ' + {'_pct': '%'}.get(suffix, suffix[1:])
+                break
+        parts.append(f'{name} ' + ('none' if value is None else f'{value:.4g}{unit}'))
+    return ', '.join(parts)
+
+
 def main(args=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    """Run the demo from the command line (see the module docstring)."""
+    ap = argparse.ArgumentParser(description=__doc__.strip().split('\n')[0])
     ap.add_argument('--name', default=time.strftime('demo_%Y%m%d_%H%M%S'),
                     help='run name: output goes to <out-dir>/<name>/')
     ap.add_argument('--out-dir', default='runs')
@@ -125,16 +183,23 @@ def main(args=None):
     ap.add_argument('--model-file', default='', help='controller model YAML '
                     '(default config/controller_model.yaml)')
     ap.add_argument('--no-record', action='store_true', help='skip the MCAP bags')
+    ap.add_argument('--force', action='store_true',
+                    help='write into an existing <out-dir>/<name>/ (replacing its files)')
     ns, ros_args = ap.parse_known_args(args)
     out = Path(ns.out_dir) / ns.name
+    if out.exists() and not ns.force:
+        print(f'closed_loop_demo: {out} already exists; choose another --name or use --force '
+              'to replace it', file=sys.stderr)
+        sys.exit(2)
     context = rclpy.context.Context()
     rclpy.init(args=ros_args, context=context)
     try:
         t0 = time.monotonic()
         run_all(context, out, ns.profiles, ns.modes, ns.tolerance, ns.real_time_factor,
                 record=not ns.no_record,
-                controller={'model_file': ns.model_file} if ns.model_file else None)
-        print(f'wrote {out}/summary.json and {len(ns.profiles) * len(ns.modes)} figures '
+                controller={'model_file': ns.model_file} if ns.model_file else None,
+                overwrite=ns.force)
+        print(f'wrote {out}/summary.json and {len(ns.profiles)} figures '
               f'in {time.monotonic() - t0:.1f} s')
     finally:
         rclpy.try_shutdown(context=context)

@@ -36,3 +36,59 @@ def test_summary_ignores_samples_before_t_start():
 def test_mismatched_lengths_raise():
     with pytest.raises(ValueError):
         metrics.rms_error([0, 1], [0])
+
+
+def _second_order_step(zeta, wn, t):
+    """Unit step response of wn² / (s² + 2 ζ wn s + wn²), underdamped (exact)."""
+    wd = wn * np.sqrt(1 - zeta ** 2)
+    phi = np.arccos(zeta)
+    return 1 - np.exp(-zeta * wn * t) * np.sin(wd * t + phi) / np.sqrt(1 - zeta ** 2)
+
+
+def test_overshoot_of_a_second_order_step_is_exp_of_minus_pi_zeta():
+    t = np.arange(0, 30, 1e-3)
+    for zeta in (0.2, 0.5, 0.7):
+        y = _second_order_step(zeta, 2.0, t)
+        expected = 100 * np.exp(-np.pi * zeta / np.sqrt(1 - zeta ** 2))
+        assert metrics.overshoot_pct(t, np.ones_like(t), y) == pytest.approx(expected, rel=1e-3)
+
+
+def test_rise_time_of_a_first_order_step_is_tau_ln_9():
+    tau, dt = 0.8, 1e-4
+    t = np.arange(0, 10, dt)
+    y = 0.5 * (1 - np.exp(-t / tau))     # a 0.5 rad step
+    assert metrics.rise_time(t, np.full_like(t, 0.5), y) == pytest.approx(tau * np.log(9),
+                                                                           abs=2 * dt)
+    assert metrics.overshoot_pct(t, np.full_like(t, 0.5), y) == 0.0
+
+
+def test_rise_time_is_none_when_ninety_percent_is_never_reached():
+    t = np.linspace(0, 5, 501)
+    assert metrics.rise_time(t, np.ones_like(t), 0.8 * (1 - np.exp(-t))) is None
+
+
+def test_a_downward_step_counts_overshoot_below_the_setpoint():
+    t = np.arange(0, 30, 1e-3)
+    y = -0.5 * _second_order_step(0.5, 2.0, t)
+    expected = 100 * np.exp(-np.pi * 0.5 / np.sqrt(0.75))
+    assert metrics.overshoot_pct(t, np.full_like(t, -0.5), y) == pytest.approx(expected, rel=1e-3)
+
+
+def test_steady_state_error_is_the_mean_error_of_the_last_window():
+    t = np.arange(0, 10, 0.01)
+    y = np.where(t < 7, 0.0, 0.47)
+    assert metrics.steady_state_error(t, np.full_like(t, 0.5), y, window_s=2.0) == \
+        pytest.approx(0.03, abs=1e-3)
+
+
+def test_phase_lag_of_a_delayed_sine_is_the_delay():
+    period, delay = 20.0, 1.3
+    t = np.arange(0, 60, 0.025)
+    r = 0.5 * np.sin(2 * np.pi * t / period)
+    y = 0.4 * np.sin(2 * np.pi * (t - delay) / period) + 0.01
+    lag = metrics.phase_lag(t, r, y, period, t_start=20.0)
+    assert lag['phase_lag_s'] == pytest.approx(delay, abs=1e-6)
+    assert lag['phase_lag_deg'] == pytest.approx(360 * delay / period, abs=1e-4)
+    assert lag['gain'] == pytest.approx(0.8, abs=1e-6)
+    lead = metrics.phase_lag(t, r, 0.5 * np.sin(2 * np.pi * (t + 2.0) / period), period)
+    assert lead['phase_lag_s'] == pytest.approx(-2.0, abs=1e-6)

@@ -1,5 +1,7 @@
 """closed_loop_demo: summary.json schema, figures and traces from a real (short) run."""
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -14,13 +16,17 @@ def test_demo_writes_the_summary_schema_and_one_figure_per_response(ros_context,
     assert on_disk == json.loads(json.dumps(summary))
     assert set(on_disk) == {'profiles'}
     assert set(on_disk['profiles']) == {'step'}
+    # one figure per profile, both modes overlaid
+    assert (out / 'step.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    assert not list(out.glob('step_*.png'))
     for mode in ('pi', 'pi_inverse'):
         m = on_disk['profiles']['step'][mode]
-        assert set(m) == {'rms_error', 'max_error', 'settling_time'}
-        assert 0 < m['rms_error'] <= m['max_error']
-        assert m['settling_time'] is not None and m['settling_time'] < 8.0   # step settles
-        png = out / f'step_{mode}.png'
-        assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+        assert set(m) == {'rms_error_rad', 'max_error_rad', 'rise_time_s', 'overshoot_pct',
+                          'steady_state_error_rad', 'settling_time_s'}
+        assert 0 < m['rms_error_rad'] <= m['max_error_rad']
+        assert m['settling_time_s'] is not None and m['settling_time_s'] < 8.0   # step settles
+        assert 0 < m['rise_time_s'] < m['settling_time_s']
+        assert m['overshoot_pct'] >= 0 and abs(m['steady_state_error_rad']) < 0.025
         rows = (out / f'step_{mode}.csv').read_text().splitlines()
         assert rows[0].startswith('time_s,setpoint_rad,position_rad')
         assert len(rows) > 15.0 / 0.025 * 0.95          # 40 Hz over the 15 s run
@@ -45,3 +51,25 @@ def test_recorder_hook_records_each_run_to_mcap(ros_context, tmp_path):
     run = load_run(out / 'bags' / 'step_pi')
     span = run['time'][-1] - run['time'][0]
     assert 14.0 < span < 16.0, span
+
+
+def test_sine_metrics_give_phase_lag_and_no_settling_time(ros_context, tmp_path):
+    summary = demo.run_all(ros_context, tmp_path / 'run', profiles=['sine'], modes=['pi'],
+                           record=False, log=lambda *_: None)
+    m = summary['profiles']['sine']['pi']
+    assert set(m) == {'rms_error_rad', 'max_error_rad', 'phase_lag_s', 'phase_lag_deg', 'gain'}
+    assert 0 < m['phase_lag_s'] < 5.0      # the shaft trails a 20 s sine by a fraction of it
+    assert m['phase_lag_deg'] == pytest.approx(m['phase_lag_s'] / 20.0 * 360.0)
+
+
+def test_an_existing_name_is_refused_without_force(tmp_path):
+    (tmp_path / 'runs' / 'taken').mkdir(parents=True)
+    (tmp_path / 'runs' / 'taken' / 'summary.json').write_text('{"precious": 1}')
+    result = subprocess.run([sys.executable, '-m', 'sma_actuator.demo', '--name', 'taken',
+                             '--out-dir', str(tmp_path / 'runs'), '--profiles', 'step'],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        f'closed_loop_demo: {tmp_path / "runs" / "taken"} already exists; choose another '
+        '--name or use --force to replace it']
+    assert (tmp_path / 'runs' / 'taken' / 'summary.json').read_text() == '{"precious": 1}'
