@@ -174,3 +174,31 @@ def test_plant_follows_the_ambient_topic_and_rejects_a_bad_ambient(ros_context):
         ex.shutdown()
         for n in (plant, node):
             n.destroy_node()
+
+
+def test_accelerated_plant_waits_for_its_subscribers_and_stops_at_duration(ros_context):
+    # a recording of fixed sim-time length (scripts/walkthrough.sh)
+    plant = PlantSim(context=ros_context, parameter_overrides=[
+        Parameter('accelerated', value=True), Parameter('real_time_factor', value=50.0),
+        Parameter('start_subscribers', value=1), Parameter('duration_s', value=2.0)])
+    reader = rclpy.create_node('reader', context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(plant)
+    try:
+        deadline = time.monotonic() + 0.5
+        while time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        assert plant.sim_time == 0.0 and not plant.finished      # nobody listens yet
+        from sensor_msgs.msg import JointState
+        reader.create_subscription(JointState, c.JOINT_STATES, lambda m: None, c.SENSOR_QOS)
+        deadline = time.monotonic() + 30
+        while not plant.finished and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        assert plant.finished and plant.sim_time == pytest.approx(2.0)
+        for _ in range(20):
+            ex.spin_once(timeout_sec=0.01)
+        assert plant.sim_time == pytest.approx(2.0)               # no step past duration_s
+    finally:
+        ex.shutdown()
+        reader.destroy_node()
+        plant.destroy_node()

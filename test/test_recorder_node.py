@@ -158,6 +158,17 @@ def test_late_topics_are_picked_up(graph, tmp_path):
             0.0, 1.0, 2.0, 3.0, 4.0]
 
 
+def test_on_sim_time_topics_are_found_before_the_clock_starts(graph, tmp_path):
+    # the walkthrough's plant holds sim time at 0 until the recorder reads its joint states
+    talker, _, executor, nodes = graph
+    recorder = RecorderNode(context=executor.context, bag_path=str(tmp_path / 'paused'),
+                            topics=['/sma/*'], discovery_period_s=0.05, use_sim_time=True)
+    nodes.append(recorder)
+    executor.add_node(recorder)
+    talker.create_publisher(JointState, '/sma/joint_states', qos_profile_sensor_data)
+    assert _spin_until(executor, lambda: recorder.recorded_topics == ['/sma/joint_states'])
+
+
 def test_refuses_to_overwrite_and_rejects_unknown_parameters(ros_context, tmp_path):
     existing = tmp_path / 'bag'
     existing.mkdir()

@@ -11,6 +11,9 @@ the plant owns time: it steps sim time by 1/rate_hz on a wall-clock timer runnin
 With `lockstep` it also waits (up to `lockstep_timeout_s` wall time) for the duty reply
 to its last joint state before the next step, so the loop sees the same one-sample
 delay on any host instead of whatever the executor's scheduling gives.
+`start_subscribers` + `warmup_s` hold sim time at 0 until the other nodes listen, and
+`duration_s` ends the run (the node exits) at a fixed sim time: a recording of fixed
+sim-time length.
 
 Safety: a duty that is NaN/inf/outside [0, 1] is rejected (log + WARN) and the last valid
 one kept; if no valid duty arrived for `duty_timeout_s` (plant time) zero duty is applied,
@@ -71,6 +74,15 @@ PARAMETERS = (
             'loop delay does not depend on the host speed.', read_only=True),
     c.Param('lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
             (0.001, 10.0), read_only=True),
+    c.Param('start_subscribers', 0, 'Accelerated mode: sim time starts only once '
+            '/sma/joint_states has this many subscribers (e.g. 2: controller and recorder).',
+            (0, 100), read_only=True),
+    c.Param('warmup_s', 0.0, 'Accelerated mode: wall seconds between start_subscribers being '
+            'reached and the first step, so that every node has matched every topic [s].',
+            (0.0, 60.0), read_only=True),
+    c.Param('duration_s', 0.0, 'Accelerated mode: stop stepping after this much sim time and '
+            'exit; 0 = never [s]. Fixes the length of a recording on sim time.', (0.0, 1e6),
+            read_only=True),
     c.Param('duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero duty.',
             (0.01, 10.0)),
     c.Param('model_file', '', 'Optional YAML (ActuatorParams.to_dict) for the plant; the '
@@ -97,6 +109,9 @@ class PlantSim(Node):
         self.rate_hz, self.accelerated = p['rate_hz'], p['accelerated']
         self.rtf, self.lockstep = p['real_time_factor'], p['lockstep']
         self.lockstep_timeout_s, self.duty_timeout_s = p['lockstep_timeout_s'], p['duty_timeout_s']
+        self.start_subscribers, self.warmup_s = p['start_subscribers'], p['warmup_s']
+        self.start_wall = None     # wall time of the first step (accelerated mode)
+        self.duration_s, self.finished = p['duration_s'], False
         ambient, self.use_ambient_topic = p['ambient_c'], p['use_ambient_topic']
         bits, noise, seed = p['adc_bits'], p['noise_rad'], p['seed']
         effects = {name: p[name] for name, *_ in EFFECTS}
@@ -170,6 +185,11 @@ class PlantSim(Node):
     # step -----------------------------------------------------------------------------
     def on_tick(self):
         if self.accelerated:
+            if not self.sim_started():
+                return
+            if self.duration_s and self.sim_time >= self.duration_s - 0.5 / self.rate_hz:
+                self.finished = True
+                return
             if (self.lockstep and self.awaiting_since is not None
                     and time.monotonic() - self.awaiting_since < self.lockstep_timeout_s):
                 return
@@ -209,6 +229,14 @@ class PlantSim(Node):
                 self.diag.publish(c.OK, 'running' if not stale else 'no duty yet (zero applied)',
                                   self._status(), stamp)
 
+    def sim_started(self):
+        """Accelerated mode: whether start_subscribers and warmup_s allow stepping."""
+        if self.start_wall is None:
+            if self.js_pub.get_subscription_count() < self.start_subscribers:
+                return False
+            self.start_wall = time.monotonic() + self.warmup_s
+        return time.monotonic() >= self.start_wall
+
     def duty_stale(self):
         """No valid duty for duty_timeout_s of plant time (or never)."""
         return (self.last_duty_time is None
@@ -242,7 +270,7 @@ def main(args=None):
     node = None
     try:
         node = c.create_node('plant_sim', PlantSim, args)
-        c.spin_until_stopped(node, stop)
+        c.spin_until_stopped(node, stop, done=lambda: node.finished)
     finally:
         if node is not None:
             node.destroy_node()

@@ -15,6 +15,7 @@ import sys
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from sma_actuator.bag.errors import BagError
@@ -86,10 +87,14 @@ class RecorderNode(Node):
         self._write_errors = 0
         self._closed = False
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.create_timer(p['discovery_period_s'], self._discover)
+        # discovery, flushing and diagnostics run on the steady clock: with use_sim_time a
+        # sim clock that has not started yet (a plant waiting for its subscribers) must not
+        # keep the recorder from subscribing
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(p['discovery_period_s'], self._discover, clock=steady)
         if p['chunk_max_age_s'] > 0:
-            self.create_timer(p['chunk_max_age_s'] / 2, self.bag.flush_if_due)
-        self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics)
+            self.create_timer(p['chunk_max_age_s'] / 2, self.bag.flush_if_due, clock=steady)
+        self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics, clock=steady)
         self.get_logger().info(f'recording {self._selector.patterns} to {self.bag.path}')
         self._discover()
 
