@@ -57,8 +57,8 @@ def test_rise_time_of_a_first_order_step_is_tau_ln_9():
     tau, dt = 0.8, 1e-4
     t = np.arange(0, 10, dt)
     y = 0.5 * (1 - np.exp(-t / tau))     # a 0.5 rad step
-    assert metrics.rise_time(t, np.full_like(t, 0.5), y) == pytest.approx(tau * np.log(9),
-                                                                           abs=2 * dt)
+    expected = tau * np.log(9)
+    assert metrics.rise_time(t, np.full_like(t, 0.5), y) == pytest.approx(expected, abs=2 * dt)
     assert metrics.overshoot_pct(t, np.full_like(t, 0.5), y) == 0.0
 
 

@@ -27,13 +27,13 @@ import socket
 import subprocess
 import threading
 
+from hardware_support import console_command
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402, I100, I202
 
-from hardware_support import console_command  # noqa: E402
-from sma_actuator.nodes import common as c  # noqa: E402
+from sma_actuator.nodes import common as c  # noqa: E402, I100
 
 NODES = {'plant_sim': 'plant_sim', 'controller': 'controller', 'setpoint': 'setpoint',
          'hardware_bridge': 'hardware_bridge', 'recorder': 'recorder', 'replay': 'replay'}
@@ -172,9 +172,8 @@ def test_an_integer_is_accepted_for_a_double(name, overrides, expected, tmp_path
     ('recorder', 'compression:=rar', 'compression'),
     ('replay', 'rate:=0.0', 'rate'),
 ])
-def test_a_bad_value_is_one_line_naming_the_parameter_and_exit_2(name, override, named,
-                                                                  tmp_path, listener,
-                                                                  ros_domain_id):
+def test_a_bad_value_is_one_line_naming_the_parameter_and_exit_2(
+        name, override, named, tmp_path, listener, ros_domain_id):
     port = f'socket://127.0.0.1:{listener.getsockname()[1]}'
     args = ['--ros-args', '-p', override]
     args += ['-p', f'port:={port}'] if name == 'hardware_bridge' else []

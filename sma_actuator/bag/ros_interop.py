@@ -19,6 +19,7 @@ _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
 _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
                'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
 
+
 def message_class(type_name: str):
     """Import and return the Python class of ``pkg/msg/Type``.
 

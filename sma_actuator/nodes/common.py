@@ -1,5 +1,10 @@
-"""Helpers shared by the nodes: topic names, QoS, parameter descriptors, diagnostics, config,
-and the signal-safe spin loop every console script runs."""
+"""
+Helpers shared by the nodes.
+
+Topic names, QoS, the parameter layer (one table per node: declaration, validation,
+--help, warnings about unused parameters), diagnostics, config files and the signal-safe
+spin loop every console script runs.
+"""
 from dataclasses import dataclass
 import functools
 import math
@@ -17,7 +22,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 import yaml
@@ -68,7 +73,7 @@ def init_with_stop_signals(args=None, prog=None):
     """
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as err:   # noqa: BLE001 - rcl raises its own error type for bad args
+    except Exception as err:   # noqa: B902 - rcl's error type is in a private module
         if prog is None:
             raise
         fail(prog, f'cannot start: {_rcl_message(err)}')
@@ -113,14 +118,14 @@ class Param:
 
     The type follows the default (float: double, int: integer, bool, str: string, list of
     float: double array, list of str: string array); `kind` names it when the default is
-    None (an array that stays unset until given). `range` is the inclusive [lo, hi] of a
+    None (an array that stays unset until given). `bounds` is the inclusive [lo, hi] of a
     number, `choices` the allowed strings.
     """
 
     name: str
     default: Any
     description: str
-    range: Optional[Tuple[float, float]] = None
+    bounds: Optional[Tuple[float, float]] = None
     choices: Optional[Tuple[str, ...]] = None
     read_only: bool = False
     kind: Optional[str] = None
@@ -149,12 +154,12 @@ class Param:
         kind = self.type_name()
         d = ParameterDescriptor(description=self.description, type=KINDS[kind],
                                 read_only=self.read_only)
-        if self.range is not None and kind == 'double':
-            d.floating_point_range = [FloatingPointRange(from_value=float(self.range[0]),
-                                                         to_value=float(self.range[1]))]
-        elif self.range is not None and kind == 'integer':
-            d.integer_range = [IntegerRange(from_value=int(self.range[0]),
-                                            to_value=int(self.range[1]))]
+        if self.bounds is not None and kind == 'double':
+            d.floating_point_range = [FloatingPointRange(from_value=float(self.bounds[0]),
+                                                         to_value=float(self.bounds[1]))]
+        elif self.bounds is not None and kind == 'integer':
+            d.integer_range = [IntegerRange(from_value=int(self.bounds[0]),
+                                            to_value=int(self.bounds[1]))]
         if self.choices:
             d.additional_constraints = f'one of: {", ".join(self.choices)}'
         return d
@@ -192,18 +197,18 @@ class Param:
         if isinstance(value, list) and self.type_name() == 'double_array' and not all(
                 math.isfinite(v) for v in value):
             raise ParameterError(f'parameter {self.name}: {value} holds a non-finite number')
-        if self.range is not None and not self.range[0] <= value <= self.range[1]:
+        if self.bounds is not None and not self.bounds[0] <= value <= self.bounds[1]:
             raise ParameterError(f'parameter {self.name}: {value:g} is outside the allowed '
-                                 f'range [{self.range[0]:g}, {self.range[1]:g}]')
+                                 f'range [{self.bounds[0]:g}, {self.bounds[1]:g}]')
         if self.choices and value not in self.choices:
             raise ParameterError(f'parameter {self.name}: {value!r} is not one of '
                                  f'{", ".join(self.choices)}')
 
-    def help(self, width=88):
+    def help_lines(self, width=88):
         """Return the `--help` lines of this parameter."""
         facts = [self.type_name(), f'default {_show(self.default)}']
-        if self.range is not None:
-            facts.append(f'range [{self.range[0]:g}, {self.range[1]:g}]')
+        if self.bounds is not None:
+            facts.append(f'range [{self.bounds[0]:g}, {self.bounds[1]:g}]')
         if self.choices:
             facts.append(f'one of {", ".join(self.choices)}')
         if self.read_only:
@@ -350,7 +355,7 @@ def parameter_help(prog, doc, params):
              '', summary, '',
              'Parameters (--ros-args -p NAME:=VALUE, or a --params-file YAML):']
     for p in params:
-        lines.extend(p.help())
+        lines.extend(p.help_lines())
     lines += ['', 'Also any ROS argument after --ros-args: -p use_sim_time:=true,',
               '-r __ns:=/left, --log-level debug, ...']
     return '\n'.join(lines)
@@ -373,7 +378,7 @@ def handle_command_line(prog, doc, params, args=None):
     argv = sys.argv[1:] if args is None else list(args)
     try:
         rest = remove_ros_args(['prog'] + argv)[1:]
-    except Exception as err:   # noqa: BLE001 - rcl's parser reports bad --ros-args syntax
+    except Exception as err:   # noqa: B902 - rcl's error type is in a private module
         fail(prog, f'bad --ros-args: {_rcl_message(err)}')
     if '-h' in rest or '--help' in rest:
         print(parameter_help(prog, doc, params))
@@ -496,6 +501,7 @@ def _node_matches(key, fqn):
     key = key if key.startswith('/') else '/' + key
     pattern = re.escape(key).replace(r'/\*\*', r'(/\w+)*').replace(r'\*', r'\w+')
     return re.fullmatch(pattern, fqn) is not None
+
 
 def stamp_to_s(stamp):
     """builtin_interfaces/Time -> seconds (float)."""
