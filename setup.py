@@ -1,4 +1,5 @@
-"""ament_python package definition for sma_actuator.
+"""
+ament_python package definition for sma_actuator.
 
 The same file serves `colcon build` on a Jazzy install (console scripts land in
 lib/sma_actuator so `ros2 run sma_actuator <node>` finds them) and `pip install`

@@ -1,5 +1,8 @@
-"""Bridge round-trip latency over the MCU emulator: /sma/duty in -> Duty frame out ->
-ADC report back -> /sma/joint_states out, p50/p99 at 1 Mbaud and 115200 baud.
+"""
+Bridge round-trip latency over the MCU emulator.
+
+/sma/duty in -> Duty frame out -> ADC report back -> /sma/joint_states out, p50/p99 at 1 Mbaud and
+115200 baud.
 
 Three processes, as on a real rig: `mcu_emulator` (pty, UART modelled at the given baud),
 the `hardware_bridge` console script, and this script's probe node, which publishes a
@@ -13,11 +16,11 @@ diagnostics (excludes DDS), and the pure wire time of the two frames.
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import rclpy
@@ -26,7 +29,6 @@ from rclpy.executors import SingleThreadedExecutor
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 from hardware_support import (Probe, console_command, start_emulator_process,  # noqa: E402
                               stop_process, wait_for)
-
 from sma_actuator.hardware import protocol as p  # noqa: E402
 
 PERIOD_S = 0.02

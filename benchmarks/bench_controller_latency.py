@@ -1,5 +1,8 @@
-"""Controller timing: joint-state arrival -> duty publication (p50/p99) and the 25 ms
-watchdog timer's jitter (p99), with the controller running as its own process.
+"""
+Controller timing.
+
+Joint-state arrival -> duty publication (p50/p99) and the 25 ms watchdog timer's jitter (p99), with
+the controller running as its own process.
 
 A probe in this process publishes /sma/joint_states at 40 Hz (a slowly moving shaft, so
 the controller does real work in mode pi_inverse) and listens on /sma/duty and
@@ -22,14 +25,13 @@ import subprocess
 import sys
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, Float64MultiArray, Header
-
 from sma_actuator.nodes import common as c
+from std_msgs.msg import Float64, Float64MultiArray, Header
 
 
 def main():

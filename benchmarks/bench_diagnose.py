@@ -1,4 +1,5 @@
-"""Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
+"""
+Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
 
 Target (issue 6): under 60 s wall time on the 2-core CI machine. The record is simulated
 with `sma_actuator.core.actuator.simulate` (paper model, Flexinol defaults) under random
@@ -19,7 +20,6 @@ import sys
 import time
 
 import numpy as np
-
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.effects import CATALOG
@@ -42,7 +42,7 @@ def antagonistic_duties(n, dt, rng):
 
 
 def make_record(minutes=10.0, rate_hz=40.0, seed=0):
-    """A simulated run as DynamicData (time [s], duties, position [rad], ambient [°C])."""
+    """Return a simulated run as DynamicData (time [s], duties, position [rad], ambient [°C])."""
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate_hz
     n = int(round(minutes * 60.0 * rate_hz))

@@ -1,4 +1,5 @@
-"""Detection limits of `sma-model diagnose` on data with one hidden effect.
+"""
+Detection limits of `sma-model diagnose` on data with one hidden effect.
 
 For every catalog effect and a few magnitudes, generate a record with that one hidden
 effect, run diagnose, and print: the base model's held-out NRMSE, whether the hidden effect
@@ -16,18 +17,17 @@ Also the null case. Two sources of records:
                                 seconds column then includes the contention)
 """
 import argparse
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
+from sma_actuator.core.identification import DynamicData  # noqa: E402
+from sma_actuator.workbench.engine import diagnose  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import EFFECTS, simulate  # noqa: E402
-
-from sma_actuator.core.identification import DynamicData  # noqa: E402
-from sma_actuator.workbench.engine import diagnose  # noqa: E402
 
 
 def run_case(case):

@@ -1,4 +1,5 @@
-"""Forward PI kernel throughput: numba kernel vs per-sample numpy loop vs plain C (gcc -O2).
+"""
+Forward PI kernel throughput: numba kernel vs per-sample numpy loop vs plain C (gcc -O2).
 
 1,000,000 samples x 16 play operators (classical PI, eq. 5, in the kernel's normalised
 form). Prints operator updates per second for each and the kernel/C ratio (target >= 1/3),
@@ -12,7 +13,6 @@ import tempfile
 import time
 
 import numpy as np
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import kernels
 from sma_actuator.core.hysteresis import PrandtlIshlinskii

@@ -1,4 +1,5 @@
-"""Recorder throughput: messages recorded without loss at 1 kHz on 5 topics, and the highest rate.
+"""
+Recorder throughput: messages recorded without loss at 1 kHz on 5 topics, and the highest rate.
 
 A publisher process sends the five /sma topics with their contract QoS (setpoint/duty reliable,
 joint states/temperatures best effort), each at RATE Hz for DURATION s, a sequence number in
@@ -14,6 +15,7 @@ ROS_DOMAIN_ID; numbers depend on the machine and on what else runs on it.
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import shutil
 import signal
@@ -21,7 +23,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 DEFAULT_RATES = [1000, 2000, 4000, 6000, 8000, 12000, 16000]
 TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_temperature',

@@ -1,4 +1,5 @@
-"""Replay timing error p50/p99 against the recorded log times.
+"""
+Replay timing error p50/p99 against the recorded log times.
 
 Writes a bag of the five /sma topics at RATE Hz each (log times exactly periodic, topics phase
 shifted), plays it with the replay console script at each rate factor, and subscribes in
@@ -11,13 +12,13 @@ constant offset (median); it prints p50/p99/max of the absolute error and the me
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 

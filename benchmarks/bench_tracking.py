@@ -1,4 +1,5 @@
-"""Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
+"""
+Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
 
 1. Identification run: plant_sim (accelerated) driven open loop by a multilevel duty
    excitation (`control.excitation.multilevel`, its own seed and its own noise seed);
@@ -16,20 +17,19 @@ Run: python benchmarks/bench_tracking.py [--periods 3] [--plant gain_ratio_b=1.1
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import tempfile
 import time
-from pathlib import Path
 
 import rclpy
-
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.control.metrics import summarize
 from sma_actuator.control.model_file import save_model
 from sma_actuator.core.identification import DynamicData, fit_dynamic
 from sma_actuator.nodes.harness import run_closed_loop, run_excitation
 
-SINE = dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0)
+SINE = {'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0, 'delay_s': 1.0}
 
 
 def identify(context, seconds, seed, plant, free=None):

@@ -1,4 +1,5 @@
-"""closed_loop_demo: the simulated closed loop end to end (the README's main command).
+"""
+closed_loop_demo: the simulated closed loop end to end (the README's main command).
 
 For each reference (step, ramp, sine: the paper's Figs. 15-17) and each mode (pi,
 pi_inverse) it runs plant_sim (accelerated, owning /clock), controller and setpoint as
@@ -18,8 +19,8 @@ when the response is still outside the band at the end of the run.
 import argparse
 import csv
 import json
-import time
 from pathlib import Path
+import time
 
 import rclpy
 
@@ -27,16 +28,20 @@ from .control.metrics import summarize
 
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
-    'step': (dict(profile='step', amplitude=0.5, offset=0.0, delay_s=1.0), 15.0),
-    'ramp': (dict(profile='ramp', amplitude=0.5, offset=0.0, period_s=10.0, delay_s=1.0), 20.0),
-    'sine': (dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0), 41.0),
+    'step': ({'profile': 'step', 'amplitude': 0.5, 'offset': 0.0, 'delay_s': 1.0}, 15.0),
+    'ramp': ({'profile': 'ramp', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 10.0, 'delay_s': 1.0}, 20.0),
+    'sine': ({'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0, 'delay_s': 1.0}, 41.0),
 }
 MODES = ('pi', 'pi_inverse')
 
 
 def recorder_factory(bag_dir):
-    """Hook for MCAP recording: a factory(context) -> RecorderNode writing to bag_dir, or
-    None when the recorder (sma_actuator.nodes.recorder) is not importable."""
+    """
+    Hook for MCAP recording.
+
+    a factory(context) -> RecorderNode writing to bag_dir, or None when the recorder
+    (sma_actuator.nodes.recorder) is not importable.
+    """
     try:
         from .nodes.recorder import RecorderNode
     except ImportError:

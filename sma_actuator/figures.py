@@ -1,4 +1,5 @@
-"""Paper figures rendered from the core code (`model_figures --out DIR`).
+"""
+Paper figures rendered from the core code (`model_figures --out DIR`).
 
 Fig. 2 main loop (cosine eqs. 1-2 and Ikuta), Fig. 5 Preisach (231 relays), Figs. 8-9
 classical Prandtl-Ishlinskii (8 backlash elements, total h = 1, K = 1), Fig. 11 modified
@@ -42,8 +43,12 @@ def paper_pi():
 
 
 def paper_modified_pi(u_m=2.5, k1_ratio=0.1):
-    """Modified PI of Fig. 11: 8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all
-    saturating at u_m (M = u_m (K − K1) − K h from the paper's u_m formula)."""
+    """
+    Modify PI of Fig.
+
+    11: 8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all saturating at u_m (M = u_m (K
+    − K1) − K h from the paper's u_m formula).
+    """
     h = np.arange(1, N_PI + 1) / N_PI
     K = np.full(N_PI, 1.0 / N_PI)
     K1 = k1_ratio * K
@@ -97,7 +102,8 @@ def fig_modified_pi(ax):
 
 
 def thermal_response(dt=0.25, t_end=12.0, tau=2.0, tau_fast=0.3, theta_amb=22.0, gain=70.0):
-    """Step response of eq. (7) by the exact step (7d)/(7f) at dt and by solve_ivp (reference).
+    """
+    Step response of eq. (7) by the exact step (7d)/(7f) at dt and by solve_ivp (reference).
 
     Returns (t, exact_1lag, exact_2lag, t_ref, ref_1lag, ref_2lag).
     """

@@ -1,4 +1,5 @@
-"""Setpoint profiles r(t) [rad] of the setpoint node (the paper's Figs. 15-17 and more).
+"""
+Setpoint profiles r(t) [rad] of the setpoint node (the paper's Figs. 15-17 and more).
 
 With A = amplitude, r0 = offset, P = period_s and τ = t − delay_s (r = r0 for τ < 0):
 
@@ -10,8 +11,8 @@ With A = amplitude, r0 = offset, P = period_s and τ = t − delay_s (r = r0 for
   chirp     r = r0 + A sin(2π (f0 τ + (f1 − f0) τ² / (2 D))), f0 = 1/P, sweeping
             linearly to f1 = chirp_end_hz over D = chirp_duration_s, then staying at f1
 """
-import math
 from dataclasses import dataclass
+import math
 
 from .core.validate import finite_scalar
 
@@ -21,6 +22,7 @@ PROFILES = ('constant', 'step', 'ramp', 'sine', 'square', 'chirp')
 @dataclass(frozen=True)
 class Profile:
     """A setpoint profile; call it with the time since start [s] to get r(t) [rad]."""
+
     kind: str = 'step'
     amplitude: float = 0.5
     offset: float = 0.0

@@ -1,12 +1,13 @@
-"""Shared pytest fixtures.
+"""
+Shared pytest fixtures.
 
 ROS tests run in their own DDS domain (random ROS_DOMAIN_ID, localhost-only discovery)
 so that concurrently running test sessions on one machine never see each other's topics.
 """
 import os
+from pathlib import Path
 import random
 import time
-from pathlib import Path
 
 import pytest
 
@@ -14,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def real_data_path():
-    """The measured morphing-wing loops: $SMA_SHARED_DIR, else shared/ beside the clone."""
+    """Return the measured morphing-wing loops: $SMA_SHARED_DIR, else shared/ beside the clone."""
     base = os.environ.get('SMA_SHARED_DIR')
     candidates = ([Path(base)] if base else []) + [ROOT.parent / 'shared']
     for c in candidates:
@@ -38,7 +39,7 @@ def spin_until(executor, condition, timeout_s=8.0, step_s=0.01):
 
 @pytest.fixture
 def ros_domain_id():
-    """A DDS domain id private to this test (also exported for subprocess nodes)."""
+    """Return a DDS domain id private to this test (also exported for subprocess nodes)."""
     domain = random.SystemRandom().randint(1, 100)
     old = os.environ.get('ROS_DOMAIN_ID')
     os.environ['ROS_DOMAIN_ID'] = str(domain)
@@ -51,7 +52,7 @@ def ros_domain_id():
 
 @pytest.fixture
 def ros_context(ros_domain_id):
-    """An initialised rclpy Context on the private domain; shut down after the test."""
+    """Return an initialised rclpy Context on the private domain; shut down after the test."""
     rclpy = pytest.importorskip('rclpy')
     context = rclpy.context.Context()
     rclpy.init(context=context, domain_id=ros_domain_id)

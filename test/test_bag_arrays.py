@@ -2,8 +2,7 @@
 import numpy as np
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
-from rosbags.typesys import Stores, get_typestore
-
+from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.arrays import load_run, zero_order_hold
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, MissingTopicError, NotMcapError,
                                      TruncatedBagError, UnknownTypeError)

@@ -1,7 +1,6 @@
 """Message definitions and type hashes match rosbag2's layout and the installed interfaces."""
 import pytest
 from rosbags.typesys import get_types_from_msg, get_typestore, Stores
-
 from sma_actuator.bag.errors import UnknownTypeError
 from sma_actuator.bag.msgdefs import (DELIMITER, interface_file, message_definition,
                                       normalize_type_name, type_description_hash)

@@ -1,10 +1,14 @@
 """QoS profiles are written in rosbag2 Jazzy's YAML form and read back from v8/v9 bags."""
 import pytest
 from rosbags.rosbag2.metadata import parse_qos
-
-from sma_actuator.bag.qos import (INFINITE_NS, adapt_offer_to_recorded_offers,
-                                  adapt_request_to_offers, dump_offered_qos_profiles,
-                                  load_offered_qos_profiles, profile_to_dict)
+from sma_actuator.bag.qos import (
+    adapt_offer_to_recorded_offers,
+    adapt_request_to_offers,
+    dump_offered_qos_profiles,
+    INFINITE_NS,
+    load_offered_qos_profiles,
+    profile_to_dict,
+)
 from sma_actuator.bag.synthetic import offered_profile
 
 # What rosbag2 Jazzy (qos.cpp, YAML::Dump) writes for a Fast DDS publisher discovered with

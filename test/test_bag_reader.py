@@ -1,15 +1,14 @@
 """BagReader: bad input gives named errors; unfinished files are recovered, the loss reported."""
-import pytest
-import yaml
 from mcap.reader import make_reader
+import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
-from rosbags.typesys import Stores, get_typestore
-
+from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, NotMcapError,
                                      TruncatedBagError)
 from sma_actuator.bag.reader import BagReader
 from sma_actuator.bag.synthetic import cdr_encoder
 from sma_actuator.bag.writer import BagWriter
+import yaml
 
 T0 = 1_600_000_000_000_000_000
 ENCODE = cdr_encoder('std_msgs/msg/Float64MultiArray')

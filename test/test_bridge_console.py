@@ -1,14 +1,13 @@
 """The hardware_bridge console script with config/hardware_bridge.yaml, stopped by SIGINT."""
+from pathlib import Path
 import signal
 import subprocess
 import threading
 import time
-from pathlib import Path
 
+from hardware_support import console_command, emulator_thread, Probe, stop_process, wait_for
 import pytest
 from rclpy.executors import SingleThreadedExecutor
-
-from hardware_support import Probe, console_command, emulator_thread, stop_process, wait_for
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts
 

@@ -1,4 +1,5 @@
-"""controller -> /sma/duty -> hardware_bridge -> "MCU" emulator -> /sma/joint_states -> controller.
+"""
+controller -> /sma/duty -> hardware_bridge -> "MCU" emulator -> /sma/joint_states -> controller.
 
 The whole loop of issue 4 without hardware, in real time: the controller node (issue 3)
 closes the loop through the bridge and the emulated MCU + plant.
@@ -6,16 +7,15 @@ closes the loop through the bridge and the emulated MCU + plant.
 import threading
 import time
 
+from hardware_support import emulator_thread, Probe, wait_for
 import numpy as np
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from std_msgs.msg import Float64
-
-from hardware_support import Probe, emulator_thread, wait_for
 from sma_actuator.hardware import protocol as p
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.controller import Controller
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
+from std_msgs.msg import Float64
 
 SETPOINT_RAD = 0.3
 

@@ -1,4 +1,5 @@
-"""The bridge's ROS-free logic against the real MCU logic, on simulated time.
+"""
+The bridge's ROS-free logic against the real MCU logic, on simulated time.
 
 BridgeCore and McuCore exchange their bytes directly (no port, no plant): the safety
 rules of issue 4 are checked at the MCU's outputs, where they matter.
@@ -6,7 +7,6 @@ rules of issue 4 are checked at the MCU's outputs, where they matter.
 import math
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import (BridgeConfig, BridgeCore, LinkState, sanitize_duty,
                                                to_counts)

@@ -3,7 +3,6 @@ import socket
 import time
 
 import pytest
-
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 from sma_actuator.hardware.link import SerialLink
 

@@ -1,11 +1,10 @@
 """Excitation sequences (control.excitation) and model files (control.model_file)."""
 import numpy as np
 import pytest
-import yaml
-
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.control.model_file import load_model, save_model
 from sma_actuator.core.actuator import ActuatorParams
+import yaml
 
 
 def test_multilevel_excites_both_wires_one_at_a_time_with_held_levels():

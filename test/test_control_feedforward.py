@@ -1,11 +1,11 @@
-"""Inverse feed-forward of mode pi_inverse (sma_actuator.control.feedforward).
+"""
+Inverse feed-forward of mode pi_inverse (sma_actuator.control.feedforward).
 
 With the model equal to the plant and no feedback at all, the feed-forward alone must
 bring the shaft to the desired angle, from either side of the hysteresis loop.
 """
 import numpy as np
 import pytest
-
 from sma_actuator.control.estimator import WireEstimator
 from sma_actuator.control.feedforward import InverseFeedforward
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator

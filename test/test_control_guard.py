@@ -1,7 +1,6 @@
 """Thermal guard (sma_actuator.control.guard) against the core actuator model."""
 import numpy as np
 import pytest
-
 from sma_actuator.control.guard import ThermalGuard
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator
 

@@ -2,8 +2,7 @@
 import math
 
 import pytest
-
-from sma_actuator.control.inputs import LastValid, duty_problem, setpoint_problem
+from sma_actuator.control.inputs import duty_problem, LastValid, setpoint_problem
 
 
 @pytest.mark.parametrize('value', [math.nan, math.inf, -math.inf, 1.5, -1.01, 'x', None])

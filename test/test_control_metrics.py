@@ -1,7 +1,6 @@
 """Tracking metrics (sma_actuator.control.metrics)."""
 import numpy as np
 import pytest
-
 from sma_actuator.control import metrics
 
 

@@ -1,6 +1,5 @@
 """Discrete PI with anti-windup (sma_actuator.control.pi)."""
 import pytest
-
 from sma_actuator.control.pi import DiscretePI
 
 

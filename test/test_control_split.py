@@ -1,7 +1,6 @@
 """Antagonistic split and the never-both-above invariant (sma_actuator.control.split)."""
 import numpy as np
 import pytest
-
 from sma_actuator.control.split import exclusive, split
 
 

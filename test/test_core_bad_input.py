@@ -1,11 +1,14 @@
 """Bad input to the core raises ValueError naming the offending parameter (never a silent NaN)."""
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
-from sma_actuator.core.hysteresis import (ModifiedPrandtlIshlinskii, PlayHysteresis,
-                                          PreisachModel, PrandtlIshlinskii)
+from sma_actuator.core.hysteresis import (
+    ModifiedPrandtlIshlinskii,
+    PlayHysteresis,
+    PrandtlIshlinskii,
+    PreisachModel,
+)
 from sma_actuator.core.mainloop import MainLoopHysteresis
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a
@@ -17,7 +20,7 @@ PI = PrandtlIshlinskii([0.5, 1.0], [0.5, 0.5])
 def data(**over):
     """DynamicData keyword arguments for a valid 20-sample run, with overrides."""
     t = np.arange(20) * 0.1
-    kw = dict(time=t, duty_a=np.full(20, 0.3), duty_b=np.zeros(20), position=np.sin(t))
+    kw = {'time': t, 'duty_a': np.full(20, 0.3), 'duty_b': np.zeros(20), 'position': np.sin(t)}
     kw.update(over)
     return kw
 

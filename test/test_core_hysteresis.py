@@ -1,10 +1,13 @@
 """Properties of the hysteresis operators of the paper (eqs. 1-6) as implemented in core."""
 import numpy as np
 import pytest
-
-from sma_actuator.core.hysteresis import (ModifiedPrandtlIshlinskii, PlayHysteresis,
-                                          PreisachModel, PrandtlIshlinskii,
-                                          backlash_saturation_reference)
+from sma_actuator.core.hysteresis import (
+    backlash_saturation_reference,
+    ModifiedPrandtlIshlinskii,
+    PlayHysteresis,
+    PrandtlIshlinskii,
+    PreisachModel,
+)
 from sma_actuator.core.mainloop import MainLoopHysteresis
 
 TIGHT = 1e-9   # float round-off on O(1) outputs; the laws themselves are exact

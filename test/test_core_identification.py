@@ -1,13 +1,12 @@
 """Identification (the paper's least-squares tuning): static PI on real loops, Preisach, dynamic."""
 import os
 
+from conftest import real_data_path
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PreisachModel
-from conftest import real_data_path
 
 REAL = real_data_path()
 
@@ -90,8 +89,12 @@ def test_scores_on_hand_checkable_example():
 
 
 def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_system():
-    """`_nnls_with_offset` never builds [X, −x_last]; its minimiser must be that of scipy's
-    NNLS on the explicit system (weights >= 0, last coefficient of either sign)."""
+    """
+    `_nnls_with_offset` never builds [X, −x_last].
+
+    Its minimiser must be that of scipy's NNLS on the explicit system (weights >= 0, last
+    coefficient of either sign).
+    """
     from scipy.optimize import nnls
     rng = np.random.default_rng(3)
     X = np.column_stack([np.abs(rng.normal(size=(400, 6))), np.ones(400)])

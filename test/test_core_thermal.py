@@ -3,7 +3,6 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a, thermal_step

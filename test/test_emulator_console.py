@@ -4,15 +4,15 @@ import signal
 import subprocess
 import time
 
+from hardware_support import console_command, start_emulator_process, stop_process
 import pytest
 import serial
-
-from hardware_support import console_command, start_emulator_process, stop_process
 from sma_actuator.hardware import protocol as p
 
 
 def exchange(port, frames, seconds, baud=115200):
-    """Open the port, write frames (each (time_s, bytes)), collect (t, msg) for `seconds`.
+    """
+    Open the port, write frames (each (time_s, bytes)), collect (t, msg) for `seconds`.
 
     Returns (received, write_times); times in s since the port was opened.
     """

@@ -1,6 +1,5 @@
 """The emulated MCU's logic (McuCore): handshake, duty limits, interlock, 100 ms watchdog."""
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
 

@@ -1,7 +1,6 @@
 """The emulator on simulated time: UART line model, shared plant core behind the MCU."""
 import numpy as np
 import pytest
-
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.emulator import Emulator, UartLine

@@ -1,4 +1,5 @@
-"""The C++ firmware against the Python protocol, byte-for-byte.
+"""
+The C++ firmware against the Python protocol, byte-for-byte.
 
 Compiles firmware/sma_mcu (framing, CRC, messages, MCU logic) and the real sketch with g++
 into a temporary directory, then checks: every vector in firmware/test_vectors.json is
@@ -7,13 +8,12 @@ agree on random and mutated streams; the sketch itself switches the outputs off 
 100 ms watchdog and on the interlock.
 """
 import json
+from pathlib import Path
 import random
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware import vectors
 

@@ -1,20 +1,23 @@
-"""Bad input through real topics: NaN / inf / out-of-range setpoint and duty are rejected
-with a diagnostics WARN and the last valid value is kept."""
+"""
+Bad input through real topics.
+
+NaN / inf / out-of-range setpoint and duty are rejected with a diagnostics WARN and the last valid
+value is kept.
+"""
 import math
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
 
 class TopicProbe:

@@ -1,7 +1,6 @@
 """plant_sim + controller + setpoint through real topics (accelerated sim time, one executor)."""
 import numpy as np
 import pytest
-
 from sma_actuator.control.metrics import summarize
 
 harness = pytest.importorskip('sma_actuator.nodes.harness')
@@ -10,7 +9,7 @@ harness = pytest.importorskip('sma_actuator.nodes.harness')
 @pytest.mark.parametrize('mode', ['pi', 'pi_inverse'])
 def test_loop_settles_on_a_step(ros_context, mode):
     trace = harness.run_closed_loop(
-        ros_context, dict(profile='step', amplitude=0.4, offset=0.0, delay_s=1.0), 12.0,
+        ros_context, {'profile': 'step', 'amplitude': 0.4, 'offset': 0.0, 'delay_s': 1.0}, 12.0,
         mode=mode, real_time_factor=100.0)
     a = trace.arrays()
     t = a['time_s'] - a['time_s'][0]

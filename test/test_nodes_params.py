@@ -1,10 +1,14 @@
-"""Node parameters: the config YAMLs load with --params-file, runtime changes are validated,
-and the setpoint one-shot mode publishes one value and exits."""
+"""
+Node parameters.
+
+The config YAMLs load with --params-file, runtime changes are validated, and the setpoint one-shot
+mode publishes one value and exits.
+"""
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 import yaml
@@ -12,13 +16,12 @@ import yaml
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-
 from sma_actuator.core.actuator import ActuatorParams  # noqa: E402
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import EFFECTS, PlantSim  # noqa: E402
 from sma_actuator.nodes.setpoint import Setpoint  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 NODES = {'plant_sim': PlantSim, 'controller': Controller, 'setpoint': Setpoint}

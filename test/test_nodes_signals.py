@@ -9,9 +9,8 @@ import time
 import pytest
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from std_msgs.msg import Float64MultiArray
-
 from sma_actuator.nodes import common as c
+from std_msgs.msg import Float64MultiArray
 
 
 @pytest.fixture
@@ -66,9 +65,13 @@ def test_spin_until_stopped_returns_when_done_or_the_context_is_shut_down(ros_do
 
 def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_traffic(
         ros_context, ros_domain_id):
-    """Regression: under load, rclpy's SIGINT handler could interrupt a `take_message` and
-    end the process with status 1 (bridge CI failure). Flood the controller with setpoints
-    and joint states, interrupt it mid-stream, and expect exit 0 and a final zero duty."""
+    """
+    Regression.
+
+    Under load, rclpy's SIGINT handler could interrupt a `take_message` and end the process with
+    status 1 (bridge CI failure). Flood the controller with setpoints and joint states, interrupt
+    it mid-stream, and expect exit 0 and a final zero duty.
+    """
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
     probe = rclpy.create_node('probe', context=ros_context)

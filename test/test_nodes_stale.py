@@ -1,4 +1,5 @@
-"""Stale streams through real topics.
+"""
+Stale streams through real topics.
 
 * controller: joint states stop -> zero duty on /sma/duty and a diagnostics ERROR.
 * plant: the controller process is SIGKILLed mid-run -> the plant applies zero duty after
@@ -10,19 +11,18 @@ import subprocess
 import sys
 import time
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray, Header  # noqa: E402
-
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray, Header  # noqa: E402
 
 
 

@@ -1,13 +1,16 @@
-"""The ament_python layout, checked mechanically: a colcon build of this package installs
-every console script where `ros2 run sma_actuator <node>` looks, plus package.xml, the
-ament index marker and the config YAML files."""
-import configparser
+"""
+The ament_python layout, checked mechanically.
+
+a colcon build of this package installs every console script where `ros2 run sma_actuator <node>`
+looks, plus package.xml, the ament index marker and the config YAML files.
+"""
 import ast
+import configparser
+from pathlib import Path
 import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 

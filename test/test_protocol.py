@@ -2,7 +2,6 @@
 import random
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 
 

@@ -3,8 +3,7 @@ from datetime import datetime
 from pathlib import Path
 
 import pytest
-
-from sma_actuator.bag.recording import DEFAULT_TOPICS, TopicSelector, bag_directory
+from sma_actuator.bag.recording import bag_directory, DEFAULT_TOPICS, TopicSelector
 
 
 def test_default_selection_is_the_sma_namespace_and_diagnostics():

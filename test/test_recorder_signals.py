@@ -1,12 +1,16 @@
-"""The recorder console script under signals: SIGINT/SIGTERM finish the bag, SIGKILL leaves a
-file that BagReader recovers up to the last chunk and whose loss it reports."""
+"""
+The recorder console script under signals.
+
+SIGINT/SIGTERM finish the bag, SIGKILL leaves a file that BagReader recovers up to the last chunk
+and whose loss it reports.
+"""
 import os
+from pathlib import Path
 import shutil
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 from rosbags.highlevel import AnyReader, AnyReaderError
@@ -15,9 +19,8 @@ rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-
 from sma_actuator.bag.reader import BagReader  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 
 def _recorder_command():

@@ -1,13 +1,13 @@
 """ReplayNode: stored bytes on (remapped) topics, filter, /clock, QoS, zero duty on stop."""
 import os
+from pathlib import Path
 import shutil
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
@@ -16,12 +16,11 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-
 from sma_actuator.bag.errors import BagError, BagNotFoundError  # noqa: E402
 from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, stamp  # noqa: E402
 from sma_actuator.bag.writer import BagWriter  # noqa: E402
 from sma_actuator.nodes.replay import ReplayNode  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
 T0 = 1_650_000_000_000_000_000
 MS = 1_000_000
@@ -56,7 +55,7 @@ def _spin_until(executor, condition, timeout_s=10.0):
 
 @pytest.fixture
 def probe(ros_context):
-    """A node recording what arrives (raw) on the topics a replay may publish."""
+    """Return a node recording what arrives (raw) on the topics a replay may publish."""
     node = Node('probe', context=ros_context)
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)

@@ -3,8 +3,7 @@ import threading
 import time
 
 import pytest
-
-from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings, read_ahead
+from sma_actuator.bag.playback import parse_remappings, PlaybackOptions, Player, read_ahead
 from sma_actuator.bag.reader import BagMessage
 
 S = 1_000_000_000

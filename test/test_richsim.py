@@ -3,7 +3,6 @@ import math
 
 import numpy as np
 import pytest
-
 from support import richsim
 from support.make_hidden_dataset import main as cli_main
 from support.richsim import EFFECTS, simulate, simulate_profile
@@ -23,8 +22,12 @@ def profile(*segments):
 
 
 def steady_rise_k(duty, p=richsim.DEFAULTS):
-    """Expected steady wire temperature rise [K] of the null model: dT = P / hA with
-    P = d R min(V/R, I_max)^2, hA = C / tau, C = rho pi d^2/4 L c (re-derived independently)."""
+    """
+    Expect steady wire temperature rise [K] of the null model.
+
+    dT = P / hA with P = d R min(V/R, I_max)^2, hA = C / tau, C = rho pi d^2/4 L c (re-derived
+    independently).
+    """
     r = p['resistance_ohm_per_m'] * p['wire_length_m']
     power = duty * r * min(p['supply_v'] / r, p['i_max_a']) ** 2
     cap = (p['density_kg_m3'] * math.pi * p['wire_diameter_m'] ** 2 / 4 * p['wire_length_m']
@@ -216,7 +219,9 @@ def test_saturation_drives_both_ends_of_travel_more_often(excitation):
 
 
 def turning_points(aus, lo=0.1, hi=0.9, eps=0.02):
-    """Number of direction reversals of the austenite fraction strictly inside (lo, hi)."""
+    """
+    Return the number of direction reversals of the austenite fraction strictly inside (lo, hi).
+    """
     count, ref, direction = 0, aus[0], 0
     for a in aus:
         step = a - ref
@@ -324,8 +329,12 @@ def test_cli_writes_a_dataset_and_rejects_bad_magnitude(tmp_path, capsys):
 
 
 def test_logged_closed_loop_duty_replays_the_recorded_response():
-    """Duty is logged as the command over the following sample: at the 40 Hz command rate,
-    replaying it open loop through the same plant reproduces the closed-loop angle."""
+    """
+    Duty is logged as the command over the following sample.
+
+    At the 40 Hz command rate, replaying it open loop through the same plant reproduces the
+    closed-loop angle.
+    """
     d = simulate('none', 1.0, 'closed', duration_s=60, rate_hz=40, seed=5)
     replay = simulate_profile(d['duty_a'], d['duty_b'], rate_hz=40, noise_rad=0.0)
     np.testing.assert_allclose(replay['true_position'], d['true_position'], atol=1e-9)

@@ -1,24 +1,26 @@
-"""`sma-model` end to end: subprocess runs on small generated records and the real
-morphing-wing loops; bad input gives exit code 2 and one error line; plug-ins.
+"""
+`sma-model` end to end.
+
+Subprocess runs on small generated records and the real morphing-wing loops; bad input gives exit
+code 2 and one error line; plug-ins.
 
 Records are made with the package's own simulator (the hidden-effect tests with the
 independent rich simulator live elsewhere); they are short (30-40 s at 20 Hz) so the
 whole file stays well under a minute.
 """
 import json
+from pathlib import Path
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
+from conftest import real_data_path
 import numpy as np
 import pytest
-import yaml
-
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins
 from sma_actuator.workbench.effects import CATALOG
-from conftest import real_data_path
+import yaml
 
 REAL = real_data_path()
 DT = 0.05

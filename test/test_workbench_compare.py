@@ -1,11 +1,11 @@
-"""Error breakdown by regime, residual correlation tests and the HTML report.
+"""
+Error breakdown by regime, residual correlation tests and the HTML report.
 
 Predictions are made by hand (measured minus a known error), so each test knows where the
 error is and checks that the breakdown and the tests find it there.
 """
 import numpy as np
 import pytest
-
 from sma_actuator.core.identification import DynamicData, scores
 from sma_actuator.workbench.compare import (compare, cross_correlation, loop_masks,
                                             residual_tests, reversals)

@@ -1,11 +1,9 @@
 """Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
+from conftest import real_data_path
 import numpy as np
 import pytest
-
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import (DataError, check_excitation, describe, is_static,
-                                         load_data)
-from conftest import real_data_path
+from sma_actuator.workbench.data import check_excitation, DataError, describe, is_static, load_data
 
 REAL = real_data_path()
 

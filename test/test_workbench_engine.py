@@ -1,8 +1,11 @@
-"""Workbench engine internals: the adaptive hysteresis grid, per-wire fatigue
-identification, the drive-dependent sign of phase resistance and the ablation check."""
+"""
+Workbench engine internals.
+
+The adaptive hysteresis grid, per-wire fatigue identification, the drive-dependent sign of phase
+resistance and the ablation check.
+"""
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
@@ -123,6 +126,7 @@ def test_ablation_removes_the_gain_of_a_real_effect():
 
 class DeadTime(Effect):
     """PWM dead time d0: d' = max(d - d0, 0) / (1 - d0) (a plug-in with its own parameter)."""
+
     name = 'test_dead_time'
     parameters = {'dead_duty': (0.0, 0.4, 0.05)}
     neutral = {'dead_duty': 0.0}
@@ -191,6 +195,7 @@ def test_regressors_at_the_rows_equal_the_full_rate_columns(delay_s):
 
 class OwnGrid(Effect):
     """Test plug-in: a constant offset of the ambient that needs its own grid."""
+
     name = 'test_own_grid'
     parameters = {'ambient_shift': (-5.0, 5.0, 0.0)}
     own_grid = True

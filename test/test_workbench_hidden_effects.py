@@ -1,6 +1,8 @@
-"""Hidden-effect tests of `diagnose`: data from the independent rich simulator
-(test/support/richsim.py: Preisach hysteresis, RK4 thermal model, its own formulation of
-every effect) with one hidden effect at a time, plus a null case.
+"""
+Hidden-effect tests of `diagnose`.
+
+Data from the independent rich simulator (test/support/richsim.py: Preisach hysteresis, RK4 thermal
+model, its own formulation of every effect) with one hidden effect at a time, plus a null case.
 
 Every catalog effect has a case: diagnose names the hidden effect first and adding it
 cuts the held-out NRMSE by at least 40 %; on the null cases nothing is significant. Cases
@@ -8,7 +10,6 @@ vary magnitude, excitation (open/closed loop), noise and sample rate (20-100 Hz)
 `benchmarks/bench_hidden_effects.py` prints the detection rate over magnitudes.
 """
 import pytest
-
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.engine import diagnose
 from support.parallel import imap_on_cores

@@ -1,4 +1,5 @@
-"""Recording and replay support: rosbag2-compatible MCAP bags without rosbag2 (ROS-free).
+"""
+Recording and replay support: rosbag2-compatible MCAP bags without rosbag2 (ROS-free).
 
 - :mod:`.writer`: :class:`BagWriter`, serialized messages -> bag directory (MCAP + metadata.yaml)
 - :mod:`.reader`: :class:`BagReader`, bag -> messages/topics, recovers unfinished files

@@ -1,4 +1,5 @@
-"""Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
+"""
+Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
 
 All signals are put on one uniform time grid built on the recorder's log time (receive time,
 the one clock every topic shares), starting at the first ``/sma/joint_states`` message:
@@ -17,9 +18,9 @@ without ROS installed and on bags recorded by rosbag2.
 from pathlib import Path
 from typing import Dict, Optional, Union
 
-import numpy as np
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
+import numpy as np
 
 from .errors import BagError, MissingTopicError, TruncatedBagError, UnknownTypeError
 from .reader import BagReader
@@ -118,7 +119,8 @@ def _sorted(times, values):
 
 
 def zero_order_hold(times_ns, values, grid_ns, before=np.nan):
-    """Sample a piecewise-constant signal on a grid.
+    """
+    Sample a piecewise-constant signal on a grid.
 
     :param times_ns: Sample times [ns], ascending.
     :param values: Values at those times (1-D or 2-D with samples along axis 0).
@@ -143,7 +145,8 @@ def default_rate_hz(times_ns) -> float:
 
 def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
              topics: Optional[Dict[str, str]] = None) -> Dict[str, np.ndarray]:
-    """Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
+    """
+    Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
 
     :param path: Bag directory or ``.mcap`` file (ours or rosbag2's).
     :param rate_hz: Grid rate [Hz]; default: the joint-state rate (1 / median interval).

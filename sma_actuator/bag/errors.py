@@ -1,4 +1,5 @@
-"""Errors raised by the bag library.
+"""
+Errors raised by the bag library.
 
 Every error is a ValueError subclass whose message starts with the file (or directory) it is
 about, so a caller can catch ``BagError`` (or plain ``ValueError``) and show the message as is.
@@ -8,7 +9,8 @@ from typing import Optional, Union
 
 
 class BagError(ValueError):
-    """A bag (or a file in it) cannot be written or read as asked.
+    """
+    A bag (or a file in it) cannot be written or read as asked.
 
     :param path: The bag directory or file the problem is about.
     :param problem: What is wrong, in words a user can act on.

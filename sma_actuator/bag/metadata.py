@@ -1,4 +1,5 @@
-"""rosbag2 bag metadata (``metadata.yaml``, version 9 = Jazzy) from plain Python values.
+"""
+rosbag2 bag metadata (``metadata.yaml``, version 9 = Jazzy) from plain Python values.
 
 The same mapping (without the ``rosbag2_bagfile_information`` wrapper) is what rosbag2_storage_mcap
 embeds in each MCAP file as a Metadata record named ``rosbag2`` with key ``serialized_metadata``;
@@ -7,8 +8,8 @@ its presence tells rosbag2 that the channel QoS YAML uses version-9 names.
 Layout follows ``rosbag2_storage/yaml.hpp``; sequences are indented under their key like
 yaml-cpp emits them, and null is written ``~``.
 """
-import os
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 from typing import Any, Dict, List
 
@@ -129,7 +130,8 @@ def write_metadata_yaml(directory: Path, bag: BagRecord) -> Path:
 
 
 def read_metadata_yaml(path: Path) -> Dict[str, Any]:
-    """Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
+    """
+    Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
 
     :raises BagError: The file is not valid rosbag2 metadata.
     """

@@ -1,4 +1,5 @@
-"""Replay timing without ROS: when each stored message is due, at a rate, from an offset, looped.
+"""
+Replay timing without ROS: when each stored message is due, at a rate, from an offset, looped.
 
 A message logged at bag time ``t`` is due at wall time
 ``wall_start + (t - (bag_start + start_offset)) / rate``; with ``loop`` the timeline restarts
@@ -6,10 +7,10 @@ after the last message. Optional clock ticks report the bag time every ``clock_p
 time (for ``/clock``). Time is read and waited on through injected functions, so the schedule is
 tested with a fake clock and the node uses the monotonic clock.
 """
+from dataclasses import dataclass, field
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import Callable, Dict, Iterable, Iterator, List, Optional
 
 from .reader import BagMessage
@@ -18,7 +19,8 @@ _NS = 1_000_000_000
 
 
 def parse_remappings(entries: Iterable[str]) -> Dict[str, str]:
-    """Parse ``'/from:=/to'`` entries into ``{'/from': '/to'}``.
+    """
+    Parse ``'/from:=/to'`` entries into ``{'/from': '/to'}``.
 
     :raises ValueError: An entry without ``:=``, a relative name, or a topic mapped twice.
     """
@@ -37,7 +39,8 @@ def parse_remappings(entries: Iterable[str]) -> Dict[str, str]:
 
 def read_ahead(messages: Iterable[BagMessage], stop: threading.Event,
                max_items: int = 5000) -> Iterator[BagMessage]:
-    """Iterate ``messages`` through a background thread that reads up to ``max_items`` ahead.
+    """
+    Iterate ``messages`` through a background thread that reads up to ``max_items`` ahead.
 
     Reading a bag goes chunk by chunk (decompress, parse thousands of records at once); done
     inline it would hold up every message due meanwhile. The reader thread stops when the
@@ -105,7 +108,8 @@ class PlaybackStats:
 
 
 class Player:
-    """Publish a bag's messages on schedule.
+    """
+    Publish a bag's messages on schedule.
 
     :param messages: ``messages(start_time_ns)`` returns the messages to play from that bag
         time on, in log-time order (e.g. ``BagReader.messages`` with a topic filter).

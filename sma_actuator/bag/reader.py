@@ -1,4 +1,5 @@
-"""BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
+"""
+BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
 
 Accepts a bag directory (with or without ``metadata.yaml``) or a single ``.mcap`` file. Files
 with a valid summary are read through mcap's indexed reader; files without one (the recorder was
@@ -15,7 +16,7 @@ from mcap.reader import make_reader
 from .errors import (BagError, BagNotFoundError, NotMcapError, TruncatedBagError,
                      UnknownTypeError)
 from .metadata import METADATA_FILE, read_metadata_yaml
-from .recovery import RecoveryReport, iter_span_messages, scan
+from .recovery import iter_span_messages, RecoveryReport, scan
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_AND_MAGIC = 9 + 20 + 8  # footer record (opcode, length, 20-byte body) + magic
@@ -142,7 +143,8 @@ def _bag_files(path: Path) -> List[Path]:
 
 
 class BagReader:
-    """Read an MCAP bag directory or file.
+    """
+    Read an MCAP bag directory or file.
 
     :param path: Bag directory (rosbag2 layout) or a single ``.mcap`` file.
     :raises BagNotFoundError: The path does not exist or holds no .mcap file.
@@ -199,7 +201,8 @@ class BagReader:
 
     def messages(self, topics: Optional[Iterable[str]] = None,
                  start_time_ns: Optional[int] = None) -> Iterator[BagMessage]:
-        """Yield messages in log-time order (per file; files in sequence).
+        """
+        Yield messages in log-time order (per file; files in sequence).
 
         :param topics: Only these topics (default: all).
         :param start_time_ns: Skip messages logged before this time [ns].

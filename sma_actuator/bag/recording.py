@@ -1,8 +1,8 @@
 """Recorder logic without ROS: which topics to record and where the bag goes."""
-import fnmatch
-import re
 from datetime import datetime
+import fnmatch
 from pathlib import Path
+import re
 from typing import Iterable, Optional, Union
 
 #: Topics recorded by default: the whole /sma namespace and the diagnostics.
@@ -13,7 +13,8 @@ _SAFE_NAME = re.compile(r'^[A-Za-z0-9._-]+$')
 
 
 class TopicSelector:
-    """Decide which topics to record from names and glob patterns (``/sma/*``).
+    """
+    Decide which topics to record from names and glob patterns (``/sma/*``).
 
     :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``.
     :raises ValueError: No pattern, or a pattern that is not an absolute topic name.
@@ -35,7 +36,8 @@ class TopicSelector:
 def bag_directory(output_dir: Union[str, Path], run_name: str,
                   name_template: str = DEFAULT_NAME_TEMPLATE,
                   now: Optional[datetime] = None) -> Path:
-    """Return the bag directory ``output_dir/<name>`` with the name made from a template.
+    """
+    Return the bag directory ``output_dir/<name>`` with the name made from a template.
 
     :param name_template: ``str.format`` template with fields ``run_name`` and ``date`` (a
         datetime, so ``{date:%Y%m%d}`` works).

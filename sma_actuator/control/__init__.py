@@ -1,4 +1,5 @@
-"""ROS-free control logic of the actuator (unit-tested without ROS; the nodes are thin wrappers).
+"""
+ROS-free control logic of the actuator (unit-tested without ROS; the nodes are thin wrappers).
 
 * `pi`: discrete PI with anti-windup (the paper's 25 ms PI).
 * `split`: antagonistic split of a signed command into two wire duties.

@@ -1,4 +1,5 @@
-"""`ControllerCore`: one control step of modes pi, pi_inverse and on_off (no ROS).
+"""
+`ControllerCore`: one control step of modes pi, pi_inverse and on_off (no ROS).
 
 Per sample k (period dt, nominally the paper's 25 ms):
 
@@ -14,13 +15,13 @@ Per sample k (period dt, nominally the paper's 25 ms):
 """
 from dataclasses import dataclass, replace
 
-from ..core.validate import finite_scalar
 from .estimator import WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
+from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
 
@@ -28,6 +29,7 @@ MODES = ('pi', 'pi_inverse', 'on_off')
 @dataclass
 class ControllerSettings:
     """Tunable settings (the controller node's parameters of the same names)."""
+
     mode: str = 'pi'
     kp: float = 3.0                 # [duty / rad]
     ki: float = 4.0                 # [duty / (rad s)]
@@ -54,6 +56,7 @@ class ControllerSettings:
 @dataclass
 class ControlStep:
     """Result of one step: duties and the internals reported in diagnostics."""
+
     duty_a: float
     duty_b: float
     error: float = 0.0

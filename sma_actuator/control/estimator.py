@@ -1,4 +1,5 @@
-"""Wire state estimate: the core actuator model driven by the commanded duties.
+"""
+Wire state estimate: the core actuator model driven by the commanded duties.
 
 Real wires have no temperature sensor, so the controller runs the identified model
 (`core.AntagonisticActuator`) open loop on what it commanded. The thermal guard reads
@@ -37,7 +38,7 @@ class WireEstimator:
         return self.model.contraction
 
     def hysteresis_inputs(self):
-        """Inputs of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
+        """Input of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
         th, y = self.temperature_c, self.contraction
         sigma = self.params.stress_k
         return np.array([th[0] - sigma * y[1], th[1] - sigma * y[0]])

@@ -1,4 +1,5 @@
-"""Open-loop excitation for identifying the controller's model (duty sequences, no ROS).
+"""
+Open-loop excitation for identifying the controller's model (duty sequences, no ROS).
 
 A good identification record moves each wire through its major loop and through nested
 minor loops from both branches, with holds long enough (several T = 2 s) for the thermal

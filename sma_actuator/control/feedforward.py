@@ -1,4 +1,5 @@
-"""Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
+"""
+Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
 
 Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
 
@@ -76,7 +77,7 @@ class InverseFeedforward:
             self._y[j] = self._plays[j].step(self._u[j])
 
     def target_contractions(self, angle_rad):
-        """Steps 1-2: (y_a*, y_b*); the idle wire's target is None."""
+        """Step 1-2: (y_a*, y_b*); the idle wire's target is None."""
         p = self.params
         dy = (finite_scalar('angle_rad', angle_rad) - p.offset_rad) / p.stroke_rad
         y_max = self._y_max
@@ -94,7 +95,7 @@ class InverseFeedforward:
         return self._gains[j]
 
     def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None):
-        """Steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+        """Step 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         h = p.hysteresis

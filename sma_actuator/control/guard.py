@@ -1,4 +1,5 @@
-"""Thermal guard: duty limits that keep the estimated wire temperature under a maximum.
+"""
+Thermal guard: duty limits that keep the estimated wire temperature under a maximum.
 
 For each wire the core's exact thermal step (eq. 7d/7f, `core.thermal.thermal_step`)
 is affine in the held duty d over a horizon H:

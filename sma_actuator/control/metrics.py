@@ -1,4 +1,5 @@
-"""Tracking metrics of a closed-loop run (the demo's summary.json figures).
+"""
+Tracking metrics of a closed-loop run (the demo's summary.json figures).
 
 e(t) = r(t) − φ(t) on the feedback samples, over the evaluation window [t_start, t_end]:
   rms_error     sqrt(mean e²) [rad]
@@ -12,7 +13,7 @@ from ..core.validate import finite_array
 
 
 def tracking_errors(setpoint, position):
-    """e = r − φ [rad] as an array."""
+    """E = r − φ [rad] as an array."""
     r, y = finite_array('setpoint', setpoint), finite_array('position', position)
     if r.shape != y.shape:
         raise ValueError(f'setpoint and position differ in length ({r.size} vs {y.size})')

@@ -1,4 +1,5 @@
-"""On-off mode (the paper's six-legged robot): one wire fully heated, the other cooled.
+"""
+On-off mode (the paper's six-legged robot): one wire fully heated, the other cooled.
 
 The shaft is driven to one of its two end positions ("fully stretched / fully
 contracted"), chosen by the setpoint: a relay, eq. (4) with thresholds ±band, on

@@ -1,4 +1,5 @@
-"""Discrete PI controller with anti-windup (the paper's PI, sampling time 25 ms).
+"""
+Discrete PI controller with anti-windup (the paper's PI, sampling time 25 ms).
 
     e(k) = r(k) − y(k)
     v(k) = u_ff(k) + Kp e(k) + I(k)                      unsaturated command

@@ -1,4 +1,5 @@
-"""Antagonistic split of a signed command into the two wire duties (Fig. 14).
+"""
+Antagonistic split of a signed command into the two wire duties (Fig. 14).
 
 u > 0 heats wire a (shaft towards +φ), u < 0 heats wire b: duty_a = clip(u, 0, lim_a),
 duty_b = clip(−u, 0, lim_b). `exclusive` then enforces the invariant that the two wires

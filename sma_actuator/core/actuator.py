@@ -1,4 +1,5 @@
-"""The antagonistic SMA actuator of the paper's Fig. 14, with switchable physical effects.
+"""
+The antagonistic SMA actuator of the paper's Fig. 14, with switchable physical effects.
 
 Signal chain per wire j in {a, b} (one sample, duty held over dt):
 
@@ -32,8 +33,8 @@ module, so there is one implementation of the physics.
 """
 from dataclasses import asdict, dataclass, field, fields, replace
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 from .hysteresis import ModifiedPrandtlIshlinskii, PlayHysteresis
 from .thermal import on_current_a, thermal_step, time_constant_s
@@ -54,7 +55,8 @@ from .validate import finite_array, finite_scalar
 
 
 def flexinol_hysteresis(n_widths=4, n_centres=4):
-    """Default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
+    """
+    Default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
 
     Built from the datasheet transformation temperatures: play half-widths spread around
     half the loop width ((As + Af)/2 − (Ms + Mf)/2)/2 = 13 K and saturated elements centred
@@ -78,11 +80,13 @@ def flexinol_hysteresis(n_widths=4, n_centres=4):
 
 @dataclass
 class ActuatorParams:
-    """Physical parameters of the antagonistic actuator and its switchable effects.
+    """
+    Physical parameters of the antagonistic actuator and its switchable effects.
 
     Every effect parameter's default is its neutral value (effect off), except
     ambient_gain = 1: a simulated wire feels the ambient it is given.
     """
+
     # wire and amplifier (Flexinol 150 um LT, 250 mm; see module comment for sources)
     length_m: float = 0.25
     resistance_ohm_per_m: float = 55.0
@@ -157,7 +161,7 @@ class ActuatorParams:
                          self.duty_limit_sharpness])
 
     def with_changes(self, **changes):
-        """A copy with some fields changed (validated)."""
+        """Return a copy with some fields changed (validated)."""
         return replace(self, **changes)
 
     def to_dict(self):
@@ -189,7 +193,8 @@ KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_expon
 @njit(cache=True)
 def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state,
                    feat_a, feat_b, u_a, u_b, feat_start, feat_step):
-    """Steps 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
+    """
+    Step 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
     duty_*, ambient [°C], disturbance [K]: length-n inputs, sample k held over
     [t_k, t_k + dt). Outputs follow the sampled-data convention: sample k is the state at
@@ -273,8 +278,12 @@ def initial_state(params, theta_c=None):
 
 
 def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
-    """Step 4: φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad],
-    g_j = g(N_j) the fatigue shakedown of wire j after N_j cycles (none if cycles are None)."""
+    """
+    Step 4.
+
+    φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad], g_j = g(N_j)
+    the fatigue shakedown of wire j after N_j cycles (none if cycles are None).
+    """
     y_a, y_b = np.asarray(y_a, float), np.asarray(y_b, float)
     if cycles_a is None:
         return params.offset_rad + params.stroke_rad * (y_a - params.stroke_ratio_b * y_b)
@@ -305,7 +314,8 @@ def sensor_polynomial(params, phi):
 
 
 def sensor_inverse(params, reading, n_grid=8193):
-    """Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
+    """
+    Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
 
     p is evaluated on a dense grid over the readings' span widened by that span each
     side, and inverted by interpolation on its rising branch through the middle of the
@@ -340,6 +350,7 @@ def delay_signal(x, dt, delay_s):
 @dataclass
 class Trajectory:
     """Batch simulation result (arrays of length n)."""
+
     position_rad: np.ndarray
     theta_a_c: np.ndarray
     theta_b_c: np.ndarray
@@ -348,7 +359,8 @@ class Trajectory:
 
 
 def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, state=None):
-    """Free-run simulation of the whole actuator (steps 1-5) for duty sequences at step dt [s].
+    """
+    Free-run simulation of the whole actuator (steps 1-5) for duty sequences at step dt [s].
 
     ambient_c: measured ambient [°C] per sample (defaults to params.ambient_c);
     disturbance_k: temperature disturbance x of Fig. 13 [K]. Returns a `Trajectory`.
@@ -377,7 +389,8 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
 
 
 class AntagonisticActuator:
-    """Streaming form of `simulate` for nodes: `step(duty_a, duty_b, dt)` -> shaft angle [rad].
+    """
+    Streaming form of `simulate` for nodes: `step(duty_a, duty_b, dt)` -> shaft angle [rad].
 
     Long steps are split into sub-steps of at most `max_substep_s` so the feedback effects
     (phase resistance, stress coupling, convection) stay accurate at any call rate.

@@ -1,4 +1,5 @@
-"""Compiled hot loops of the hysteresis operators (numba, cached on disk).
+"""
+Compiled hot loops of the hysteresis operators (numba, cached on disk).
 
 All play-type operators of the package (the classical Prandtl-Ishlinskii backlash of
 eq. (5) and the backlash with saturation of eq. (6)) reduce to one normalised element
@@ -14,8 +15,8 @@ r_i is the half-width of the play (input units), [lo_i, hi_i] its saturation ban
 See `hysteresis.ModifiedPrandtlIshlinskii` for the mapping from the paper's
 (M, K, K1, h) parameters to (r, lo, hi, w, k1).
 """
-import numpy as np
 from numba import njit
+import numpy as np
 
 
 @njit(cache=True, fastmath=False)
@@ -46,7 +47,8 @@ def play_features(u, r, lo, hi, s0):
 
 @njit(cache=True, fastmath=True)
 def play_output(u, r, lo, hi, w, k1, y0, s0):
-    """Operator output y(k), eq. (K2), without storing the element states; returns (y, s_last).
+    """
+    Operator output y(k), eq. (K2), without storing the element states; returns (y, s_last).
 
     This is the benchmarked kernel (operator updates per second). The inner loop is
     branch-free min/max so LLVM can vectorise it across elements.
@@ -83,7 +85,8 @@ def _branch_value(u, s, r, lo, hi, w, k1, y0, up):
 
 @njit(cache=True)
 def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
-    """Right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), and the final state.
+    """
+    Right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), and the final state.
 
     From the current state, the output reached by a monotone input move is a
     non-decreasing piecewise-linear function of the end point (every element is a

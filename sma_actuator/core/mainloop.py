@@ -1,4 +1,5 @@
-"""Main-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
+"""
+Main-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
 
 Two laws for the martensite fraction xi on the major-loop branches:
 
@@ -17,8 +18,8 @@ through the reversal point (Liang-Rogers / Ikuta minor-loop rule):
       cooling  1 - xi = (1 - xi_r) * (1 - f_c(u)) / (1 - f_c(u_r))
 which is continuous, monotone on each branch and reduces to eqs. (1)-(2) from a full state.
 """
-import numpy as np
 from numba import njit
+import numpy as np
 
 from .validate import finite_array, finite_scalar
 
@@ -72,7 +73,8 @@ def _simulate(kind, u, a_s, a_f, m_s, m_f, state):
 
 
 class MainLoopHysteresis:
-    """Main-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
+    """
+    Main-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
 
     Parameters: As, Af, Ms, Mf [°C] with As < Af and Mf < Ms; y0 output when cold (length
     or strain units of your choice). Streaming `step(u)`, batch `simulate(u)`, `reset()`.

@@ -5,7 +5,8 @@ from .validate import finite_scalar
 
 
 class Potentiometer:
-    """Linear potentiometer + `bits`-bit ADC spanning [angle_min_rad, angle_max_rad].
+    """
+    Linear potentiometer + `bits`-bit ADC spanning [angle_min_rad, angle_max_rad].
 
     counts = round((φ − φ_min) / (φ_max − φ_min) · (2^bits − 1)), clipped to the ADC range,
     with optional Gaussian noise of `noise_rad` added to φ before conversion.

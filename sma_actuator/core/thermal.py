@@ -1,4 +1,5 @@
-"""Thermal dynamics of one wire, eq. (7): C dθ/dt = R i² − hA (θ − θa), and Fig. 13.
+"""
+Thermal dynamics of one wire, eq. (7): C dθ/dt = R i² − hA (θ − θa), and Fig. 13.
 
 The PWM amplifier switches the supply V across the wire (resistance R) through a current
 limiter I_max, so the on-current is i_on = min(V/R, I_max) and the mean Joule power at

@@ -1,4 +1,5 @@
-"""Hardware side of the actuator: serial protocol, MCU logic, serial link and MCU emulator.
+"""
+Hardware side of the actuator: serial protocol, MCU logic, serial link and MCU emulator.
 
 - protocol.py: COBS framing, CRC-32 and the messages (the one Python implementation).
 - mcu_core.py: the microcontroller's logic (twin of firmware/sma_mcu/sma_mcu_core.cpp).

@@ -1,4 +1,5 @@
-"""Host side of the hardware bridge, free of ROS and of the serial port.
+"""
+Host side of the hardware bridge, free of ROS and of the serial port.
 
 `BridgeCore` turns duty commands into Duty frames and received frames into joint
 samples, and owns the host's safety rules:
@@ -16,13 +17,12 @@ write to the port. The caller serialises calls (one lock) and writes in call ord
 from __future__ import annotations
 
 import collections
+from dataclasses import dataclass
 import enum
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 
@@ -80,7 +80,8 @@ def to_counts(duty: float) -> int:
 
 
 def sanitize_duty(values, max_counts: int, interlock_counts: int) -> tuple[int, int, list[str]]:
-    """Validate and limit a [duty_a, duty_b] command; returns (a, b) in counts and notes.
+    """
+    Validate and limit a [duty_a, duty_b] command; returns (a, b) in counts and notes.
 
     Raises ValueError naming the problem for input that cannot be a duty command.
     Notes describe every change made (clamping, interlock). If both exceed the interlock,
@@ -161,7 +162,7 @@ class BridgeCore:
         self._enter(LinkState.DISCONNECTED, now_s)
 
     def on_open_failed(self, reason: str, now_s: float):
-        """Opening the port failed (retried with backoff by the link)."""
+        """Open the port failed (retried with backoff by the link)."""
         self.link_error = reason
         self.counters['open_failures'] += 1
         self._log_throttled('open', 'error', f'{reason} (retrying with backoff)', now_s)
@@ -191,7 +192,9 @@ class BridgeCore:
     # --- duty commands ------------------------------------------------------------------
 
     def on_duty_command(self, values, now_s: float) -> bytes:
-        """A /sma/duty command [duty_a, duty_b]; returns the Duty frame to send (if connected)."""
+        """
+        Return a /sma/duty command [duty_a, duty_b]; returns the Duty frame to send (if connected).
+        """
         self.counters['commands'] += 1
         self._last_command_s = now_s
         if self.duty_timed_out:
@@ -338,7 +341,8 @@ class BridgeCore:
     # --- diagnostics --------------------------------------------------------------------
 
     def diagnostics(self) -> list[tuple[str, str, str, dict]]:
-        """(name, level, message, values) for the link, the MCU and the duty path.
+        """
+        (name, level, message, values) for the link, the MCU and the duty path.
 
         level is 'ok', 'warn', 'error' or 'stale'.
         """

@@ -4,12 +4,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from sma_actuator.hardware.mcu_core import elapsed_us
 
 
 class AdcCalibration:
-    """ADC counts -> shaft angle [rad].
+    """
+    ADC counts -> shaft angle [rad].
 
     Linear: angle = offset_rad + scale_rad_per_count * counts. If `polynomial` is given
     (coefficients in rad, highest power of counts first, as numpy.polyval), it replaces
@@ -35,7 +35,8 @@ class AdcCalibration:
 
 
 class VelocityEstimator:
-    """Shaft velocity [rad/s]: finite differences over MCU tick times, low-passed.
+    """
+    Shaft velocity [rad/s]: finite differences over MCU tick times, low-passed.
 
     First-order filter with time constant tau_s (0: raw differences). Tick differences
     wrap like the MCU's uint32 microsecond counter.

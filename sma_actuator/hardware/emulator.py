@@ -1,4 +1,5 @@
-"""MCU emulator: the microcontroller's protocol logic in front of the simulated actuator.
+"""
+MCU emulator: the microcontroller's protocol logic in front of the simulated actuator.
 
 Runs `McuCore` (the Python twin of the firmware) in real time on a pseudo-terminal or a
 TCP socket, with the shared model core (`sma_actuator.core`) as the plant: the PWM duties
@@ -30,7 +31,6 @@ import time
 import tty
 
 import numpy as np
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
 
@@ -39,7 +39,8 @@ POLL_PERIOD_S = 0.001
 
 
 class UartLine:
-    """One direction of a UART at `baud` [bit/s]: written bytes arrive after their line time.
+    """
+    One direction of a UART at `baud` [bit/s]: written bytes arrive after their line time.
 
     baud 0 means an ideal line (bytes arrive at once).
     """
@@ -71,7 +72,8 @@ class UartLine:
 
 
 class PtyTransport:
-    """The MCU end of a pseudo-terminal; the bridge opens `port` (the slave device).
+    """
+    The MCU end of a pseudo-terminal; the bridge opens `port` (the slave device).
 
     The emulator keeps the slave open itself so the device survives bridge reconnects;
     what it writes while nobody listens is dropped like on a real unplugged UART.
@@ -119,7 +121,8 @@ class PtyTransport:
 
 
 class TcpTransport:
-    """A TCP server for one bridge at a time (pyserial URL ``socket://host:port``).
+    """
+    A TCP server for one bridge at a time (pyserial URL ``socket://host:port``).
 
     A new connection replaces the previous one; without a client, output is dropped.
     """

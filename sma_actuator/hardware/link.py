@@ -1,4 +1,5 @@
-"""The serial side of the bridge: one pyserial port, owned by a thread, reopened with backoff.
+"""
+The serial side of the bridge: one pyserial port, owned by a thread, reopened with backoff.
 
 Any pyserial URL works as the port: a device (/dev/ttyACM0, a pty), ``socket://host:port``
 (the emulator's TCP mode) or ``loop://``. The thread blocks in read(), so received bytes
@@ -22,7 +23,8 @@ def _noop(*_):
 
 
 class SerialLink:
-    """A pyserial port in a background thread. Callbacks run in that thread.
+    """
+    A pyserial port in a background thread. Callbacks run in that thread.
 
     on_open() -> bytes: called after each successful open; its result is written first.
     on_data(data, t_s): received bytes and the monotonic time [s] they were read.

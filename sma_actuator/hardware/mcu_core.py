@@ -1,4 +1,5 @@
-"""The microcontroller's protocol and safety logic, free of hardware and of ROS.
+"""
+The microcontroller's protocol and safety logic, free of hardware and of ROS.
 
 Python twin of ``firmware/sma_mcu/sma_mcu_core.cpp``: both are driven with the same
 scenarios in ``firmware/test_vectors.json`` and must produce the same PWM values, fault
@@ -40,7 +41,8 @@ def elapsed_us(now_us: int, then_us: int) -> int:
 
 
 class McuCore:
-    """MCU logic: feed received bytes and poll regularly; both return the bytes to send.
+    """
+    MCU logic: feed received bytes and poll regularly; both return the bytes to send.
 
     `read_adc()` returns the potentiometer's ADC counts; it is called whenever an
     AdcReport is built. `pwm_a`/`pwm_b` are the duty counts the outputs must apply.

@@ -1,4 +1,5 @@
-"""Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
+"""
+Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
 
 ``python -m sma_actuator.hardware.vectors --write`` regenerates firmware/test_vectors.json
 from this package's protocol and MCU logic; ``--check`` verifies the file is up to date.
@@ -13,9 +14,9 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 import random
 import sys
-from pathlib import Path
 
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import McuCore
@@ -25,7 +26,9 @@ SEED = 20240604
 
 
 def scenario_adc():
-    """The ADC reading sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
+    """
+    Return the ADC reading sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096.
+    """
     state = {'n': 0}
 
     def read():
@@ -47,7 +50,8 @@ def stream_events(data: bytes) -> str:
 
 
 def run_scenario(steps: list[tuple]) -> str:
-    """Run McuCore through `steps` and return its canonical per-step output text.
+    """
+    Run McuCore through `steps` and return its canonical per-step output text.
 
     steps: ('S', t_us) start, ('P', t_us) poll, ('R', t_us, bytes) receive then poll.
     Output per step: 'pwm_a,pwm_b,faults,txhex' ('-' for nothing sent).
@@ -190,7 +194,7 @@ def build_vectors() -> dict:
 
 
 def render(doc: dict) -> str:
-    """The exact file text: header keys, then one vector object per line."""
+    """Return the exact file text: header keys, then one vector object per line."""
     head = ', '.join(f'{json.dumps(k)}: {json.dumps(v)}' for k, v in doc.items() if k != 'vectors')
     lines = ',\n'.join(json.dumps(v) for v in doc['vectors'])
     return '{' + head + ', "vectors": [\n' + lines + '\n]}\n'

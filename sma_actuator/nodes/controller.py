@@ -1,4 +1,5 @@
-"""controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
+"""
+controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
 
 The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
 sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
@@ -11,21 +12,21 @@ Setpoints that are NaN/inf/outside [setpoint_min_rad, setpoint_max_rad] are reje
 (log + diagnostics WARN) and the last valid setpoint is kept. Mode, gains and limits are
 parameters that can be changed at runtime (validated; an invalid set is refused).
 """
-import time
 from collections import deque
 from dataclasses import fields
+import time
 
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
-from ..control.core import MODES, ControllerCore, ControllerSettings
+from . import common as c
+from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
 from ..control.model_file import load_model
-from . import common as c
 
 # runtime-tunable settings: (name, range or None, description)
 TUNABLE = (

@@ -1,4 +1,5 @@
-"""setpoint: publishes /sma/setpoint [rad] from a profile (step, ramp, sine, square, chirp).
+"""
+setpoint: publishes /sma/setpoint [rad] from a profile (step, ramp, sine, square, chirp).
 
 The profile (`sma_actuator.profiles.Profile`) runs on the node clock (sim time with
 use_sim_time) from the first timer tick; profile parameters can be changed at runtime.
@@ -7,18 +8,18 @@ exit (for users without the ros2 CLI):
 
     setpoint --ros-args -p one_shot:=true -p offset:=0.3
 """
+from dataclasses import fields, replace
 import sys
 import threading
 import time
-from dataclasses import fields, replace
 
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
 from std_msgs.msg import Float64
 
-from ..profiles import PROFILES, Profile
 from . import common as c
+from ..profiles import Profile, PROFILES
 
 PROFILE_PARAMS = (
     ('amplitude', -3.0, 3.0, 'Profile amplitude A [rad].'),
@@ -77,7 +78,8 @@ class Setpoint(Node):
                            'period_s': p.period_s, 'setpoint_rad': self.value})
 
     def publish_once(self, wait_s=5.0, stop=None):
-        """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
+        """
+        One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
 
         `stop` (a threading.Event, set by SIGINT/SIGTERM) ends the wait early.
         """

@@ -1,4 +1,5 @@
-"""Model workbench: compare the actuator model with measurements, find the missing effect.
+"""
+Model workbench: compare the actuator model with measurements, find the missing effect.
 
 Modules (see docs/workbench.md for the user walkthrough):
 

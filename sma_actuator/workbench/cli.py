@@ -1,4 +1,5 @@
-"""`sma-model`: fit, compare and diagnose actuator models on recorded data.
+"""
+`sma-model`: fit, compare and diagnose actuator models on recorded data.
 
     sma-model fit DATA [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml] [--json]
     sma-model compare DATA --model FITTED.yaml [--report DIR] [--json]
@@ -13,8 +14,8 @@ stderr only when stderr is a terminal. See docs/workbench.md.
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
+import sys
 
 import numpy as np
 
@@ -37,10 +38,12 @@ class OneLineParser(argparse.ArgumentParser):
 
 # ------------------------------------------------------------------------------ progress
 class Progress:
-    """Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
+    """
+    Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
 
     Called as progress(done, total, label); `close()` clears the line.
     """
+
     WIDTH = 24
 
     def __init__(self, stage='', stream=None):
@@ -199,7 +202,7 @@ def cmd_fit(args):
 
 
 def fit_json(fit, out):
-    """The `fit --json` document."""
+    """Return the `fit --json` document."""
     val = fit.validation or {}
     return {'effects': list(fit.effects), 'kind': fit.kind,
             'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
@@ -343,7 +346,7 @@ def cmd_effects(args):
 
 # ------------------------------------------------------------------------------ parser
 def build_parser():
-    """The argparse parser of `sma-model` (one-line errors, exit code 2)."""
+    """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument('data', metavar='DATA',
                         help='CSV (dynamic or static curves) or MCAP bag (file or directory)')

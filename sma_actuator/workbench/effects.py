@@ -1,4 +1,5 @@
-"""Catalog of physical effects the base model (the paper's) may lack.
+"""
+Catalog of physical effects the base model (the paper's) may lack.
 
 Each effect is a small class: its docstring states the physics, `parameters` maps the
 `ActuatorParams` fields it frees to (lower, upper, start) bounds, and `signature` says
@@ -16,6 +17,7 @@ import numpy as np
 
 class Effect:
     """Base class of a catalog effect (see module docstring)."""
+
     name = ''
     signature = ''
     parameters = {}       # ActuatorParams field (or 'tau_s') -> (lower, upper, start)
@@ -28,8 +30,11 @@ class Effect:
     own_grid = False
 
     def scratch_start(self, params):
-        """Start values of the from-scratch refit (`own_grid`) for a model with `params`;
-        default: the same as the warm start."""
+        """
+        Start values of the from-scratch refit (`own_grid`) for a model with `params`.
+
+        Default: the same as the warm start.
+        """
         return {}
 
     def scratch_bounds(self, params):
@@ -43,16 +48,19 @@ class Effect:
         return ' '.join((self.__doc__ or '').split())
 
     def applicable(self, data):
-        """None if the effect can be fitted on `data`, else the reason it cannot."""
+        """Return None if the effect can be fitted on `data`, else the reason it cannot."""
         return None
 
     def bounds(self, params):
-        """(lower, upper, start) per parameter for a model with `params` (ActuatorParams);
-        default: the `parameters` table."""
+        """
+        (lower, upper, start) per parameter for a model with `params` (ActuatorParams).
+
+        Default: the `parameters` table.
+        """
         return dict(self.parameters)
 
     def start_values(self, data):
-        """Starting values of the parameters for `data` (default: the table's start)."""
+        """Start values of the parameters for `data` (default: the table's start)."""
         return {k: v[2] for k, v in self.parameters.items()}
 
     def alternative_starts(self, data):
@@ -65,16 +73,25 @@ class Effect:
         return None
 
     def transform_inputs(self, duty_a, duty_b, ambient, values):
-        """Plug-in hook: inputs (arrays) seen by the thermal model, given this effect's
-        parameter values (dict). Duties must stay in [0, 1]. Identity by default."""
+        """
+        Plug-in hook.
+
+        Inputs (arrays) seen by the thermal model, given this effect's parameter values (dict).
+        Duties must stay in [0, 1]. Identity by default.
+        """
         return duty_a, duty_b, ambient
 
 
 class Saturation(Effect):
-    """Hysteresis saturation: the transformation of NiTi is complete at both ends (all
-    martensite cold, all austenite hot), so contraction stops growing however far the
-    temperature moves. The classical Prandtl-Ishlinskii operator of eq. (5) keeps growing
-    linearly; the modified operator of eq. (6) (backlash with saturation) does not."""
+    """
+    Hysteresis saturation.
+
+    The transformation of NiTi is complete at both ends (all martensite cold, all austenite hot),
+    so contraction stops growing however far the temperature moves. The classical
+    Prandtl-Ishlinskii operator of eq. (5) keeps growing linearly; the modified operator of eq. (6)
+    (backlash with saturation) does not.
+    """
+
     name = 'saturation'
     signature = ('error grows at the ends of travel; the model overshoots where the '
                  'measured loop flattens; residual correlates with |position|')
@@ -83,9 +100,14 @@ class Saturation(Effect):
 
 
 class FastDynamics(Effect):
-    """Unmodelled fast dynamics tau of the paper's Fig. 13: a first-order lag on the heat
-    input (heat spreading from core to surface, amplifier filtering), so the wire responds
-    to a duty step with an S-shaped rather than exponential temperature rise."""
+    """
+    Unmodelled fast dynamics tau of the paper's Fig.
+
+    13: a first-order lag on the heat input (heat spreading from core to surface, amplifier
+    filtering), so the wire responds to a duty step with an S-shaped rather than exponential
+    temperature rise.
+    """
+
     name = 'fast_dynamics'
     parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
@@ -93,7 +115,7 @@ class FastDynamics(Effect):
     own_grid = True
 
     def alternative_starts(self, data):
-        """A slow lag trades off against the basic time constant: also start there."""
+        """Return a slow lag trades off against the basic time constant: also start there."""
         return [{'tau_fast_s': 0.5}]
 
     def scratch_bounds(self, params):
@@ -111,6 +133,7 @@ class FastDynamics(Effect):
 class Delay(Effect):
     """Transport delay between command and measured position (serial link, filtering in
     the sensor chain, PWM update latency): the whole response is shifted in time."""
+
     name = 'delay'
     parameters = {'delay_s': (0.0, 1.5, 0.05)}
     # also from scratch, like fast_dynamics: a plant record with a 0.3 s delay refitted
@@ -135,11 +158,17 @@ class Delay(Effect):
 
 
 class Convection(Effect):
-    """Temperature-dependent heat transfer: natural convection from a thin wire follows
-    Nu ∝ Ra^n, so the film coefficient grows with the excess temperature as h ∝ ΔT^n
-    (n ≈ 0.06-0.25 for thin wires, radiation adds to it), hA(θ) = hA_ref (|θ − θa| / 50 K)^n:
+    """
+    Temperature-dependent heat transfer.
+
+    Natural convection from a thin wire follows Nu ∝ Ra^n, so the film coefficient grows with the
+    excess temperature as h ∝ ΔT^n (n ≈ 0.06-0.25 for thin wires, radiation adds to it), hA(θ) =
+    hA_ref (|θ − θa| / 50 K)^n:
+
     a hot wire loses heat faster and settles cooler than the linear eq. (7) predicts, and a
-    wire near ambient cools more slowly."""
+    wire near ambient cools more slowly.
+    """
+
     name = 'convection'
     parameters = {'convection_exponent': (-0.2, 1.0, 0.2)}
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
@@ -147,9 +176,13 @@ class Convection(Effect):
 
 
 class AmbientDrift(Effect):
-    """Ambient temperature changes during the run: eq. (7) loses heat to the actual
-    ambient θa(t) (measured), not to a constant, shifting every temperature and so the
-    position at a given duty."""
+    """
+    Ambient temperature changes during the run: eq.
+
+    (7) loses heat to the actual ambient θa(t) (measured), not to a constant, shifting every
+    temperature and so the position at a given duty.
+    """
+
     name = 'ambient_drift'
     parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
     # a drifting ambient shifts every temperature; without it the base fit (often with a
@@ -169,20 +202,28 @@ class AmbientDrift(Effect):
 
 
 class PhaseResistance(Effect):
-    """Electrical resistance depends on phase: martensite has a higher resistivity than
-    austenite, so at a given duty the Joule power R i² (current-limited) or V²/R changes as
-    the wire transforms: P = P0 d (1 + κ (1 − y)), y the contraction fraction."""
+    """
+    Electrical resistance depends on phase.
+
+    Martensite has a higher resistivity than austenite, so at a given duty the Joule power R i²
+    (current-limited) or V²/R changes as the wire transforms: P = P0 d (1 + κ (1 − y)), y the
+    contraction fraction.
+    """
+
     name = 'phase_resistance'
     # NiTi resistivity differs by roughly 10-25 % between the phases; the bound leaves
     # room for a current limiter that is not perfectly stiff and covers the plant's range
     parameters = {'phase_kappa': (-0.5, 0.5, 0.1)}
 
     def bounds(self, params):
-        """The sign of κ follows from the drive: a wire's resistance falls as it contracts
-        (martensite R_M above austenite R_A, the basis of SMA self-sensing), so a current-
-        limited amplifier (P = R I_max², V/R > I_max) heats martensite more (κ >= 0) and a
-        voltage drive (P = V²/R) heats it less (κ <= 0). Without this a wrong-signed κ
-        would act as a generic correction of the hysteresis shape."""
+        """
+        Return the sign of κ follows from the drive.
+
+        a wire's resistance falls as it contracts (martensite R_M above austenite R_A, the basis of
+        SMA self-sensing), so a current- limited amplifier (P = R I_max², V/R > I_max) heats
+        martensite more (κ >= 0) and a voltage drive (P = V²/R) heats it less (κ <= 0). Without
+        this a wrong-signed κ would act as a generic correction of the hysteresis shape.
+        """
         limited = params.supply_v / params.resistance_ohm > params.current_limit_a
         return {'phase_kappa': (0.0, 0.5, 0.1) if limited else (-0.5, 0.0, -0.1)}
 
@@ -206,9 +247,14 @@ class PhaseResistance(Effect):
 
 
 class StressCoupling(Effect):
-    """Stress coupling of the antagonistic pair: when one wire contracts it stretches the
-    other, raising its stress and, by Clausius-Clapeyron (~6-7 MPa/K), its transformation
-    temperatures; equivalently the wire sees an effective temperature lowered by σ y_other."""
+    """
+    Stress coupling of the antagonistic pair.
+
+    When one wire contracts it stretches the other, raising its stress and, by Clausius-Clapeyron
+    (~6-7 MPa/K), its transformation temperatures; equivalently the wire sees an effective
+    temperature lowered by σ y_other.
+    """
+
     name = 'stress_coupling'
     parameters = {'stress_k': (0.0, 50.0, 4.0)}
     signature = ('loop of each wire shifts with the state of the other: error larger when '
@@ -216,8 +262,12 @@ class StressCoupling(Effect):
 
 
 class AsymmetricWires(Effect):
-    """The two wires differ (length, diameter, resistance, crimping, pre-strain): heating
-    gain, time constant and stroke of wire b relative to wire a are free."""
+    """
+    The two wires differ (length, diameter, resistance, crimping, pre-strain).
+
+    Heating gain, time constant and stroke of wire b relative to wire a are free.
+    """
+
     name = 'asymmetric_wires'
     parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
                   'stroke_ratio_b': (0.5, 2.0, 1.0)}
@@ -226,9 +276,14 @@ class AsymmetricWires(Effect):
 
 
 class SensorNonlinearity(Effect):
-    """Potentiometer nonlinearity: track resistance is not uniform and the wiper loads the
-    divider, so the reading is a smooth function of the angle, here the polynomial
-    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad; enough for bow and S shapes)."""
+    """
+    Potentiometer nonlinearity.
+
+    Track resistance is not uniform and the wiper loads the divider, so the reading is a smooth
+    function of the angle, here the polynomial p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad;
+    enough for bow and S shapes).
+    """
+
     name = 'sensor_nonlinearity'
     # bounded so each term alone keeps p monotone over about ±1 rad of travel (together
     # they may turn earlier: `core.actuator.sensor_inverse` then falls back to first order)
@@ -239,10 +294,15 @@ class SensorNonlinearity(Effect):
 
 
 class FatigueDrift(Effect):
-    """Functional fatigue: with its accumulated transformation cycles N_j each wire loses
-    recoverable strain and elongates plastically (stabilised martensite), most of it in the
-    first cycles (shakedown). Each wire fatigues by its own use: stroke loss f_s g_j and a
-    zero drift f_j g_j of the shaft, g_j = 1 − exp(−N_j / N_f), N_j = Σ|Δy_j| / 2."""
+    """
+    Functional fatigue.
+
+    With its accumulated transformation cycles N_j each wire loses recoverable strain and elongates
+    plastically (stabilised martensite), most of it in the first cycles (shakedown). Each wire
+    fatigues by its own use: stroke loss f_s g_j and a zero drift f_j g_j of the shaft, g_j = 1 −
+    exp(−N_j / N_f), N_j = Σ|Δy_j| / 2.
+    """
+
     name = 'fatigue_drift'
     # N_f >= 2 cycles: a faster shakedown ends within the first transformation, where
     # g_a − g_b with huge cancelling offsets only fits the start-up transient
@@ -259,10 +319,14 @@ class FatigueDrift(Effect):
 
 
 class CurrentLimit(Effect):
-    """Current limiter of the amplifier engages within the used duty range: the mean
-    current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
-    saturates), so high duties heat less than the linear PWM law predicts. Current ripple
-    rounds the corner: sat(d) = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, n free."""
+    """
+    Current limiter of the amplifier engages within the used duty range.
+
+    The mean current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
+    saturates), so high duties heat less than the linear PWM law predicts. Current ripple rounds
+    the corner: sat(d) = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, n free.
+    """
+
     name = 'current_limit'
     # sharpness n of the p-norm limiter: ~2 (very soft) to 30 (practically a hard corner)
     parameters = {'duty_limit': (0.02, 1.0, 0.9), 'duty_limit_sharpness': (2.0, 30.0, 6.0)}
@@ -275,8 +339,11 @@ class CurrentLimit(Effect):
         return {'duty_limit': float(np.clip(0.85 * top, 0.02, 1.0))}
 
     def alternative_starts(self, data):
-        """Also start from a limit that is not engaged (the base model itself): a weak
-        limit is a small departure from there, not from a knee inside the duty range."""
+        """
+        Also start from a limit that is not engaged (the base model itself).
+
+        a weak limit is a small departure from there, not from a knee inside the duty range.
+        """
         return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
@@ -301,7 +368,7 @@ for _cls in BUILTIN.values():
 
 
 def is_builtin(name):
-    """True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
+    """Return True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
     return name in BUILTIN and type(CATALOG.get(name)) is BUILTIN[name]
 
 

@@ -1,22 +1,29 @@
-"""Run independent CPU-bound jobs on every core: diagnose's candidate refits, and the
-hidden-effect tests and benchmark (one record per core)."""
+"""
+Run independent CPU-bound jobs on every core.
+
+Diagnose's candidate refits, and the hidden-effect tests and benchmark (one record per core).
+"""
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 import multiprocessing
 import os
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
 def available_cores():
-    """Number of cores this process may run on."""
+    """Return the number of cores this process may run on."""
     return len(os.sched_getaffinity(0))
 
 
 def imap_on_cores(fn, items, workers=None):
-    """Yield (item, fn(item)) as each finishes, on `workers` processes (default: the cores
-    this process may use). One BLAS thread per worker (the workers already fill the cores);
-    spawn, not fork: the caller may hold DDS or numba threads that must not be forked.
-    fn must be importable (a module-level function)."""
+    """
+    Yield (item, fn(item)) as each finishes, on `workers` processes (default.
+
+    The cores this process may use). One BLAS thread per worker (the workers already fill the
+    cores); spawn, not fork: the caller may hold DDS or numba threads that must not be forked.
+
+    fn must be importable (a module-level function).
+    """
     items = list(items)
     workers = max(1, min(len(items), workers or available_cores()))
     if workers == 1:

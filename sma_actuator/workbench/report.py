@@ -1,4 +1,5 @@
-"""HTML report with PNG figures (matplotlib Agg, no display needed).
+"""
+HTML report with PNG figures (matplotlib Agg, no display needed).
 
 Files written into the report directory (nothing else is touched):
 
@@ -14,10 +15,10 @@ Files written into the report directory (nothing else is touched):
 import html
 from pathlib import Path
 
-import numpy as np
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+import numpy as np
 
 from .compare import CONCENTRATION_RATIO, MIN_SHARE
 
@@ -46,7 +47,8 @@ def check_report_dir(directory, force=False):
 
 def write_report(directory, comparison, title, *, data_line='', model=None, diagnosis=None,
                  alternative=None, force=False):
-    """Write the report; returns the path of index.html.
+    """
+    Write the report; returns the path of index.html.
 
     comparison: `compare.Comparison`. model: {'effects', 'kind', 'parameters'} shown in the
     summary. diagnosis: `diagnose(...).to_json()` dict, shown as a ranked table.
@@ -306,7 +308,7 @@ def _diagnosis_html(diagnosis):
 
 
 def render_html(comparison, title, data_line, model, diagnosis, figures):
-    """The report page as a string (figures: [(file, caption, fig)])."""
+    """Return the report page as a string (figures: [(file, caption, fig)])."""
     imgs = ''.join(f'<h3>{html.escape(cap)}</h3><img src="{name}" alt="{html.escape(cap)}">'
                    for name, cap, _ in figures)
     parts = [f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}'

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Write one hidden-effect recording (CSV) from the rich SMA simulator.
+"""
+Write one hidden-effect recording (CSV) from the rich SMA simulator.
 
     python test/support/make_hidden_dataset.py --effect delay --magnitude 1 \\
         --excitation closed --noise-rad 0.002 --rate-hz 40 --duration-s 600 --seed 3 \\
@@ -8,8 +9,8 @@
 Columns: time,duty_a,duty_b,position,ambient_temperature[,setpoint] (s, 0..1, rad, degC, rad).
 """
 import argparse
-import sys
 from pathlib import Path
+import sys
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # make `support` importable
 
