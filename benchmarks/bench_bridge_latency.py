@@ -22,13 +22,12 @@ import sys
 import threading
 import time
 
-import numpy as np
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from hardware_support import (Probe, console_command, start_emulator_process,  # noqa: E402
+from hardware_support import (console_command, Probe, start_emulator_process,  # noqa: E402
                               stop_process, wait_for)
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sma_actuator.hardware import protocol as p  # noqa: E402
 
 PERIOD_S = 0.02

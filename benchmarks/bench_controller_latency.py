@@ -84,7 +84,8 @@ def main():
             cleared.append(True)
         sent[0] = time.perf_counter()
         js.publish(JointState(name=[c.JOINT_NAME], position=[0.3 * math.sin(0.3 * t)],
-                              velocity=[0.0], header=Header(stamp=node.get_clock().now().to_msg())))
+                              velocity=[0.0],
+                              header=Header(stamp=node.get_clock().now().to_msg())))
 
     try:
         deadline = time.monotonic() + 30

@@ -82,7 +82,7 @@ def main(argv=None):
         first, last = list(runs.values())[0][0], list(runs.values())[-1][0]
         print(f'speed-up jobs={args.jobs[-1]} over jobs={args.jobs[0]}: {first / last:.2f}x')
     total, _, diag = runs[args.jobs[-1]]
-    print(f'candidates (jobs={args.jobs[-1]}; seconds are each refit\'s own wall time):')
+    print(f"candidates (jobs={args.jobs[-1]}; seconds are each refit's own wall time):")
     for c in diag.candidates:
         imp = 'n/a' if c['improvement'] is None else f'{100 * c["improvement"]:+.1f} %'
         print(f'  {c["effect"]:<20} {imp:>9}  {c.get("seconds", 0.0):6.1f} s  '

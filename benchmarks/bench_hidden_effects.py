@@ -72,7 +72,8 @@ def main():
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
           f'{"open" if plant else args.excitation} loop, noise {args.noise} rad'
           + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else ''))
-    print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} {"improvement":>11s} {"s":>5s}')
+    print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '
+          f'{"improvement":>11s} {"s":>5s}')
     rows = []
 
     def report(row):

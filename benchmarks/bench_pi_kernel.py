@@ -19,7 +19,7 @@ from sma_actuator.core.hysteresis import PrandtlIshlinskii
 
 N_SAMPLES, N_OPS, NUMPY_SLICE = 1_000_000, 16, 100_000
 
-C_SOURCE = r'''
+C_SOURCE = r"""
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -49,7 +49,7 @@ int main(int argc, char **argv) {
     printf("%.6e %.17g\n", (double)n * m / dt, check);
     return 0;
 }
-'''
+"""
 
 
 def make_input():

@@ -107,7 +107,8 @@ def main():
           f'tau_s {fit.params.tau_s:.3f} s, {fit.params.hysteresis.n_operators} play operators'
           f', free {fit.free}; model {model_path}')
     print(f'plant overrides: {plant or "none"}; controller overrides: '
-          f'{parse_overrides(ns.controller) or "none"}; sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
+          f'{parse_overrides(ns.controller) or "none"}; '
+          f'sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
     print(f'{"mode":12s} {"rms whole":>10s} {"rms steady":>11s} {"max steady":>11s} '
           f'{"wall s":>7s}')
     for mode, (whole, steady, wall) in results.items():

@@ -29,15 +29,17 @@ from .control.metrics import summarize
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
     'step': ({'profile': 'step', 'amplitude': 0.5, 'offset': 0.0, 'delay_s': 1.0}, 15.0),
-    'ramp': ({'profile': 'ramp', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 10.0, 'delay_s': 1.0}, 20.0),
-    'sine': ({'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0, 'delay_s': 1.0}, 41.0),
+    'ramp': ({'profile': 'ramp', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 10.0,
+              'delay_s': 1.0}, 20.0),
+    'sine': ({'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0,
+              'delay_s': 1.0}, 41.0),
 }
 MODES = ('pi', 'pi_inverse')
 
 
 def recorder_factory(bag_dir):
     """
-    Hook for MCAP recording.
+    Return the hook for MCAP recording.
 
     a factory(context) -> RecorderNode writing to bag_dir, or None when the recorder
     (sma_actuator.nodes.recorder) is not importable.

@@ -19,13 +19,14 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from .core import identification as idn  # noqa: E402
-from .core.hysteresis import (ModifiedPrandtlIshlinskii, PreisachModel,  # noqa: E402
-                              PrandtlIshlinskii)
+from .core.hysteresis import (ModifiedPrandtlIshlinskii, PrandtlIshlinskii,  # noqa: E402
+                              PreisachModel)
 from .core.mainloop import MainLoopHysteresis  # noqa: E402
 from .core.thermal import thermal_step  # noqa: E402
 
 # the measured loops ship in the workspace's shared/ folder beside the repository
-REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR', Path(__file__).resolve().parents[2] / 'shared'))
+REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR',
+                                    Path(__file__).resolve().parents[2] / 'shared'))
                 / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 N_PI = 8
 
@@ -179,7 +180,8 @@ def render(out, data_path=REAL_DATA):
     """Render every figure into directory `out`; returns the figures.json content."""
     os.makedirs(out, exist_ok=True)
     files = []
-    for name, draw in (('fig02_main_loop.png', fig_main_loop), ('fig05_preisach.png', fig_preisach),
+    for name, draw in (('fig02_main_loop.png', fig_main_loop),
+                       ('fig05_preisach.png', fig_preisach),
                        ('fig11_modified_pi.png', fig_modified_pi),
                        ('thermal_step.png', fig_thermal)):
         fig, ax = plt.subplots(figsize=(6, 4.5))

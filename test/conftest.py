@@ -24,11 +24,12 @@ def real_data_path():
             return str(path)
     return str(candidates[-1] / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 
+
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 
 def spin_until(executor, condition, timeout_s=8.0, step_s=0.01):
-    """Spin `executor` until `condition()` is true or `timeout_s` passes; returns whether it held."""
+    """Spin `executor` until `condition()` holds or `timeout_s` passes; return whether it held."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         executor.spin_once(timeout_sec=step_s)

@@ -39,8 +39,12 @@ def test_dependencies_are_sorted_and_listed_once():
 
 @pytest.mark.parametrize('type_name', CONTRACT_TYPES)
 def test_definition_parses_and_hashes_to_the_installed_type_hash(type_name):
-    """An independent parser (rosbags) rebuilds the type from our text alone, and its RIHS01
-    hash of that type equals the hash rosidl installed: the text is complete and correct."""
+    """
+    Check the text is complete and correct with an independent parser (rosbags).
+
+    It rebuilds the type from our text alone, and its RIHS01 hash of that type equals the
+    hash rosidl installed.
+    """
     store = get_typestore(Stores.EMPTY)
     text = message_definition(type_name)
     types = {}

@@ -167,7 +167,7 @@ def test_directory_without_metadata_reads_files_in_split_order(tmp_path):
 
 
 def test_reads_a_rosbag2_bag_written_by_an_independent_writer(tmp_path):
-    """rosbags' rosbag2 writer (version 9 metadata, its own MCAP writer) stands in for rosbag2."""
+    """The rosbags rosbag2 writer (version 9 metadata, own MCAP writer) stands in for rosbag2."""
     store = get_typestore(Stores.ROS2_JAZZY)
     Float64 = store.types['std_msgs/msg/Float64']
     path = tmp_path / 'rosbag2_bag'

@@ -20,7 +20,7 @@ def test_output_is_clamped_to_the_limits_of_each_step():
 
 
 def test_anti_windup_recovers_as_soon_as_the_error_reverses():
-    """A long saturation must not leave a wound-up integrator that holds the output on the limit."""
+    """A long saturation must not leave a wound-up integrator holding the output on the limit."""
     pi = DiscretePI(kp=0.5, ki=2.0)
     for _ in range(2000):                      # 50 s pinned on the upper limit
         pi.step(1.0, 0.025, -1.0, 1.0)

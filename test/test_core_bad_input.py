@@ -18,7 +18,7 @@ PI = PrandtlIshlinskii([0.5, 1.0], [0.5, 0.5])
 
 
 def data(**over):
-    """DynamicData keyword arguments for a valid 20-sample run, with overrides."""
+    """Return DynamicData keyword arguments for a valid 20-sample run, with overrides."""
     t = np.arange(20) * 0.1
     kw = {'time': t, 'duty_a': np.full(20, 0.3), 'duty_b': np.zeros(20), 'position': np.sin(t)}
     kw.update(over)
@@ -71,7 +71,8 @@ CASES = {
     # dt <= 0 and other positives
     'simulate_dt': (lambda: act.simulate(act.ActuatorParams(), [0.1], [0.0], 0.0),
                     r'^dt must be positive'),
-    'step_dt': (lambda: act.AntagonisticActuator().step(0.1, 0.0, -0.025), r'^dt must be positive'),
+    'step_dt': (lambda: act.AntagonisticActuator().step(0.1, 0.0, -0.025),
+                r'^dt must be positive'),
     'supply_v': (lambda: on_current_a(0.0, 13.75, 0.35), r'^supply_v must be positive'),
     'tau_fast': (lambda: act.ActuatorParams(tau_fast_s=-1.0), r'^tau_fast_s'),
     'pot_bits': (lambda: Potentiometer(bits=0), r'^bits'),

@@ -1,4 +1,4 @@
-"""Identification (the paper's least-squares tuning): static PI on real loops, Preisach, dynamic."""
+"""Identification (the paper's least-squares tuning): static PI on real data, Preisach, dynamic."""
 import os
 
 from conftest import real_data_path

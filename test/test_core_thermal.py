@@ -12,14 +12,18 @@ AGREE_K = 1e-7   # kelvin: an exact discretisation agrees with a 1e-11 ODE solve
 
 
 def ode_one(theta0, amb, q_inf, dt, tau):
-    """Reference of T dθ/dt = −(θ − θa) + G d over one held sample."""
+    """Return the reference solution of T dθ/dt = −(θ − θa) + G d over one held sample."""
     sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + q_inf) / tau], (0, dt), [theta0],
                     method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
     return sol.y[0, -1]
 
 
 def ode_two(theta0, q0, amb, q_inf, dt, tau, tau_f):
-    """Reference of the two-lag model: τ dq/dt = −q + G d, T dθ/dt = −(θ − θa) + q."""
+    """
+    Return the reference solution of the two-lag model over one held sample.
+
+    τ dq/dt = −q + G d, T dθ/dt = −(θ − θa) + q.
+    """
     sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + x[1]) / tau, (q_inf - x[1]) / tau_f],
                     (0, dt), [theta0, q0], method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
     return sol.y[0, -1], sol.y[1, -1]
@@ -232,8 +236,8 @@ def test_sensor_polynomial_and_fatigue():
     np.testing.assert_allclose(drift.position_rad - p1, 0.2 * ga - 0.1 * gb, atol=1e-12)
     shrink = run(BASE.with_changes(fatigue_stroke=0.3, fatigue_cycles=4.0), da, da_b, dt)
     g, s_b = BASE.stroke_rad, BASE.stroke_ratio_b
-    np.testing.assert_allclose(shrink.position_rad - p1, -0.3 * g * (traj.y_a * ga
-                                                              - s_b * traj.y_b * gb), atol=1e-12)
+    np.testing.assert_allclose(shrink.position_rad - p1,
+                               -0.3 * g * (traj.y_a * ga - s_b * traj.y_b * gb), atol=1e-12)
 
 
 def test_potentiometer_round_trip_within_one_lsb():

@@ -10,7 +10,8 @@ from conftest import spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
@@ -39,8 +40,6 @@ class TopicProbe:
     def warnings(self, node_name, text):
         return [s for s in self.diags if s.name.startswith(node_name) and
                 s.level == DiagnosticStatus.WARN and text in s.message]
-
-
 
 
 @pytest.fixture

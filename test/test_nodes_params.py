@@ -11,7 +11,6 @@ import sys
 import time
 
 import pytest
-import yaml
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
@@ -22,6 +21,7 @@ from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import EFFECTS, PlantSim  # noqa: E402
 from sma_actuator.nodes.setpoint import Setpoint  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
+import yaml  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 NODES = {'plant_sim': PlantSim, 'controller': Controller, 'setpoint': Setpoint}
@@ -61,7 +61,7 @@ def test_every_plant_effect_range_lies_within_the_workbench_fit_bounds():
     bounds = {k: v[:2] for cls in BUILTIN.values() for k, v in cls.parameters.items()}
     for name, lo, hi, _ in EFFECTS:
         if name == 'duty_limit_sharpness':
-            continue    # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
+            continue  # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
         assert bounds[name][0] <= lo and hi <= bounds[name][1], (name, lo, hi, bounds[name])
 
 

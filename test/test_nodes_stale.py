@@ -15,7 +15,8 @@ from conftest import spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
@@ -23,8 +24,6 @@ from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray, Header  # noqa: E402
-
-
 
 
 def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ros_context):

@@ -53,7 +53,8 @@ def test_every_entry_point_imports_a_main():
         assert callable(getattr(importlib.import_module(module), func)), name
 
 
-@pytest.mark.skipif(shutil.which('colcon') is None and not (Path(sys.prefix) / 'bin' / 'colcon').exists(),
+@pytest.mark.skipif(shutil.which('colcon') is None
+                    and not (Path(sys.prefix) / 'bin' / 'colcon').exists(),
                     reason='colcon not installed (pip install colcon-core colcon-ros)')
 def test_colcon_build_installs_ros2_run_layout(tmp_path):
     colcon = shutil.which('colcon') or str(Path(sys.prefix) / 'bin' / 'colcon')
@@ -62,14 +63,17 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path):
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
         '.git', '.venv', 'runs', 'build', 'install', 'log', '*.egg-info', '__pycache__'))
     result = subprocess.run(
-        [colcon, '--log-base', str(tmp_path / 'log'), 'build', '--base-paths', str(tmp_path / 'src'),
-         '--build-base', str(tmp_path / 'build'), '--install-base', str(tmp_path / 'install')],
+        [colcon, '--log-base', str(tmp_path / 'log'), 'build',
+         '--base-paths', str(tmp_path / 'src'), '--build-base', str(tmp_path / 'build'),
+         '--install-base', str(tmp_path / 'install')],
         cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     prefix = tmp_path / 'install' / 'sma_actuator'
     installed = sorted(p.name for p in (prefix / 'lib' / 'sma_actuator').iterdir())
     assert installed == _console_scripts()
     assert (prefix / 'share' / 'sma_actuator' / 'package.xml').is_file()
-    assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'sma_actuator').is_file()
+    index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    assert (index / 'sma_actuator').is_file()
     configs = {p.name for p in (ROOT / 'config').glob('*.yaml')}
-    assert configs and configs <= {p.name for p in (prefix / 'share' / 'sma_actuator' / 'config').iterdir()}
+    installed = {p.name for p in (prefix / 'share' / 'sma_actuator' / 'config').iterdir()}
+    assert configs and configs <= installed

@@ -13,12 +13,12 @@ import sys
 import time
 
 import pytest
-from rosbags.highlevel import AnyReader, AnyReaderError
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
+from rosbags.highlevel import AnyReader, AnyReaderError  # noqa: E402
 from sma_actuator.bag.reader import BagReader  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 

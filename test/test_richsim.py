@@ -87,7 +87,10 @@ def test_major_loop_has_the_documented_transformation_temperatures():
 def test_preisach_minor_loops_nest_and_have_return_point_memory():
     tab, lo, step = everett_table()
     state = new_state(1, 22.0)
-    walk = lambda seq: [preisach_step(state, 0, tab, lo, step, u) for u in seq]
+
+    def walk(seq):
+        return [preisach_step(state, 0, tab, lo, step, u) for u in seq]
+
     heat1 = walk(np.linspace(22, 73, 200))           # partial heating: a ~ 0.5
     cool = walk(np.linspace(73, 47, 200))            # partial cooling, stays above Mf
     heat2 = walk(np.linspace(47, 73, 200))           # back to the same maximum
@@ -219,9 +222,7 @@ def test_saturation_drives_both_ends_of_travel_more_often(excitation):
 
 
 def turning_points(aus, lo=0.1, hi=0.9, eps=0.02):
-    """
-    Return the number of direction reversals of the austenite fraction strictly inside (lo, hi).
-    """
+    """Return the number of direction reversals of the austenite fraction inside (lo, hi)."""
     count, ref, direction = 0, aus[0], 0
     for a in aus:
         step = a - ref

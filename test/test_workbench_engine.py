@@ -43,7 +43,8 @@ def test_adaptive_grid_tiles_the_range_for_every_width():
         rows = grid.r == r
         edges_lo, edges_hi = grid.lo[rows] + r, grid.hi[rows] + r   # where the element rises
         order = np.argsort(edges_lo)
-        assert edges_lo[order][0] == pytest.approx(20.0) and edges_hi[order][-1] == pytest.approx(100.0)
+        assert edges_lo[order][0] == pytest.approx(20.0)
+        assert edges_hi[order][-1] == pytest.approx(100.0)
         np.testing.assert_allclose(edges_lo[order][1:], edges_hi[order][:-1])   # no gaps
     # finer where the coarse weight is (both elements rise at 58 degC, cells 6 K wide)
     cells = grid.hi[grid.r == 0] - grid.lo[grid.r == 0]

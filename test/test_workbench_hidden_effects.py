@@ -51,8 +51,11 @@ def _diagnose_case(case):
 
 @pytest.fixture(scope='module')
 def diagnosed(request):
-    """Diagnoses of the cases selected in this run, computed up front on every core (each
-    is independent and CPU-bound: about 30 s on one core)."""
+    """
+    Return the diagnoses of the cases selected in this run, computed up front on every core.
+
+    Each is independent and CPU-bound: about 30 s on one core.
+    """
     cases = [tuple(item.callspec.params[k] for k in ARGS.split(','))
              for item in request.session.items
              if item.module.__name__ == __name__ and hasattr(item, 'callspec')]

@@ -93,7 +93,7 @@ def _read_series(reader: BagReader, path: Path, topic_of: Dict[str, str]):
         if info.schema_encoding != 'ros2msg' or info.serialization_format != 'cdr':
             raise UnknownTypeError(
                 path, f"topic '{topic}' is stored as {info.schema_encoding or 'no schema'}/"
-                      f"{info.serialization_format}; only ros2msg/cdr can be decoded")
+                      f'{info.serialization_format}; only ros2msg/cdr can be decoded')
         # DecoderFactory caches decoders by schema id, so each needs its own id.
         schema = Schema(id=schema_id, name=info.type, encoding='ros2msg',
                         data=info.definition.encode())

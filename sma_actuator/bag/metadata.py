@@ -29,7 +29,7 @@ class TopicRecord:
     """One topic as rosbag2 describes it (``TopicMetadata`` plus its message count)."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 (rosbag2's TopicMetadata field name)
     offered_qos_profiles: str = '[]'  # channel-metadata YAML text, see qos.py
     type_description_hash: str = ''
     serialization_format: str = 'cdr'
@@ -144,5 +144,5 @@ def read_metadata_yaml(path: Path) -> Dict[str, Any]:
     info = data[_ROOT_KEY]
     if info.get('storage_identifier') not in (None, 'mcap'):
         raise BagError(path, f"storage '{info.get('storage_identifier')}' is not supported "
-                             "(only mcap bags can be read)")
+                             '(only mcap bags can be read)')
     return info

@@ -55,7 +55,7 @@ def _policy_name(table: Dict[int, str], value: Any) -> str:
         name = value.lower()
         if name not in table.values():
             raise ValueError(f"unknown QoS policy value '{value}' (expected one of "
-                             f"{sorted(table.values())})")
+                             f'{sorted(table.values())})')
         return name
     return table.get(int(getattr(value, 'value', value)), 'unknown')
 

@@ -27,7 +27,7 @@ class TopicInfo:
     """A topic of the bag: type, encodings, recorded QoS and type hash, message count."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 (rosbag2's TopicMetadata field name)
     serialization_format: str
     schema_encoding: str
     definition: str

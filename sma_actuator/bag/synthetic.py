@@ -38,8 +38,11 @@ def cdr_encoder(type_name: str) -> Callable[[Dict[str, Any]], bytes]:
 
 
 def offered_profile(reliability: str, depth: int = 10) -> Dict[str, Any]:
-    """Return a rosbag2 QoS dict as a publisher with this reliability offers it (infinite
-    deadline/lifespan/lease, like Fast DDS reports for default profiles)."""
+    """
+    Return a rosbag2 QoS dict as a publisher with this reliability offers it.
+
+    Deadline, lifespan and lease are infinite, as Fast DDS reports them for default profiles.
+    """
     infinite = {'sec': 9223372036, 'nsec': 854775807}
     return {'history': 'keep_last', 'depth': depth, 'reliability': reliability,
             'durability': 'volatile', 'deadline': infinite, 'lifespan': infinite,

@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from numba import njit
 import numpy as np
 
-from .hysteresis import ModifiedPrandtlIshlinskii, PlayHysteresis
+from .hysteresis import PlayHysteresis
 from .thermal import on_current_a, thermal_step, time_constant_s
 from .validate import finite_array, finite_scalar
 
@@ -56,7 +56,7 @@ from .validate import finite_array, finite_scalar
 
 def flexinol_hysteresis(n_widths=4, n_centres=4):
     """
-    Default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
+    Return the default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
 
     Built from the datasheet transformation temperatures: play half-widths spread around
     half the loop width ((As + Af)/2 − (Ms + Mf)/2)/2 = 13 K and saturated elements centred
@@ -102,8 +102,9 @@ class ActuatorParams:
     tau_fast_s: float = 0.0          # fast_dynamics: lag on the heat input [s]
     delay_s: float = 0.0             # delay: transport delay of the measured position [s]
     convection_exponent: float = 0.0  # convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n
-    ambient_gain: float = 1.0        # ambient_drift: weight of measured ambient deviations
-                                     # (1 = physical; the workbench base model uses 0)
+    # ambient_drift: weight of measured ambient deviations (1 = physical; the workbench base
+    # model uses 0)
+    ambient_gain: float = 1.0
     phase_kappa: float = 0.0         # phase_resistance: power factor 1 + κ (1 − y)
     stress_k: float = 0.0            # stress_coupling: shift [K] per unit antagonist contraction
     gain_ratio_b: float = 1.0        # asymmetric_wires: heating gain of wire b relative to a
@@ -144,7 +145,7 @@ class ActuatorParams:
 
     @property
     def tau_s(self):
-        """Basic thermal time constant T = C / hA [s] (Fig. 13)."""
+        """Return the basic thermal time constant T = C / hA [s] (Fig. 13)."""
         return time_constant_s(self.heat_capacity_j_per_k, self.conductance_w_per_k)
 
     @property
@@ -295,8 +296,11 @@ def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
 
 
 def transformation_cycles(y, n0=0.0):
-    """Accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample
-    (a full contraction and release counts 1)."""
+    """
+    Return the accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample.
+
+    A full contraction and release counts 1.
+    """
     y = np.asarray(y, float)
     return n0 + 0.5 * np.cumsum(np.abs(np.diff(y, prepend=y[0])))
 
@@ -307,8 +311,11 @@ def fatigue_progress(params, cycles):
 
 
 def sensor_polynomial(params, phi):
-    """Step 5 without the delay, the potentiometer reading
-    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad]."""
+    """
+    Return the potentiometer reading, step 5 without the delay.
+
+    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad].
+    """
     return phi + phi * phi * (params.sensor_c2_rad + phi * (params.sensor_c3_rad + phi * (
         params.sensor_c4_rad + phi * params.sensor_c5_rad)))
 
@@ -437,9 +444,9 @@ class AntagonisticActuator:
         h = self.params.hysteresis
         y_before = self._state[4:6].copy()
         simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
-                                      np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
-                                      self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
-                                      h.y0, self._state, *NO_FEATURES)
+                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
+                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
+                       h.y0, self._state, *NO_FEATURES)
         self._cycles += 0.5 * np.abs(self._state[4:6] - y_before)
         self._time += dt
         self._history.append((self._time, self._measured(self._state[4], self._state[5])))

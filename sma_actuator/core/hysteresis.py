@@ -50,7 +50,7 @@ class PlayHysteresis:
 
     @property
     def n_operators(self):
-        """Number of play operators."""
+        """Return the number of play operators."""
         return self.r.shape[0]
 
     def initial_state(self, u0):
@@ -110,9 +110,7 @@ class PlayHysteresis:
                 self.y0 + self.k1 * u_hi + float(self.w @ hi))
 
     def inverse(self, u_min=-1e9, u_max=1e9):
-        """
-        Return the inverse operator H^-1: output targets -> inputs (see `InversePlayHysteresis`).
-        """
+        """Return the inverse operator H^-1: output targets -> inputs (`InversePlayHysteresis`)."""
         return InversePlayHysteresis(self, u_min, u_max)
 
     def to_dict(self):
@@ -165,7 +163,8 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
         same_length(M=M, K=K, K1=K1, h=h)
         a = K - K1
         if (a <= 0).any():
-            raise ValueError('K (backlash slope) must exceed K1 (saturated slope) in every element')
+            raise ValueError(
+                'K (backlash slope) must exceed K1 (saturated slope) in every element')
         r = K * h / a
         lo, hi = c - M / a, c + M / a
         # element output K1 (u - c) + a (s - c): collect the constant and linear parts
@@ -270,7 +269,7 @@ class PreisachModel:
 
     @classmethod
     def grid(cls, n_levels=21, lo=-1.0, hi=1.0, mu=1.0, y0=0.0):
-        """Relays on an even grid alpha >= beta in [lo, hi]: n(n+1)/2 relays (21 -> 231, Fig. 5)."""
+        """Build relays on an even grid alpha >= beta in [lo, hi]: n(n+1)/2 (21 -> 231, Fig. 5)."""
         if int(n_levels) < 1:
             raise ValueError(f'n_levels must be >= 1, got {n_levels}')
         levels = np.linspace(lo, hi, int(n_levels))

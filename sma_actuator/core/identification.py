@@ -135,8 +135,11 @@ def _reduced(X, y, negated=0):
 
 
 def _box_ls(X, y, lower, upper):
-    """min ‖X b − y‖ subject to lower <= b <= upper, on the same Cholesky-reduced system as
-    `_nnls_with_offset` (bounded-variable least squares, scipy's BVLS)."""
+    """
+    Solve min ‖X b − y‖ subject to lower <= b <= upper (scipy's bounded-variable LS).
+
+    On the same Cholesky-reduced system as `_nnls_with_offset`.
+    """
     R, z, scale = _reduced(X, y)
     sol = lsq_linear(R, z, bounds=(lower * scale, upper * scale), method='bvls')
     return sol.x / scale
@@ -197,7 +200,7 @@ def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8,
 
 
 def fit_preisach(u, y, n_levels=21, u_range=None):
-    """Preisach model with relays on an even grid over the input range; weights by NNLS (mu >= 0)."""
+    """Fit a Preisach model, relays on an even grid over the input range, by NNLS (mu >= 0)."""
     u = finite_array('input', u)
     y = finite_array('output', y)
     same_length(input=u, output=y)
@@ -271,7 +274,7 @@ _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
 
 def set_values(params, values):
     """
-    ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
+    Return ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
 
     Names that are not ActuatorParams fields (plug-in parameters) are ignored here.
     """
@@ -300,7 +303,7 @@ class _Problem:
 
     def regressors(self, params, n, rows=slice(None)):
         """
-        Linear-part columns over the first n samples, at `rows` of them:
+        Return the linear-part columns over the first n samples, at `rows` of them.
 
         [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1] (element states scaled by each wire's
         fatigue stroke loss; g_j its fatigue drift).
@@ -354,8 +357,12 @@ class _Problem:
         return X
 
     def free_run_error(self, params, values, step=1):
-        """Free-run simulation minus measurement on the training window (every step-th
-        sample) of the full model `params` with nonlinear `values` (plug-in inputs)."""
+        """
+        Return the free-run simulation minus measurement on the training window.
+
+        Every step-th sample, of the full model `params` with nonlinear `values` (plug-in
+        inputs).
+        """
         n = self.n_train
         da, db, amb = self.inputs(values)
         pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
@@ -396,7 +403,7 @@ class _Problem:
         return b, act.sensor_polynomial(params, X @ b) - y
 
     def with_linear(self, params, b):
-        """ActuatorParams carrying the NNLS solution as a normalised hysteresis + shaft gain."""
+        """Return ActuatorParams with the NNLS solution as normalised hysteresis + shaft gain."""
         g, m = self.grid, self.grid.n_operators
         w, k1 = b[:m], b[m]
         if not np.all(np.isfinite(b)):
@@ -448,8 +455,11 @@ class _Problem:
 
 
 def narrow_bands(params, duty_a, duty_b, ambient, dt):
-    """`params` with each hysteresis element's saturation band [lo, hi] narrowed to the
-    states it takes (either wire) when `params` is simulated on these (training) inputs.
+    """
+    Return `params` with each element's saturation band [lo, hi] narrowed to its states.
+
+    The states are those it takes (either wire) when `params` is simulated on these
+    (training) inputs.
 
     The simulation on these inputs is unchanged (every state visited lies in the narrowed
     band, so the clip never acts there), but beyond them an element stops where the data
@@ -708,4 +718,3 @@ def _prune(grid, w, shape, centre_steps=3):
     if not used.any():
         return grid
     return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
-

@@ -148,7 +148,7 @@ def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
 
 @njit(cache=True)
 def relay_states(u, alpha, beta, x0):
-    """Preisach relay states, eq. (4): +1 above alpha, -1 below beta, else unchanged. (n, N) int8."""
+    """Return Preisach relay states (n, N) int8, eq. (4): +1 above alpha, -1 below beta."""
     n = u.shape[0]
     m = alpha.shape[0]
     out = np.empty((n, m), dtype=np.int8)
@@ -166,8 +166,11 @@ def relay_states(u, alpha, beta, x0):
 
 @njit(cache=True)
 def column_range(a, b):
-    """(lowest, highest) value of each column over the rows of both (n, m) arrays, in one
-    pass (the regression needs each element's visited state range at every solve)."""
+    """
+    Return (lowest, highest) value of each column over the rows of both (n, m) arrays.
+
+    One pass: the regression needs each element's visited state range at every solve.
+    """
     m = a.shape[1]
     lo = np.full(m, np.inf)
     hi = np.full(m, -np.inf)

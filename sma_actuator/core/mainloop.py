@@ -86,9 +86,11 @@ class MainLoopHysteresis:
         self.Ms, self.Mf = finite_scalar('Ms', Ms), finite_scalar('Mf', Mf)
         self.y0 = finite_scalar('y0', y0)
         if self.As >= self.Af:
-            raise ValueError(f'As must be below Af (austenite start < finish), got As={As}, Af={Af}')
+            raise ValueError(
+                f'As must be below Af (austenite start < finish), got As={As}, Af={Af}')
         if self.Mf >= self.Ms:
-            raise ValueError(f'Mf must be below Ms (martensite finish < start), got Mf={Mf}, Ms={Ms}')
+            raise ValueError(
+                f'Mf must be below Ms (martensite finish < start), got Mf={Mf}, Ms={Ms}')
         if kind not in ('cosine', 'ikuta'):
             raise ValueError(f"kind must be 'cosine' or 'ikuta', got {kind!r}")
         self.kind = kind
@@ -102,7 +104,7 @@ class MainLoopHysteresis:
 
     @property
     def martensite_fraction(self):
-        """Current martensite fraction xi in [0, 1]."""
+        """Return the current martensite fraction xi in [0, 1]."""
         return float(self._state[1])
 
     def step(self, u):

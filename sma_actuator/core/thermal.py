@@ -44,7 +44,7 @@ def heating_power_w(duty, supply_v, resistance_ohm, current_limit_a):
 
 
 def time_constant_s(heat_capacity_j_per_k, conductance_w_per_k):
-    """Basic time constant T = C / hA [s] of eq. (7)."""
+    """Return the basic time constant T = C / hA [s] of eq. (7)."""
     return positive('heat_capacity_j_per_k', heat_capacity_j_per_k) / positive(
         'conductance_w_per_k', conductance_w_per_k)
 

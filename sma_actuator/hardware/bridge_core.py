@@ -192,9 +192,7 @@ class BridgeCore:
     # --- duty commands ------------------------------------------------------------------
 
     def on_duty_command(self, values, now_s: float) -> bytes:
-        """
-        Return a /sma/duty command [duty_a, duty_b]; returns the Duty frame to send (if connected).
-        """
+        """Handle a /sma/duty command [duty_a, duty_b]; return the Duty frame to send, if any."""
         self.counters['commands'] += 1
         self._last_command_s = now_s
         if self.duty_timed_out:

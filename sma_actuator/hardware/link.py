@@ -58,7 +58,7 @@ class SerialLink:
 
     @property
     def is_open(self) -> bool:
-        """True while the port is open and no write has failed."""
+        """Return True while the port is open and no write has failed."""
         return self._port is not None and self._broken is None
 
     def start(self):

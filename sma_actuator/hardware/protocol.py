@@ -97,7 +97,7 @@ def cobs_decode(encoded: bytes) -> bytes:
 class Frame:
     """One frame that passed COBS, length and CRC checks (its message is not yet parsed)."""
 
-    type: int
+    type: int  # noqa: A003 (the frame's type byte, docs/protocol.md)
     seq: int
     body: bytes
 
@@ -204,9 +204,7 @@ class Message:
     FORMAT: ClassVar[struct.Struct]
 
     def body(self) -> bytes:
-        """
-        Return the packed body; raises ProtocolError naming any field out of its integer range.
-        """
+        """Return the packed body; raise ProtocolError naming any field out of its int range."""
         values = []
         for f, code in zip(fields(self), self.FORMAT.format[1:]):
             value, (low, high) = getattr(self, f.name), _RANGES[code]

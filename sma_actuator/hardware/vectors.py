@@ -26,9 +26,7 @@ SEED = 20240604
 
 
 def scenario_adc():
-    """
-    Return the ADC reading sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096.
-    """
+    """Return the ADC sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
     state = {'n': 0}
 
     def read():

@@ -117,7 +117,7 @@ class Controller(Node):
             self.ambient_c = msg.temperature
 
     def on_joint_state(self, msg, info):
-        received_ns = info.get("received_timestamp", 0) if isinstance(info, dict) else 0
+        received_ns = info.get('received_timestamp', 0) if isinstance(info, dict) else 0
         arrival_ns = received_ns if received_ns > 0 else time.time_ns()
         try:
             position = msg.position[list(msg.name).index(c.JOINT_NAME)]
@@ -195,8 +195,12 @@ class Controller(Node):
         return out
 
     def timing_stats(self):
-        """Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
-        jitter p99 [ms] (|interval − period_s|) over the last 2000 samples."""
+        """
+        Return latency and timer jitter over the last 2000 samples.
+
+        Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
+        jitter p99 [ms] (|interval − period_s|).
+        """
         out = {}
         if self.latencies:
             lat = np.asarray(self.latencies) * 1e3

@@ -38,7 +38,7 @@ class Trace:
     theta: list = field(default_factory=list)        # latest plant wire temperatures [°C]
 
     def arrays(self):
-        """Dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
+        """Return a dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
         out = {k: np.asarray(getattr(self, k), dtype=float)
                for k in ('time_s', 'position', 'setpoint')}
         out.update({k: np.asarray(getattr(self, k), dtype=float).reshape(-1, 2)

@@ -166,7 +166,7 @@ class ReplayNode(Node):
 
     @property
     def stats(self):
-        """The player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
+        """Return the player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
         return self._player.stats
 
     def start(self):

@@ -150,7 +150,7 @@ def _pct(x):
 
 
 def score_line(part, s):
-    """'validation: NRMSE 1.23 %  RMSE ...' for a scores dict (or n/a)."""
+    """Return 'validation: NRMSE 1.23 %  RMSE ...' for a scores dict (or n/a)."""
     if not s:
         return f'{part:>10}: n/a'
     return (f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}  fit '
@@ -158,7 +158,7 @@ def score_line(part, s):
 
 
 def model_line(effects, kind):
-    """'modified PI base + saturation, delay' ('... (the paper's model)' without effects)."""
+    """Return 'modified PI base + saturation, delay' ('... (the paper's model)' if none)."""
     if effects:
         return f'{kind} PI base + {", ".join(effects)}'
     return f'{kind} PI base' + (" (the paper's model)" if kind == 'modified' else '')

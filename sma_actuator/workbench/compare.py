@@ -147,7 +147,7 @@ def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
 
 
 def flat_static_prediction(data, prediction):
-    """Static prediction [(curve_id, array), ...] laid out like data.output (by curve id)."""
+    """Return a static prediction [(curve_id, array), ...] laid out like data.output."""
     out = np.full(len(data.output), np.nan)
     for cid, values in prediction:
         mask = np.asarray(data.curve) == cid

@@ -65,9 +65,7 @@ def load_data(path, rate_hz=None):
 
 
 def is_bag(path):
-    """
-    Return True if `path` is an MCAP file (by suffix or magic bytes) or a directory holding one.
-    """
+    """Return True if `path` is an MCAP file (suffix or magic bytes) or a folder with one."""
     path = Path(path)
     if path.is_dir():
         return any(path.glob('*.mcap'))
@@ -156,7 +154,7 @@ def _parse_row(path, line_no, header, fields):
 
 
 def _columns(path, header, rows, needed, optional=()):
-    """Dict name -> column for the needed (error if missing) and present optional names."""
+    """Return a dict name -> column of the needed (error if missing) and present optional names."""
     missing = [c for c in needed if c not in header]
     if missing:
         raise DataError(f'{path}: missing column(s) {", ".join(missing)} (found '

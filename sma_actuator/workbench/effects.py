@@ -38,13 +38,17 @@ class Effect:
         return {}
 
     def scratch_bounds(self, params):
-        """(lower, upper, start) of parameters bounded differently in the from-scratch
-        refit (`own_grid`) of the base fit `params`, e.g. the base's 'tau_s'; default none."""
+        """
+        Return (lower, upper, start) of parameters bounded differently from scratch.
+
+        In the from-scratch refit (`own_grid`) of the base fit `params`, e.g. the base's 'tau_s';
+        default none.
+        """
         return {}
 
     @property
     def doc(self):
-        """The physics docstring."""
+        """Return the physics docstring."""
         return ' '.join((self.__doc__ or '').split())
 
     def applicable(self, data):
@@ -68,8 +72,11 @@ class Effect:
         return []
 
     def unresolved(self, values, data):
-        """None if the fitted `values` describe the effect at a size the data can resolve,
-        else why not (diagnose then does not call it significant). Default None."""
+        """
+        Return None if the data can resolve the effect at the fitted `values`, else why not.
+
+        Diagnose then does not call it significant. Default None.
+        """
         return None
 
     def transform_inputs(self, duty_a, duty_b, ambient, values):
@@ -115,24 +122,32 @@ class FastDynamics(Effect):
     own_grid = True
 
     def alternative_starts(self, data):
-        """Return a slow lag trades off against the basic time constant: also start there."""
+        """Also start at a slow lag: it trades off against the basic time constant."""
         return [{'tau_fast_s': 0.5}]
 
     def scratch_bounds(self, params):
-        """The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
+        """
+        Keep τ the slow lag in the from-scratch refit.
+
+        The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
         from scratch the search can end in the swapped pair, τ at its lower bound and the
         slow lag in τ_fast, which the hysteresis then fits worse (rich simulator M 0.33:
         τ 0.2 s, τ_fast 1.41 s, 0.70 % training NRMSE). Keep τ the slow one: the base fit's
         single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast means
-        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %)."""
+        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %).
+        """
         return {'tau_s': (0.5 * params.tau_s, 20.0, params.tau_s)}
     signature = ('residual spikes right after duty steps, same sign as the step; '
                  'residual correlates with the duty rate')
 
 
 class Delay(Effect):
-    """Transport delay between command and measured position (serial link, filtering in
-    the sensor chain, PWM update latency): the whole response is shifted in time."""
+    """
+    Transport delay between command and measured position.
+
+    Serial link, filtering in the sensor chain, PWM update latency: the whole response is
+    shifted in time.
+    """
 
     name = 'delay'
     parameters = {'delay_s': (0.0, 1.5, 0.05)}
@@ -146,8 +161,12 @@ class Delay(Effect):
         return [{'delay_s': 0.3}]
 
     def unresolved(self, values, data):
-        """A delay below one sample period is how the recorder aligned duty and position
-        samples (zero-order hold over the interval), not a transport delay."""
+        """
+        Return why a delay below one sample period is not a transport delay.
+
+        It is how the recorder aligned duty and position samples (zero-order hold over the
+        interval).
+        """
         dt = getattr(data, 'dt', None)
         if dt and values.get('delay_s', 0.0) < dt:
             return (f'the fitted delay {1e3 * values["delay_s"]:.0f} ms is below one sample '
@@ -217,10 +236,10 @@ class PhaseResistance(Effect):
 
     def bounds(self, params):
         """
-        Return the sign of κ follows from the drive.
+        Bound κ to the sign the drive gives it.
 
-        a wire's resistance falls as it contracts (martensite R_M above austenite R_A, the basis of
-        SMA self-sensing), so a current- limited amplifier (P = R I_max², V/R > I_max) heats
+        A wire's resistance falls as it contracts (martensite R_M above austenite R_A, the basis
+        of SMA self-sensing), so a current-limited amplifier (P = R I_max², V/R > I_max) heats
         martensite more (κ >= 0) and a voltage drive (P = V²/R) heats it less (κ <= 0). Without
         this a wrong-signed κ would act as a generic correction of the hysteresis shape.
         """

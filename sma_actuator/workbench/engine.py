@@ -56,7 +56,7 @@ NEAR_TIE = 0.10
 class StaticData:
     """Quasi-static curves: input, output, curve id per sample (curves start from reset)."""
 
-    input: np.ndarray
+    input: np.ndarray  # noqa: A003 (the pair input/output names the model's two signals)
     output: np.ndarray
     curve: np.ndarray
 
@@ -105,7 +105,8 @@ class ModelFit:
         Plug-in input transforms applied with the fitted values, constant ambient if none was
         measured.
         """
-        amb = data.ambient if data.ambient is not None else np.full(len(data), self.params.ambient_c)
+        amb = (data.ambient if data.ambient is not None
+               else np.full(len(data), self.params.ambient_c))
         return _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
 
     def trajectory(self, data):
@@ -371,16 +372,20 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
             'significant': significant,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
-                            f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
+                            f'{100 * base.train["nrmse"]:.2f} % -> '
+                            f'{100 * fit.train["nrmse"]:.2f} %, '
                             f'BIC change {bic1 - bic0:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
             'fit': fit, 'bic': float(bic1)}
 
 
 def _ablated_nrmse(data, base, fit, eff):
-    """Held-out NRMSE of the candidate `fit` with the effect's parameters back at the base
-    model's values (re-fitted weights and time constant kept); None when that cannot be
-    done (static data, no parameters, plug-in parameters without a neutral value)."""
+    """
+    Return the held-out NRMSE of `fit` with the effect's parameters back at the base values.
+
+    The re-fitted weights and time constant are kept; None when that cannot be done (static
+    data, no parameters, plug-in parameters without a neutral value).
+    """
     if isinstance(data, StaticData) or not eff.parameters or fit.split is None:
         return None
     names = {f.name for f in fields(act.ActuatorParams)}

@@ -31,7 +31,7 @@ def imap_on_cores(fn, items, workers=None):
             yield item, fn(item)
         return
     saved = {k: os.environ.get(k) for k in BLAS_THREADS}
-    os.environ.update({k: '1' for k in BLAS_THREADS})
+    os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
     try:
         spawn = multiprocessing.get_context('spawn')
         with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:

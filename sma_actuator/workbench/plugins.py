@@ -169,4 +169,3 @@ def _load_entry_point(ep, origin):
     if not (inspect.isclass(obj) and issubclass(obj, Effect)):
         raise PluginError(f'plugin {origin}: is neither a module nor an Effect subclass')
     return [register_class(obj, origin)]
-

@@ -153,7 +153,7 @@ def plot_hysteresis(comparison):
 
 
 def plot_curves(comparison):
-    """Static data: output vs input per curve, measured dots and model lines."""
+    """Plot static data: output vs input per curve, measured dots and model lines."""
     fig, axes = _figure(w=7, h=5)
     ax = axes[0, 0]
     u, curve = comparison.signals['input'], comparison.signals['curve']

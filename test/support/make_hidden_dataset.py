@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""
+r"""
 Write one hidden-effect recording (CSV) from the rich SMA simulator.
 
     python test/support/make_hidden_dataset.py --effect delay --magnitude 1 \\

@@ -28,7 +28,7 @@ EFFECTS = {
                             {'sensor_c2_rad': 0.15, 'sensor_c3_rad': -0.1, 'sensor_c4_rad': 0.05}],
     'fatigue_drift': [{'fatigue_offset_rad': 0.04, 'fatigue_cycles': 100.0},
                       {'fatigue_offset_rad': 0.08, 'fatigue_offset_b_rad': -0.04,
-                           'fatigue_stroke': 0.15, 'fatigue_cycles': 40.0},
+                       'fatigue_stroke': 0.15, 'fatigue_cycles': 40.0},
                       {'fatigue_offset_rad': 0.2, 'fatigue_stroke': 0.3, 'fatigue_cycles': 200.0}],
     'current_limit': [{'duty_limit': v} for v in (0.55, 0.5, 0.45)],
 }
@@ -37,8 +37,11 @@ ADC_BITS, ADC_HALF_RANGE_RAD = 12, 1.2
 
 
 def simulate(effect, level, duration_s=480.0, rate_hz=40.0, noise_rad=0.001, seed=0):
-    """Dict of arrays time, duty_a, duty_b, position (and ambient_temperature for
-    ambient_drift, drifting by about ±9 K) of `effect` at level 0, 1 or 2 ('none': any)."""
+    """
+    Return a dict of arrays time, duty_a, duty_b, position of `effect` at level 0, 1 or 2.
+
+    With ambient_temperature for ambient_drift (drifting by about ±9 K); 'none': any level.
+    """
     rng = np.random.default_rng(seed)
     cmd = open_loop_duty(rng, duration_s, duty_max=DUTY_MAX)
     dt = 1.0 / rate_hz

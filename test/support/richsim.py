@@ -45,7 +45,7 @@ EFFECTS = {
     'phase_resistance': {'description': 'R(xi) = R_M (1 + rho xi)/(1 + rho), martensite '
                          'rho = 18 M % above austenite, through the PWM/current-limit law',
                          'magnitude_range': (0.5, 1.4)},
-    'stress_coupling': {'description': 'loop tension shifts both wires\' transformation '
+    'stress_coupling': {'description': "loop tension shifts both wires' transformation "
                         'temperatures up by 10 M K per full stroke of contraction',
                         'magnitude_range': (0.3, 2.0)},
     'asymmetric_wires': {'description': 'wire b: 4 M % longer, 12 M % more recoverable '
@@ -164,11 +164,13 @@ def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None):
         'supply_v': pp['supply_v'], 'i_max_a': pp['i_max_a'], 'pulley_r_m': pp['pulley_r_m'],
         'phi0_rad': pp['phi0_rad'], 'adc_half_range_rad': pp['adc_half_range_rad'],
         'adc_bits': pp['adc_bits'], 'cmd_dt_s': pp['cmd_dt_s'], 'kp': pp['kp'], 'ki': pp['ki'],
-        'd0': pp['d0'], 'u_knee': pp['u_knee'], 'u_max': pp['duty_max'], 'delay_s': 0.0, 'tau_fast_s': 0.0,
-        'fast_cap_frac': 0.5, 'conv_exp': 0.0, 'conv_ref_k': 50.0, 'emissivity': 0.0, 'rho_phase': 0.0,
+        'd0': pp['d0'], 'u_knee': pp['u_knee'], 'u_max': pp['duty_max'], 'delay_s': 0.0,
+        'tau_fast_s': 0.0, 'fast_cap_frac': 0.5, 'conv_exp': 0.0, 'conv_ref_k': 50.0,
+        'emissivity': 0.0, 'rho_phase': 0.0,
         'stress_k_per_stroke': 0.0, 'stress_self_weight': pp['stress_self_weight'],
         'fatigue_loss': 0.0, 'fatigue_elong': 0.0,
-        'fatigue_n0': 0.0, 'cl_knee_duty': 0.0, 'cl_sharpness': 4.0, 'sens_gain': 0.0, 'sens_sine': 0.8,
+        'fatigue_n0': 0.0, 'cl_knee_duty': 0.0, 'cl_sharpness': 4.0, 'sens_gain': 0.0,
+        'sens_sine': 0.8,
         'sens_quad': 0.4, 'amb0_c': pp['ambient_c'], 'amb_ramp_k_per_s': 0.0, 'amb_sine_k': 0.0,
         'amb_period_s': max(duration_s, 1.0), 'amb_phase_rad': 0.0}
     base.update(over)

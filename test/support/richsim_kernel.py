@@ -35,7 +35,7 @@ SIGMA_SB = 5.670374419e-8   # Stefan-Boltzmann [W/(m^2 K^4)]
 
 @njit(cache=True)
 def ambient(p, t):
-    """Return True ambient [degC]: theta_a(t) = amb0 + ramp*t + sine*sin(2*pi*t/period + phase)."""
+    """Return the true ambient [degC], amb0 + ramp*t + sine*sin(2*pi*t/period + phase)."""
     return (p.amb0_c + p.amb_ramp_k_per_s * t
             + p.amb_sine_k * math.sin(2.0 * math.pi * t / p.amb_period_s + p.amb_phase_rad))
 
