@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
 
@@ -55,7 +69,7 @@ def make_record(minutes=10.0, rate_hz=40.0, seed=0):
 
 def main(argv=None):
     """Run the benchmark; print the wall time and the diagnosis."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--minutes', type=float, default=10.0)
     ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz]')
     ap.add_argument('--seed', type=int, default=0)

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Recorder throughput: messages recorded without loss at 1 kHz on 5 topics, and the highest rate.
 
@@ -153,7 +167,7 @@ def _ranges(numbers):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--rates', type=int, nargs='*', default=None,
                         help='per-topic rates [Hz] to run (default: 1 kHz up, until loss)')
     parser.add_argument('--duration', type=float, default=5.0, help='seconds per rate')

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
 
@@ -59,7 +73,7 @@ def parse_overrides(items):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--periods', type=int, default=3, help='sine periods per tracking run')
     ap.add_argument('--excitation-s', type=float, default=150.0)
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 closed_loop_demo: the simulated closed loop end to end (the README's main command).
 
@@ -120,7 +134,7 @@ def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance
 
 
 def main(args=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--name', default=time.strftime('demo_%Y%m%d_%H%M%S'),
                     help='run name: output goes to <out-dir>/<name>/')
     ap.add_argument('--out-dir', default='runs')

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Paper figures rendered from the core code (`model_figures --out DIR`).
 
@@ -202,7 +216,7 @@ def render(out, data_path=REAL_DATA):
 
 def main(argv=None):
     """Console script `model_figures [--out DIR] [--data CSV]`."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='runs/figures', help='output directory')
     parser.add_argument('--data', default=REAL_DATA, help='morphing-wing loops CSV')
     args = parser.parse_args(argv)

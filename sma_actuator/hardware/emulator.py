@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 MCU emulator: the microcontroller's protocol logic in front of the simulated actuator.
 
@@ -266,7 +280,8 @@ class Emulator:
 
 
 def _parse_args(argv):
-    parser = argparse.ArgumentParser(prog='mcu_emulator', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='mcu_emulator',
+                                     description=__doc__.strip().splitlines()[0])
     add = parser.add_argument
     add('--link', help='also make this path a symlink to the pty (stable port name)')
     add('--tcp', metavar='[HOST:]PORT', help='serve TCP instead of a pty (port 0: any free '

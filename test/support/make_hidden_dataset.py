@@ -1,4 +1,18 @@
 #!/usr/bin/env python3
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 r"""
 Write one hidden-effect recording (CSV) from the rich SMA simulator.
 
@@ -19,7 +33,7 @@ from support.richsim import EFFECTS, EXCITATIONS, simulate, write_csv  # noqa: E
 
 def parse_args(argv=None):
     """Command-line options (see module docstring)."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--effect', required=True, choices=sorted(EFFECTS))
     ap.add_argument('--magnitude', type=float, default=1.0)
     ap.add_argument('--excitation', choices=EXCITATIONS, default='open')
