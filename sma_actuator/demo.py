@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 closed_loop_demo: the simulated closed loop end to end (the README's main command).
 
@@ -37,9 +51,11 @@ from .control import metrics
 
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
-    'step': (dict(profile='step', amplitude=0.5, offset=0.0, delay_s=1.0), 15.0),
-    'ramp': (dict(profile='ramp', amplitude=0.5, offset=0.0, period_s=10.0, delay_s=1.0), 20.0),
-    'sine': (dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0), 41.0),
+    'step': ({'profile': 'step', 'amplitude': 0.5, 'offset': 0.0, 'delay_s': 1.0}, 15.0),
+    'ramp': ({'profile': 'ramp', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 10.0,
+              'delay_s': 1.0}, 20.0),
+    'sine': ({'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0,
+              'delay_s': 1.0}, 41.0),
 }
 MODES = ('pi', 'pi_inverse')
 
@@ -174,7 +190,7 @@ def describe(m):
 
 def main(args=None):
     """Run the demo from the command line (see the module docstring)."""
-    ap = argparse.ArgumentParser(description=__doc__.strip().split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--name', default=time.strftime('demo_%Y%m%d_%H%M%S'),
                     help='run name: output goes to <out-dir>/<name>/')
     ap.add_argument('--out-dir', default='runs')

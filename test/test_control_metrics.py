@@ -1,7 +1,20 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Tracking metrics (sma_actuator.control.metrics)."""
 import numpy as np
 import pytest
-
 from sma_actuator.control import metrics
 
 
@@ -39,7 +52,7 @@ def test_mismatched_lengths_raise():
 
 
 def _second_order_step(zeta, wn, t):
-    """Unit step response of wn² / (s² + 2 ζ wn s + wn²), underdamped (exact)."""
+    """Return the unit step response of wn² / (s² + 2 ζ wn s + wn²), underdamped (exact)."""
     wd = wn * np.sqrt(1 - zeta ** 2)
     phi = np.arccos(zeta)
     return 1 - np.exp(-zeta * wn * t) * np.sin(wd * t + phi) / np.sqrt(1 - zeta ** 2)

@@ -80,7 +80,7 @@ def _make_node(name, context, tmp_path):
 
 @pytest.fixture
 def listener():
-    """A TCP socket nobody should connect to: the bridge's port in the --help tests."""
+    """Yield a TCP socket nobody should connect to: the bridge port of the --help tests."""
     sock = socket.socket()
     sock.bind(('127.0.0.1', 0))
     sock.listen(4)

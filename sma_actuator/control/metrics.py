@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Tracking metrics of a closed-loop run (the demo's summary.json figures).
 
@@ -27,7 +41,7 @@ from ..core.validate import finite_array
 
 
 def tracking_errors(setpoint, position):
-    """e = r − φ [rad] as an array."""
+    """E = r − φ [rad] as an array."""
     r, y = finite_array('setpoint', setpoint), finite_array('position', position)
     if r.shape != y.shape:
         raise ValueError(f'setpoint and position differ in length ({r.size} vs {y.size})')

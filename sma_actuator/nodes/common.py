@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Helpers shared by the nodes.
 
@@ -49,7 +63,8 @@ OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.E
 
 
 def install_stop_signals():
-    """SIGINT and SIGTERM set the returned Event and raise nothing.
+    """
+    SIGINT and SIGTERM set the returned Event and raise nothing.
 
     Why not rclpy's handler: it chains to Python's default SIGINT handler, and the
     KeyboardInterrupt it raises can land inside a pybind11 call of the executor
@@ -81,7 +96,8 @@ def init_with_stop_signals(args=None, prog=None):
 
 
 def spin_until_stopped(node, stop, done=None, poll_s=0.05):
-    """Spin `node` until `stop` is set, `done()` is true or its context is shut down.
+    """
+    Spin `node` until `stop` is set, `done()` is true or its context is shut down.
 
     A signal is seen within poll_s (the wait returns at least that often). Returns the
     executor, so a caller can still drain queued messages after the stop.
