@@ -325,6 +325,37 @@ def overrides_from_kwargs(params, kwargs):
     return out
 
 
+def declare_float(node, name, default, description, lo=None, hi=None, read_only=False):
+    """
+    Declare one double parameter outside the node's table; return its value.
+
+    Kept for code written against the per-call helpers: `--help` prints only the table, so
+    a new parameter belongs in the node's PARAMETERS (test_nodes_cli checks both agree).
+    """
+    bounds = None if lo is None else (lo, hi)
+    return declare_parameters(node, [Param(name, float(default), description, bounds,
+                                           read_only=read_only)])[name]
+
+
+def declare_int(node, name, default, description, lo, hi, read_only=False):
+    """Declare one integer parameter outside the node's table (see declare_float)."""
+    return declare_parameters(node, [Param(name, int(default), description, (lo, hi),
+                                           read_only=read_only)])[name]
+
+
+def declare_bool(node, name, default, description, read_only=False):
+    """Declare one bool parameter outside the node's table (see declare_float)."""
+    return declare_parameters(node, [Param(name, bool(default), description,
+                                           read_only=read_only)])[name]
+
+
+def declare_str(node, name, default, description, choices=None, read_only=False):
+    """Declare one string parameter outside the node's table (see declare_float)."""
+    return declare_parameters(node, [Param(name, str(default), description,
+                                           choices=tuple(choices) if choices else None,
+                                           read_only=read_only)])[name]
+
+
 def initial_value(node, params, name):
     """
     Return the value parameter `name` of `params` will be declared with, before declaring it.
