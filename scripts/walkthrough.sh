@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The workbench loop of docs/workbench.md, end to end and unattended:
 #   1. record the simulated plant with a hidden 0.3 s transport delay (closed loop, 300 s
-#      chirp on lockstep sim time, at most 10x faster than the wall clock) into
-#      WORKDIR/run1 (an MCAP bag);
+#      chirp on lockstep sim time, all nodes on one executor) into WORKDIR/run1 (an MCAP
+#      bag);
 #   2. fit the paper's model and compare;  3. diagnose;  4. add the named effect, refit,
 #      compare again.
 # Every command's output goes to the terminal and to WORKDIR/*.txt; reports to
@@ -14,41 +14,26 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$root/scripts/bootstrap.sh" base
 work="$(mkdir -p "${1:-$root/runs/walkthrough}" && cd "${1:-$root/runs/walkthrough}" && pwd)"
-cfg="$root/config"
 # a domain of our own, so a concurrent run (tests, another demo) cannot cross-talk
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((100 + RANDOM % 100))}"
 cd "$work"
 rm -rf run1 report_base report_diag report_fitted
 
 echo "== 1. record (hidden delay 0.3 s) on lockstep sim time, ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
-# Every node runs on the plant's /clock and the plant steps only once the controller has
-# answered the last joint state (lockstep), so what is recorded does not depend on the
-# machine's load. controller and setpoint wait for the clock; the plant starts sim time
-# once controller and recorder read its joint states (start_subscribers) plus warmup_s, and
-# exits after duration_s of sim time, so the bag holds sim time 0 .. 300 s.
-pids=()
-stop() { kill -INT "${pids[@]}" 2>/dev/null || true; wait "${pids[@]}" 2>/dev/null || true; }
-trap stop EXIT
-recorder --ros-args --params-file "$cfg/recorder.yaml" -p bag_path:="$work/run1" \
-    -p use_sim_time:=true > recorder.log 2>&1 &
-rec=$!
-pids+=("$rec")
-controller --ros-args --params-file "$cfg/controller.yaml" -p use_sim_time:=true \
-    > controller.log 2>&1 &
-pids+=($!)
-setpoint --ros-args --params-file "$cfg/setpoint.yaml" -p profile:=chirp -p amplitude:=0.6 \
-    -p chirp_end_hz:=0.3 -p chirp_duration_s:=300.0 -p use_sim_time:=true > setpoint.log 2>&1 &
-pids+=($!)
-plant_sim --ros-args --params-file "$cfg/plant_sim.yaml" -p accelerated:=true \
-    -p lockstep:=true -p lockstep_timeout_s:=1.0 -p real_time_factor:=10.0 \
-    -p start_subscribers:=2 -p warmup_s:=2.0 \
-    -p duration_s:=300.0 -p delay_s:=0.3 > plant_sim.log 2>&1
-pids=("${pids[@]:1}")
-stop      # controller and setpoint (the plant has stopped: no joint state, no duty) ...
-pids=("$rec")
-sleep 1
-stop      # ... then the recorder finalises the bag
-trap - EXIT
+# plant_sim (accelerated, lockstep), controller, setpoint and the recorder run as nodes on
+# one executor on the plant's sim time, each from its config/<node>.yaml (the separate
+# processes of docs/workbench.md step 1 do the same, but there the setpoint reaches the
+# controller a step earlier or later depending on the load, and the run diverges): the
+# bag holds 300 s of sim time and the same samples on any host load.
+python - "$work/run1" <<'PY'
+import sys
+
+from sma_actuator.demo import record_run
+
+chirp = {'profile': 'chirp', 'amplitude': 0.6, 'chirp_end_hz': 0.3, 'chirp_duration_s': 300.0}
+count = record_run(sys.argv[1], 300.0, chirp, plant={'delay_s': 0.3})
+print(f'recorded {count} messages (300 s of sim time) to {sys.argv[1]}')
+PY
 
 run() { echo; echo "\$ sma-model $*"; sma-model "$@"; }
 echo "== 2. fit the paper's model and compare"

@@ -175,6 +175,50 @@ def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance
     return summary
 
 
+# plant settings the harness owns (it runs the plant accelerated and in lockstep)
+_HARNESS_PLANT = ('accelerated', 'lockstep', 'lockstep_timeout_s', 'real_time_factor',
+                  'start_subscribers', 'warmup_s', 'duration_s')
+
+
+def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
+               real_time_factor=100.0):
+    """
+    Record a closed-loop run of `duration_s` sim seconds into the MCAP bag `bag_dir`.
+
+    plant_sim, controller, setpoint and the recorder run as nodes on one executor on the
+    plant's lockstep sim time, like the demo, so the bag is the same on any host load.
+    Each node starts from its config/<node>.yaml (the `/**` section) with `plant`,
+    `controller` and `setpoint` overrides on top. Return the number of recorded messages.
+    """
+    import yaml
+
+    from .nodes.common import config_path
+    from .nodes.harness import run_closed_loop
+
+    def config(name, drop=()):
+        with open(config_path(f'{name}.yaml')) as f:
+            values = yaml.safe_load(f)['/**']['ros__parameters']
+        return {k: v for k, v in values.items() if k not in drop}
+
+    context = rclpy.context.Context()
+    rclpy.init(context=context)
+    try:
+        recorder = []
+
+        def factory(ctx):
+            recorder.append(recorder_factory(bag_dir)(ctx))
+            return recorder[-1]
+
+        run_closed_loop(context, {**config('setpoint'), **setpoint}, duration_s,
+                        real_time_factor=real_time_factor,
+                        plant={**config('plant_sim', _HARNESS_PLANT), **(plant or {})},
+                        controller={**config('controller'), **(controller or {})},
+                        attach=[factory], wall_timeout_s=120.0 + 10.0 * duration_s)
+        return recorder[0].bag.message_count
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
 def describe(m):
     """Return one log line of a run's metrics, with units."""
     parts = []
