@@ -119,6 +119,7 @@ class PlantSim(Node):
         self.applied_time_s = None     # plant time [s] at which `applied` was decided
         self.interlock = DeadTimeInterlock(dead_time_s)
         self.duty_publishers = 0       # publishers on the duty topic at the last tick
+        self._last_reject_diag = -1.0  # monotonic time of the last rejected-duty WARN
         self.last_duty_time = None     # plant time [s] of the last valid duty
         self.last_position = None
         self.sim_time = 0.0
@@ -164,9 +165,14 @@ class PlantSim(Node):
         self.awaiting_since = None
         problem = self.duty.offer(tuple(msg.data))
         if problem:
-            self.get_logger().warn(f'rejected duty: {problem}; keeping {self.duty.value}')
-            self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
-                              self.stamp())
+            self.get_logger().warn(f'rejected duty: {problem}; keeping {self.duty.value} '
+                                   f'({self.duty.rejected} rejected so far)',
+                                   throttle_duration_sec=1.0)
+            now = time.monotonic()
+            if now - self._last_reject_diag >= 1.0:
+                self._last_reject_diag = now
+                self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
+                                  self.stamp())
             return
         self.last_duty_time = self.now_s()
 
