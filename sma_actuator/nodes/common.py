@@ -8,6 +8,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
@@ -27,6 +28,17 @@ WIRE_FRAMES = ('wire_a', 'wire_b')
 SENSOR_QOS = qos_profile_sensor_data
 # commands: every setpoint and duty must arrive (a lost "zero duty" would leave heat on)
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def expiring_command_qos(lifespan_s):
+    """
+    Return COMMAND_QOS with a lifespan: samples older than `lifespan_s` are never taken.
+
+    For the duty subscriptions of the plant and the bridge (docs/safety.md): a sample
+    queued while the process was frozen expires instead of replaying old heat.
+    """
+    return QoSProfile(depth=COMMAND_QOS.depth, reliability=COMMAND_QOS.reliability,
+                      lifespan=Duration(seconds=lifespan_s))
 DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 

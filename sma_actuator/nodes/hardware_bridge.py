@@ -30,10 +30,8 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
-from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
 
@@ -72,11 +70,9 @@ class HardwareBridge(Node):
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, c.DIAGNOSTICS, c.DIAGNOSTICS_QOS)
-        # COMMAND_QOS plus a lifespan: samples older than the watchdog period expire
-        duty_qos = QoSProfile(depth=c.COMMAND_QOS.depth, reliability=c.COMMAND_QOS.reliability,
-                              lifespan=Duration(seconds=config.duty_timeout_s))
-        self.duty_sub = self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty,
-                                                 duty_qos)
+        self.duty_sub = self.create_subscription(
+            Float64MultiArray, c.DUTY, self.on_duty,
+            c.expiring_command_qos(config.duty_timeout_s))
         self.create_timer(TICK_PERIOD_S, self.on_tick)
         self.create_timer(PUBLISHER_CHECK_PERIOD_S, self.check_duty_publishers)
         self.create_timer(1.0 / f['diagnostics_rate_hz'], self.publish_diagnostics)

@@ -130,8 +130,9 @@ class PlantSim(Node):
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.temp_pub = self.create_publisher(Temperature, c.WIRE_TEMPERATURE, c.SENSOR_QOS)
         self.diag = c.Diagnostics(self, 'plant')
-        self.duty_sub = self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty,
-                                                 c.COMMAND_QOS)
+        # lifespan in wall seconds (DDS source timestamps): a frozen plant does not replay
+        self.duty_sub = self.create_subscription(
+            Float64MultiArray, c.DUTY, self.on_duty, c.expiring_command_qos(self.duty_timeout_s))
         if self.use_ambient_topic:
             self.create_subscription(Temperature, c.AMBIENT_TEMPERATURE, self.on_ambient,
                                      c.SENSOR_QOS)
