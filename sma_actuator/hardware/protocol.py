@@ -243,7 +243,7 @@ class Hello(Message):
     TYPE = 0x01
     FORMAT = struct.Struct('<BHHI')
     protocol_version: int
-    max_duty: int          # counts; each channel is clamped to this
+    max_duty: int          # counts; a Duty above this on a channel is rejected
     interlock_duty: int    # counts; both channels above this at once is refused
     adc_period_us: int     # longest gap between ADC reports
 
