@@ -65,9 +65,9 @@ def test_dead_time_rule_on_a_wrapping_microsecond_counter():
 def test_zero_dead_time_still_refuses_both_at_once():
     lock = DeadTimeInterlock(0.0)
     assert lock.apply(0.4, 0.0, 0.0)[0] == (0.4, 0.0)
-    assert lock.apply(0.0, 0.4, 0.0)[0] == (0.0, 0.0)     # a turned off in this very step
-    assert lock.apply(0.0, 0.4, 0.0)[0] == (0.0, 0.4)
+    assert lock.apply(0.0, 0.4, 0.0)[0] == (0.0, 0.4)     # a off for 0 s is long enough
     assert lock.apply(0.4, 0.4, 0.0)[0] == (0.0, 0.0)
+    assert lock.apply(0.4, 0.0, 0.0)[0] == (0.4, 0.0)
     with pytest.raises(ValueError):
         DeadTimeInterlock(-0.1)
 

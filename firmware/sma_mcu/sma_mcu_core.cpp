@@ -9,29 +9,24 @@ uint32_t elapsed(uint32_t now_us, uint32_t then_us) { return now_us - then_us; }
 }  // namespace
 
 bool DeadTimeInterlock::apply(uint16_t a, uint16_t b, uint32_t now_us) {
-  expire(now_us);
   const uint16_t requested[2] = {a, b};
-  uint16_t out[2] = {0, 0};
-  bool held = false;
-  if (a > 0 && b > 0) {
-    held = true;
-  } else {
-    for (int wire = 0; wire < 2; ++wire) {
-      const int other = 1 - wire;
-      if (requested[wire] == 0) continue;
-      if (applied_[other] > 0 || off_recent_[other]) {
-        held = true;
-      } else {
-        out[wire] = requested[wire];
-      }
-    }
-  }
-  for (int wire = 0; wire < 2; ++wire) {
-    if (applied_[wire] > 0 && out[wire] == 0) {
+  const bool both = a > 0 && b > 0;
+  for (int wire = 0; wire < 2; ++wire) {  // a heated wire that is not to heat any more goes off now
+    if (applied_[wire] > 0 && (both || requested[wire] == 0)) {
       off_recent_[wire] = true;
       off_since_[wire] = now_us;
     }
-    applied_[wire] = out[wire];
+  }
+  expire(now_us);
+  bool held = both;
+  for (int wire = 0; wire < 2; ++wire) {
+    applied_[wire] = 0;
+    if (both || requested[wire] == 0) continue;
+    if (off_recent_[1 - wire]) {
+      held = true;
+    } else {
+      applied_[wire] = requested[wire];
+    }
   }
   return held;
 }

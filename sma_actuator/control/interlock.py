@@ -51,24 +51,21 @@ class DeadTimeInterlock:
 
         The reason says why a requested wire was held at zero (BOTH_REQUESTED, DEAD_TIME).
         """
-        self.expire(now)
         requested = (duty_a, duty_b)
-        out = [0 * duty_a, 0 * duty_b]   # zero of the caller's type (int counts or float)
-        reason = None
-        if duty_a > 0 and duty_b > 0:
-            reason = BOTH_REQUESTED
-        else:
-            for wire in (0, 1):
-                other = 1 - wire
-                if requested[wire] <= 0:
-                    continue
-                if self.applied[other] > 0 or self.off_since[other] is not None:
-                    reason = DEAD_TIME
-                else:
-                    out[wire] = requested[wire]
-        for wire in (0, 1):
-            if self.applied[wire] > 0 and not out[wire] > 0:
+        both = duty_a > 0 and duty_b > 0
+        for wire in (0, 1):   # a heated wire that is not to heat any more goes off now
+            if self.applied[wire] > 0 and (both or not requested[wire] > 0):
                 self.off_since[wire] = now
+        self.expire(now)
+        out = [0 * duty_a, 0 * duty_b]   # zero of the caller's type (int counts or float)
+        reason = BOTH_REQUESTED if both else None
+        if not both:
+            for wire in (0, 1):
+                if requested[wire] > 0:
+                    if self.off_since[1 - wire] is None:
+                        out[wire] = requested[wire]
+                    else:
+                        reason = DEAD_TIME
         self.applied = tuple(out)
         if reason:
             self.held += 1
