@@ -29,7 +29,7 @@ from typing import Callable
 import numpy as np
 
 from sma_actuator.control.inputs import duty_problem
-from sma_actuator.control.interlock import DeadTimeInterlock
+from sma_actuator.control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 
@@ -254,6 +254,7 @@ class BridgeCore:
         self.duty, held = self.interlock.apply(*requested, now_s)
         if held:
             self.counters['interlock_held'] += 1
+        if held == BOTH_REQUESTED:    # a reversal waiting out the dead time is normal
             self._log_throttled('held', 'warn', f'interlock: {held}; sending '
                                 f'{self.duty[0]}/{self.duty[1]} counts', now_s)
 

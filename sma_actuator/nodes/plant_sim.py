@@ -33,7 +33,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
 
 from ..control.inputs import LastValid, duty_problem
-from ..control.interlock import DeadTimeInterlock
+from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 from . import common as c
@@ -210,7 +210,7 @@ class PlantSim(Node):
         requested = (0.0, 0.0) if stale or conflict else self.duty.value
         self.applied_time_s = self.now_s()
         self.applied, held = self.interlock.apply(*requested, self.applied_time_s)
-        if held:
+        if held == BOTH_REQUESTED:    # a reversal waiting out the dead time is normal
             self.get_logger().warn(f'interlock: {held}; applying {self.applied}',
                                    throttle_duration_sec=1.0)
         if stale and not self.was_stale and self.last_duty_time is not None:
