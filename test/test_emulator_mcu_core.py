@@ -80,7 +80,7 @@ def test_interlock_switches_both_off_and_duty_above_max_is_rejected():
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (30000, 0) and rig.mcu.faults == p.FAULT_REJECTED
     rig.send(p.Duty(0, 100), 40)          # a just went off: b held for the dead time
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0) and rig.mcu.faults == p.FAULT_INTERLOCK
-    rig.send(p.Duty(0, 100), 50_040)
+    rig.send(p.Duty(0, 100), 25_040)
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 100) and rig.mcu.faults == 0
 
 

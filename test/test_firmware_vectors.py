@@ -101,15 +101,15 @@ def test_vectors_show_the_firmware_watchdog_and_interlock():
     assert [o.split(',')[:3] for o in outs[2:]] == [
         ['0', '0', str(p.FAULT_INTERLOCK)], ['0', '0', str(p.FAULT_REJECTED)],
         ['0', '0', str(p.FAULT_INTERLOCK)]]
-    # dead time 50 ms: a off at 20 ms, so b is held until 70 ms (issue 13 item 1)
+    # dead time 25 ms: a off at 20 ms, so b is held until 45 ms (issue 13 item 1)
     steps, outs = scenarios['dead_time_interlock']
     state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
     assert state['1000'] == ['30000', '0', '0']
-    assert state['20000'] == state['69999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
-    assert state['70000'] == ['0', '30000', '0']
-    assert state['129999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
-    assert state['130000'] == ['30000', '0', '0']
-    assert state['140000'] == state['150000'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['20000'] == state['44999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['45000'] == ['0', '30000', '0']
+    assert state['79999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['80000'] == ['30000', '0', '0']
+    assert state['90000'] == state['100000'] == ['0', '0', str(p.FAULT_INTERLOCK)]
     # a duty above max_duty is rejected, the last valid one kept, the watchdog not fed
     steps, outs = scenarios['reject_above_max']
     state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}

@@ -83,7 +83,7 @@ def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
     from sma_actuator.nodes import common as c
     from sma_actuator.nodes.plant_sim import PlantSim
 
-    dead_time_s = 0.1
+    dead_time_s = 0.05                  # the default
     ex = SingleThreadedExecutor(context=ros_context)
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('interlock_dead_time_s', value=dead_time_s)])

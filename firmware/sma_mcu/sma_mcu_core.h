@@ -32,7 +32,7 @@ struct FirmwareLimits {
   uint32_t adc_period_min_us = 1000;
   uint32_t adc_period_max_us = 1000000;
   uint8_t adc_bits = 12;
-  uint32_t dead_time_us = 50000;  // interlock dead time, below the bridge's default 0.1 s
+  uint32_t dead_time_us = 25000;  // interlock dead time, half the bridge's default 0.05 s
 };
 
 // "A wire may heat only when the other has had zero duty for the dead time"; requests for

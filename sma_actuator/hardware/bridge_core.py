@@ -54,8 +54,8 @@ class BridgeConfig:
     hello_retry_s: float = 0.25
     heartbeat_period_s: float = 0.2
     adc_period_s: float = 0.005
-    # longer than the firmware's 50 ms, so the MCU never has to hold off a frame
-    interlock_dead_time_s: float = 0.1
+    # two command periods; twice the firmware's 25 ms, so the MCU never holds off a frame
+    interlock_dead_time_s: float = 0.05
 
     def __post_init__(self):
         for name in ('max_duty', 'interlock_threshold'):
@@ -68,9 +68,9 @@ class BridgeConfig:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f'{name} must be a positive number of seconds, got {value}')
         if not (math.isfinite(self.interlock_dead_time_s)
-                and 0.05 <= self.interlock_dead_time_s <= 10.0):
+                and 0.025 <= self.interlock_dead_time_s <= 10.0):
             raise ValueError(f'interlock_dead_time_s={self.interlock_dead_time_s} must be in '
-                             '[0.05, 10] s (not below the firmware dead time of 0.05 s)')
+                             '[0.025, 10] s (not below the firmware dead time of 0.025 s)')
         if self.duty_refresh_s >= 0.1:
             raise ValueError(
                 f'duty_refresh_s={self.duty_refresh_s} must stay below the 0.1 s MCU watchdog')

@@ -38,9 +38,9 @@ class FirmwareLimits:
     adc_period_min_us: int = 1_000
     adc_period_max_us: int = 1_000_000
     adc_bits: int = 12
-    # dead time of the interlock: below the bridge's default 0.1 s, so frames of a bridge
-    # that keeps its own dead time are never held off by the MCU's
-    dead_time_us: int = 50_000
+    # dead time of the interlock: half the bridge's default 0.05 s, so frames of a bridge
+    # that keeps its own dead time are never held off by the MCU's (25 ms jitter margin)
+    dead_time_us: int = 25_000
 
 
 def elapsed_us(now_us: int, then_us: int) -> int:

@@ -110,9 +110,9 @@ class HardwareBridge(Node):
                                       'above this (the firmware caps it at 0.5).', 0.0, 0.5),
             'duty_timeout_s': fl('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long '
                                  '-> zero duty + WARN [s].', 0.01, 10.0),
-            'interlock_dead_time_s': fl('interlock_dead_time_s', 0.1, 'A wire heats only '
+            'interlock_dead_time_s': fl('interlock_dead_time_s', 0.05, 'A wire heats only '
                                         'after the other has had zero duty this long; not '
-                                        'below the firmware dead time 0.05 s [s].', 0.05,
+                                        'below the firmware dead time 0.025 s [s].', 0.025,
                                         10.0),
             'link_timeout_s': fl('link_timeout_s', 0.5, 'No valid frame from the MCU this long '
                                  '-> link lost, zero duty, re-handshake [s].', 0.05, 10.0),

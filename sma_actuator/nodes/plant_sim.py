@@ -89,7 +89,7 @@ class PlantSim(Node):
             self, 'duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero '
             'duty.', 0.01, 10.0)
         dead_time_s = c.declare_float(
-            self, 'interlock_dead_time_s', 0.1, 'A wire heats only after the other has had '
+            self, 'interlock_dead_time_s', 0.05, 'A wire heats only after the other has had '
             'zero applied duty for this long [plant s] (docs/safety.md).', 0.0, 10.0,
             read_only=True)
         model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
