@@ -1,4 +1,19 @@
-"""Host side of the hardware bridge, free of ROS and of the serial port.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Host side of the hardware bridge, free of ROS and of the serial port.
 
 `BridgeCore` turns duty commands into Duty frames and received frames into joint
 samples, and owns the host's safety rules:
@@ -21,13 +36,12 @@ write to the port. The caller serialises calls (one lock) and writes in call ord
 from __future__ import annotations
 
 import collections
+from dataclasses import dataclass
 import enum
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-
 from sma_actuator.control.inputs import duty_problem
 from sma_actuator.control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from sma_actuator.hardware import protocol as p
@@ -163,7 +177,7 @@ class BridgeCore:
         self._enter(LinkState.DISCONNECTED, now_s)
 
     def on_open_failed(self, reason: str, now_s: float):
-        """Opening the port failed (retried with backoff by the link)."""
+        """Open the port failed (retried with backoff by the link)."""
         self.link_error = reason
         self.counters['open_failures'] += 1
         self._log_throttled('open', 'error', f'{reason} (retrying with backoff)', now_s)
@@ -383,7 +397,8 @@ class BridgeCore:
     # --- diagnostics --------------------------------------------------------------------
 
     def diagnostics(self) -> list[tuple[str, str, str, dict]]:
-        """(name, level, message, values) for the link, the MCU and the duty path.
+        """
+        (name, level, message, values) for the link, the MCU and the duty path.
 
         level is 'ok', 'warn', 'error' or 'stale'.
         """
