@@ -23,9 +23,9 @@ block of splits. A constant cost gives about the same figure for both.
     python benchmarks/bench_bag_split.py --files 2000
 """
 import argparse
+from pathlib import Path
 import tempfile
 import time
-from pathlib import Path
 
 from sma_actuator.bag import writer as writer_module
 from sma_actuator.bag.writer import BagWriter

@@ -28,12 +28,12 @@ import pytest
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from std_msgs.msg import Float64MultiArray
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
+from std_msgs.msg import Float64MultiArray
 
 # DiagnosticStatus levels are bytes constants; the probe reports them as ints
 OK, WARN, ERROR = (ord(x) for x in (DiagnosticStatus.OK, DiagnosticStatus.WARN,

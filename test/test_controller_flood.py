@@ -25,16 +25,15 @@ import os
 import subprocess
 import sys
 import textwrap
-import time
 
 from conftest import spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from std_msgs.msg import Float64MultiArray  # noqa: E402
-
+# after the importorskip guard, hence out of the alphabetical order
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402, I100
 from sma_actuator.nodes import common as c  # noqa: E402
+from std_msgs.msg import Float64MultiArray  # noqa: E402
 
 FLOODER = textwrap.dedent("""
     import sys

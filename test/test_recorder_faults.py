@@ -29,12 +29,12 @@ from conftest import spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from sma_actuator.bag.reader import BagReader  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 from test_recorder_signals import _recorder_command  # noqa: E402
-
-from sma_actuator.bag.reader import BagReader  # noqa: E402
 
 FILE_LIMIT_BYTES = 256 * 1024
 

@@ -345,7 +345,7 @@ class BagWriter:
 
     @property
     def failed(self) -> Optional[BagWriteError]:
-        """The error that stopped writing (full disk, file size limit...), or None."""
+        """Return the error that stopped writing (full disk, file size limit...), or None."""
         return self._failed
 
     def __enter__(self):

@@ -46,6 +46,10 @@ WIRE_FRAMES = ('wire_a', 'wire_b')
 SENSOR_QOS = qos_profile_sensor_data
 # commands: every setpoint and duty must arrive (a lost "zero duty" would leave heat on)
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+
+OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 
 
 def expiring_command_qos(lifespan_s):
@@ -57,10 +61,6 @@ def expiring_command_qos(lifespan_s):
     """
     return QoSProfile(depth=COMMAND_QOS.depth, reliability=COMMAND_QOS.reliability,
                       lifespan=Duration(seconds=lifespan_s))
-DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
-
-OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 
 
 def install_stop_signals():
