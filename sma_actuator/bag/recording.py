@@ -42,7 +42,8 @@ class TopicSelector:
                              f'{patterns!r}: give at least one (default {list(DEFAULT_TOPICS)})')
         self.patterns = [p.strip() for p in patterns if p and p.strip()]
         if not self.patterns:
-            raise ValueError('no topics to record: give at least one topic name or pattern')
+            raise ValueError('no topics to record: give at least one topic name or pattern '
+                             f'(default {list(DEFAULT_TOPICS)})')
         bad = [p for p in self.patterns if not p.startswith('/')]
         if bad:
             raise ValueError(f'topic patterns must be absolute (start with /): {bad}')
