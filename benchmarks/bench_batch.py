@@ -28,13 +28,12 @@ docs/scale.md plans a large cluster with.
     .venv/bin/python benchmarks/bench_batch.py [--records 8] [--minutes 4] [--rate 20]
 """
 import argparse
+from pathlib import Path
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
-
 from sma_actuator.workbench import batch
 from sma_actuator.workbench.data import check_excitation, load_data
 from sma_actuator.workbench.engine import diagnose, fit_model

@@ -18,12 +18,10 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from sma_actuator.bag.synthetic import cdr_encoder, stamp
 from sma_actuator.bag.writer import BagWriter
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
-
 from support.plant_records import simulate
 
 N_DELAY, N_NONE = 23, 23
@@ -42,7 +40,7 @@ def _write_csv(path, rec):
 
 
 def _write_bag(path, rec):
-    """The record as the recorder would store it: joint states and duty commands."""
+    """Return the record as the recorder would store it: joint states and duty commands."""
     js, duty = cdr_encoder('sensor_msgs/msg/JointState'), cdr_encoder(
         'std_msgs/msg/Float64MultiArray')
     with BagWriter(path) as bag:
@@ -58,8 +56,12 @@ def _write_bag(path, rec):
 
 @pytest.fixture(scope='module')
 def fleet(tmp_path_factory):
-    """49 records: delay (0.8 s) and effect-free CSVs, one good and one corrupt bag, one
-    malformed CSV. Returns (directory, {file name: hidden effect or 'error'})."""
+    """
+    49 records.
+
+    Delay (0.8 s) and effect-free CSVs, one good and one corrupt bag, one malformed CSV. Returns
+    (directory, {file name: hidden effect or 'error'}).
+    """
     root = tmp_path_factory.mktemp('fleet')
     truth = {}
     for i in range(N_DELAY):
@@ -83,7 +85,7 @@ def fleet(tmp_path_factory):
 
 @pytest.fixture(scope='module')
 def scheduler():
-    """A running two-worker Dask cluster, used through --scheduler ADDRESS."""
+    """Return a running two-worker Dask cluster, used through --scheduler ADDRESS."""
     from dask.distributed import LocalCluster
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=50)

@@ -26,16 +26,16 @@ keeps one ``result.json`` per record and rebuilds the fleet table from them. The
 therefore always holds exactly the records finished so far, also after Ctrl-C, and a
 rerun skips every record whose result matches the file and the options.
 """
+from dataclasses import asdict, dataclass
+from functools import lru_cache
 import glob
 import hashlib
 import json
 import logging
 import os
+from pathlib import Path
 import sys
 import time
-from dataclasses import asdict, dataclass
-from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
@@ -123,8 +123,12 @@ def file_fingerprint(path):
 # ------------------------------------------------------------------------------ worker tasks
 @lru_cache(maxsize=4)
 def _load(path, rate_hz, stamp):
-    """Load and check one record on a worker (cached: every candidate task of a record reads
-    it; `stamp` is the file fingerprint, so a changed file is read again)."""
+    """
+    Load and check one record on a worker.
+
+    Cached, since every candidate task of a record reads it; `stamp` is the file
+    fingerprint, so a changed file is read again.
+    """
     from .data import check_excitation, load_data
     data = load_data(path, rate_hz=rate_hz)
     check_excitation(data, path)
@@ -247,7 +251,7 @@ class RecordRun:
         return bool(summary['named']) and len(self.rounds) < self.options.rounds
 
     def result(self, parameters=None, error=None):
-        """The record's result document (one table row plus its rounds)."""
+        """Return the record's result document (one table row plus its rounds)."""
         first = self.rounds[0] if self.rounds else {}
         named = [r['named'] for r in self.rounds if r['named']]
         return {'record': str(self.path), 'key': self.key,
@@ -270,8 +274,12 @@ class RecordRun:
 
 
 def _final_nrmse(rounds):
-    """Validation NRMSE of the final model: the last round's refit with the effect it
-    named, or its base if it named none."""
+    """
+    Return the validation NRMSE of the final model.
+
+    The final model is the last round's refit with the effect it named, or its base if
+    it named none.
+    """
     if not rounds:
         return None
     last = rounds[-1]
@@ -284,7 +292,7 @@ def _candidates(options, effects):
 
 
 def load_result(directory, stamp, options):
-    """A finished record's result from a previous run, or None (missing, stale, failed)."""
+    """Return a finished record's result from a previous run, or None (missing, stale, failed)."""
     path = Path(directory) / RESULT_FILE
     try:
         doc = json.loads(path.read_text())
@@ -313,8 +321,11 @@ def error_line(err):
 
 
 class BatchProgress:
-    """Records done, errors and the time left, on stderr: a bar on a terminal, else a line
-    per finished record (so it shows in a log)."""
+    """
+    Records done, errors and the time left, on stderr.
+
+    A bar on a terminal, else a line per finished record (so it shows in a log).
+    """
 
     def __init__(self, total, stream=None):
         self.total, self.done, self.errors = total, 0, 0
@@ -344,8 +355,12 @@ def _duration(seconds):
 
 
 def start_client(scheduler=None, workers=None):
-    """A `dask.distributed.Client`: on a running scheduler, or on a local cluster of
-    `workers` single-threaded processes (default: every core)."""
+    """
+    Return a `dask.distributed.Client`.
+
+    The client is on a running scheduler, or on a local cluster of `workers`
+    single-threaded processes (default: every core).
+    """
     from dask.distributed import Client, LocalCluster
     from .parallel import available_cores
     if scheduler:

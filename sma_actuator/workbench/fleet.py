@@ -23,8 +23,8 @@ Files written into the batch directory (each replaced atomically):
 NRMSE columns are fractions of the record's measured output range (0.01 = 1 %);
 parameter columns are ``param.<name>`` with the unit in the name (``param.delay_s``).
 """
-import html
 from collections import Counter
+import html
 from pathlib import Path
 
 import numpy as np
@@ -127,7 +127,7 @@ def write_index(out_dir, results, title='sma-model batch'):
              '.err{background:#fdd}</style>',
              f'<h1>{esc(title)}</h1>',
              f'<p>{len(rows)} records, {len(rows) - len(failed)} fitted, {len(failed)} '
-             'failed. NRMSE: RMS error as a percentage of the record\'s measured output '
+             'failed. NRMSE: RMS error as a percentage of the record’s measured output '
              'range; validation = the held-out part of each record.</p>',
              '<h2>Effects named</h2>']
     if recurrence:
