@@ -14,8 +14,8 @@
 """
 Benchmark: `sma-model batch` records per minute on 1 and 2 Dask workers, against a loop.
 
-Makes N records with the package's own plant model (half with a hidden 0.3 s delay, half
-without), then times in one run, side by side:
+Makes N records with the package's own plant model under the controller's identification
+excitation (half with a hidden 0.3 s delay, half without), then times in one run, side by side:
 
 * loop:      load, fit and diagnose each record in this process, one after the other
              (what a user's for-loop over `sma-model diagnose --jobs 1` does);
@@ -29,29 +29,32 @@ docs/scale.md plans a large cluster with.
 """
 import argparse
 from pathlib import Path
-import sys
 import tempfile
 import time
 
 import numpy as np
+from sma_actuator.control.excitation import multilevel
+from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import batch
 from sma_actuator.workbench.data import check_excitation, load_data
 from sma_actuator.workbench.engine import diagnose, fit_model
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from support.plant_records import simulate  # noqa: E402, I100
 
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 
 
 def make_records(directory, n, minutes, rate_hz):
-    """Write n CSV records; every second one has a 0.3 s delay."""
-    paths = []
+    """Write n CSV records of the plant model; every second one has a 0.3 s delay."""
+    paths, dt = [], 1.0 / rate_hz
     for i in range(n):
         effect = 'delay' if i % 2 else 'none'
-        rec = simulate(effect, 1, duration_s=60.0 * minutes, rate_hz=rate_hz, seed=i)
+        duty_a, duty_b = multilevel(60.0 * minutes, dt, seed=i)
+        params = ActuatorParams(delay_s=0.3 if i % 2 else 0.0)
+        position = simulate(params, duty_a, duty_b, dt).position_rad
+        position += np.random.default_rng(i).normal(0.0, 0.002, len(position))
         path = Path(directory) / f'{effect}_{i:03d}.csv'
-        np.savetxt(path, np.column_stack([rec[c] for c in COLUMNS]), delimiter=',',
+        np.savetxt(path, np.column_stack([np.arange(len(position)) * dt, duty_a, duty_b,
+                                          position]), delimiter=',',
                    header=','.join(COLUMNS), comments='', fmt='%.6g')
         paths.append(path)
     return paths

@@ -20,18 +20,31 @@ import pyarrow.parquet as pq
 import pytest
 from sma_actuator.bag.synthetic import cdr_encoder, stamp
 from sma_actuator.bag.writer import BagWriter
+from sma_actuator.control.excitation import multilevel
+from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
-from support.plant_records import simulate
 
 N_DELAY, N_NONE = 23, 23
-DURATION_S, RATE_HZ = 120.0, 10.0
+DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 T0_NS = 1_700_000_000_000_000_000
 
 
 def _record(effect, seed):
-    return simulate(effect, 2, duration_s=DURATION_S, rate_hz=RATE_HZ, seed=seed)
+    """
+    Return a short identification run of the package's plant model.
+
+    Multilevel excitation, as the controller's model is identified from, and 2 mrad noise;
+    `effect` 'delay' is a 0.8 s transport delay.
+    """
+    dt = 1.0 / RATE_HZ
+    duty_a, duty_b = multilevel(DURATION_S, dt, seed=seed)
+    params = ActuatorParams(delay_s=DELAY_S if effect == 'delay' else 0.0)
+    position = simulate(params, duty_a, duty_b, dt).position_rad
+    rng = np.random.default_rng(seed)
+    return {'time': np.arange(len(duty_a)) * dt, 'duty_a': duty_a, 'duty_b': duty_b,
+            'position': position + rng.normal(0.0, 0.002, len(duty_a))}
 
 
 def _write_csv(path, rec):
