@@ -174,7 +174,8 @@ def _name_in(error, name):
 def test_batch_rounds_write_reports_linked_from_the_index(fleet, scheduler, tmp_path):
     root, _ = fleet
     out = tmp_path / 'out'
-    argv = ['batch', str(root / 'delay_00.csv'), str(root / 'none_0[01].csv'), '--out', str(out),
+    argv = ['batch', str(root / 'delay_00.csv'), str(root / 'none_0[01].csv'),
+            '--out', str(out),
             '--candidates', 'delay', 'asymmetric_wires', '--rounds', '2',
             '--scheduler', scheduler]
     assert cli.main(argv) == 0
