@@ -235,3 +235,21 @@ def test_table_and_recurrence_from_results():
     assert rows[0]['param.delay_s'] is None and rows[1]['param.delay_s'] == 0.3
     assert effect_recurrence(rows) == {'delay': ['/d/a.csv', '/d/b.csv'],
                                        'convection': ['/d/b.csv']}
+
+
+@pytest.mark.slow
+def test_a_fitted_model_is_compared_with_every_record(fleet, scheduler, tmp_path):
+    root, _ = fleet
+    model = tmp_path / 'delay.yaml'
+    assert cli.main(['fit', str(root / 'delay_00.csv'), '--add', 'delay', '--out',
+                     str(model)]) == 0
+    out = tmp_path / 'out'
+    assert cli.main(['batch', str(root / 'delay_00.csv'), str(root / 'none_00.csv'),
+                     '--model', str(model), '--candidates', 'delay', '--no-reports',
+                     '--out', str(out), '--scheduler', scheduler]) == 0
+    rows = {_name(r['record']): r for r in pq.read_table(out / 'batch.parquet').to_pylist()}
+    # the model fitted on delay_00 predicts its own record well, and misses the plant
+    # without the delay by far more
+    assert rows['delay_00.csv']['reference_nrmse'] < 0.02
+    assert rows['none_00.csv']['reference_nrmse'] > 5 * rows['delay_00.csv']['reference_nrmse']
+    assert rows['delay_00.csv']['base_effects'] == 'delay'

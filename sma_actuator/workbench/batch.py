@@ -44,7 +44,8 @@ TABLE_NAME = 'batch'
 RECORD_SUFFIXES = ('.csv', '.mcap')
 # thermal and shaft parameters of the fitted base model put in the table [units in names]
 BASE_PARAMETERS = ('stroke_rad', 'offset_rad')
-RECORD_COLUMNS = ('samples', 'duration_s', 'rate_hz', 'layout', 'position_unit')
+RECORD_COLUMNS = ('samples', 'duration_s', 'rate_hz', 'layout', 'position_unit',
+                  'reference_nrmse')
 
 
 class BatchError(ValueError):
@@ -61,6 +62,7 @@ class BatchOptions:
     rounds: int = 1              # diagnose rounds: add the named effect and diagnose again
     rate_hz: float = None        # resampling rate for bags [Hz] (None: joint-state rate)
     reports: bool = True         # write an HTML report per record
+    reference: dict = None       # a fitted model (from fit --out) compared with every record
 
     def fingerprint(self):
         """Short hash of the options; a result made with other options is recomputed."""
@@ -141,7 +143,16 @@ def task_base(path, stamp, options, effects):
     started = time.perf_counter()
     data = _load(path, options.rate_hz, stamp)
     fit = fit_model(data, effects=tuple(effects), kind=options.kind)
-    return fit, time.perf_counter() - started, describe_record(data)
+    record = describe_record(data)
+    if options.reference is not None and not effects[len(options.effects):]:
+        record['reference_nrmse'] = compare_reference(options.reference, data)
+    return fit, time.perf_counter() - started, record
+
+
+def compare_reference(spec, data):
+    """NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
+    from .engine import load_fit
+    return float(load_fit(spec, data=data).validation['nrmse'])
 
 
 def describe_record(data):

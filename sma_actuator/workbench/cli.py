@@ -347,9 +347,11 @@ def cmd_batch(args):
     if any(out.resolve() == p for p in paths):
         raise UsageError(f'--out {out} is one of the records; choose another path')
     out.mkdir(parents=True, exist_ok=True)
+    from .modelfile import is_fitted
     options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
                            candidates=tuple(args.candidates) if args.candidates else None,
-                           rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports)
+                           rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
+                           reference=json_safe(spec) if is_fitted(spec) else None)
     _note(args, f'batch: {len(paths)} records -> {out}')
     results = []
     client = start_client(args.scheduler, args.workers)
@@ -453,7 +455,9 @@ def build_parser():
                      help='CSV files, MCAP bags, directories or globs')
     bat.add_argument('--out', required=True, metavar='DIR',
                      help='output directory (results are resumed from it)')
-    bat.add_argument('--model', metavar='MODEL.yaml', help='effects (and kind) to start from')
+    bat.add_argument('--model', metavar='MODEL.yaml',
+                     help='effects (and kind) to start from; a fitted model (fit --out) is '
+                     'also compared with every record (column reference_nrmse)')
     bat.add_argument('--kind', choices=('classical', 'modified'),
                      help='hysteresis base (default: from MODEL.yaml, else modified)')
     bat.add_argument('--candidates', nargs='+', action='extend', metavar='EFFECT',
