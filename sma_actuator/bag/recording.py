@@ -35,6 +35,11 @@ class TopicSelector:
     """
 
     def __init__(self, patterns: Iterable[str]):
+        if patterns is None or isinstance(patterns, (str, bytes)) or not all(
+                isinstance(p, str) for p in patterns):
+            # `topics:=[]` on the command line arrives untyped (None): an empty selection
+            raise ValueError(f'topics must be a list of topic names or patterns, got '
+                             f'{patterns!r}: give at least one (default {list(DEFAULT_TOPICS)})')
         self.patterns = [p.strip() for p in patterns if p and p.strip()]
         if not self.patterns:
             raise ValueError('no topics to record: give at least one topic name or pattern')
