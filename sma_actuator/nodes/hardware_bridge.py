@@ -44,7 +44,7 @@ class HardwareBridge(Node):
     """Bridge node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('hardware_bridge', **kwargs)
+        super().__init__('hardware_bridge', **c.node_options(kwargs))
         f = self._declare_parameters()
         self.port, baud, poly = f['port'], f['baud'], f['adc_polynomial']
         calibration = AdcCalibration(f['adc_offset_rad'], f['adc_scale_rad_per_count'],

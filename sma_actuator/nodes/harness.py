@@ -6,6 +6,7 @@ until `duration_s` of sim time have passed and returns the probe's `Trace`. The 
 talk only over the real topics. `attach` hooks let a caller add more nodes (e.g. a bag
 recorder) to the same executor for the run.
 """
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -48,14 +49,16 @@ class TraceProbe(Node):
     """Listens to setpoint, duty, wire temperatures and joint states; one row per joint state."""
 
     def __init__(self, **kwargs):
-        super().__init__('trace_probe', **kwargs)
+        super().__init__('trace_probe', **c.node_options(kwargs))
         self.trace = Trace()
         self.setpoint = None
         self.duty = (0.0, 0.0)
         self.theta = [float('nan'), float('nan')]
         self.create_subscription(Float64, c.SETPOINT, self._sp, c.COMMAND_QOS)
         self.create_subscription(Float64MultiArray, c.DUTY, self._duty, c.COMMAND_QOS)
-        self.create_subscription(Temperature, c.WIRE_TEMPERATURE, self._temp, c.SENSOR_QOS)
+        for wire, topic in enumerate(c.WIRE_TEMPERATURES):
+            self.create_subscription(Temperature, topic, functools.partial(self._temp, wire),
+                                     c.SENSOR_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
     def _sp(self, msg):
@@ -64,9 +67,8 @@ class TraceProbe(Node):
     def _duty(self, msg):
         self.duty = tuple(msg.data)
 
-    def _temp(self, msg):
-        if msg.header.frame_id in c.WIRE_FRAMES:
-            self.theta[c.WIRE_FRAMES.index(msg.header.frame_id)] = msg.temperature
+    def _temp(self, wire, msg):
+        self.theta[wire] = msg.temperature
 
     def _js(self, msg):
         if self.setpoint is None:      # the loop starts with the first setpoint
@@ -88,7 +90,7 @@ class ExcitationSource(Node):
     duty sent in reply, which the plant holds over [t_k, t_k+1))."""
 
     def __init__(self, duty_a, duty_b, **kwargs):
-        super().__init__('excitation', **kwargs)
+        super().__init__('excitation', **c.node_options(kwargs))
         self.sequence = np.column_stack([duty_a, duty_b])
         self.k = 0
         self.applied = (0.0, 0.0)

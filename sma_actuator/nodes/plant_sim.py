@@ -63,7 +63,7 @@ class PlantSim(Node):
     """Simulated actuator node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('plant_sim', **kwargs)
+        super().__init__('plant_sim', **c.node_options(kwargs))
         self.rate_hz = c.declare_float(self, 'rate_hz', 40.0, 'Publication and step rate [Hz].',
                                        1.0, 1000.0, read_only=True)
         self.accelerated = c.declare_bool(
@@ -116,7 +116,8 @@ class PlantSim(Node):
         self.awaiting_since = None     # wall time of the joint state awaiting a duty (lockstep)
 
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
-        self.temp_pub = self.create_publisher(Temperature, c.WIRE_TEMPERATURE, c.SENSOR_QOS)
+        self.temp_pubs = [self.create_publisher(Temperature, topic, c.SENSOR_QOS)
+                          for topic in c.WIRE_TEMPERATURES]
         self.diag = c.Diagnostics(self, 'plant')
         self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
         if self.use_ambient_topic:
@@ -198,9 +199,9 @@ class PlantSim(Node):
         self.js_pub.publish(JointState(name=[c.JOINT_NAME], position=[position],
                                        velocity=[velocity], header=_header(stamp, '')))
         self.awaiting_since = time.monotonic()
-        for frame, theta in zip(c.WIRE_FRAMES, self.actuator.temperature_c):
-            self.temp_pub.publish(Temperature(header=_header(stamp, frame),
-                                              temperature=float(theta), variance=0.0))
+        for pub, frame, theta in zip(self.temp_pubs, c.WIRE_FRAMES, self.actuator.temperature_c):
+            pub.publish(Temperature(header=_header(stamp, frame), temperature=float(theta),
+                                    variance=0.0))
         self.steps += 1
         if self.steps % self.steps_per_diag == 0:
             if stale and self.last_duty_time is not None:
