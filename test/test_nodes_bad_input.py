@@ -21,7 +21,7 @@ class TopicProbe:
     """A node that publishes setpoints/duties and collects diagnostics, duties, joint states."""
 
     def __init__(self, context):
-        self.node = rclpy.create_node('tester', context=context)
+        self.node = rclpy.create_node('tester', context=context, namespace=c.NAMESPACE)
         self.sp = self.node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
         self.duty_pub = self.node.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
         self.diags, self.duties, self.positions = [], [], []

@@ -34,7 +34,7 @@ from ..hardware.calibration import AdcCalibration
 from ..hardware.link import SerialLink
 from . import common as c
 
-POTENTIOMETER_RAW = '/sma/potentiometer_raw'
+POTENTIOMETER_RAW = 'potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
           'error': DiagnosticStatus.ERROR, 'stale': DiagnosticStatus.STALE}

@@ -1,8 +1,10 @@
 """plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
 
+Topic names are relative to the node's namespace (default /sma; `-r __ns:=/left`).
+
 Publishes /sma/joint_states (joint `shaft`: position = potentiometer + ADC reading,
 velocity = finite difference of consecutive *sensed* positions, as a real pot/ADC chain
-would give), /sma/wire_temperature (wire_a, wire_b: simulated, not sensed) and
+would give), /sma/wire_a/temperature and /sma/wire_b/temperature (simulated, not sensed) and
 /diagnostics. Every physical effect of `ActuatorParams` is a read-only parameter.
 
 Time: normally the node clock (wall, or /clock with use_sim_time). With `accelerated`
