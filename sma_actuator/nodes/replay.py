@@ -43,8 +43,12 @@ PARAMETERS = {
     'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
     'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
     'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
-    'wait_for_subscribers_s': (2.0, 'Before the first message, wait until every played '
-                               'topic has a subscriber, at most this long [s]', (0.0, 600.0)),
+    'wait_for_subscribers_s': (10.0, 'Before the first message, wait at most this long for '
+                               'the required_subscribers (else every played topic) [s]',
+                               (0.0, 600.0)),
+    'required_subscribers': (Parameter.Type.STRING_ARRAY, 'Published topics that must be '
+                             'matched before playback starts, else no playback and exit 1; '
+                             'unset: the duty topic when played, and /clock with clock', None),
     'zero_duty_on_stop': (True, 'On end/stop publish duty [0, 0] on the (remapped) duty topic',
                           None),
     'duty_topic': ('/sma/duty', 'Bag topic that carries the duty commands', None),
@@ -52,6 +56,9 @@ PARAMETERS = {
                              (0.1, 60.0)),
 }
 DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
+# hold after the required subscribers matched, before the first message [s] (discovery
+# matches the two ends one after the other: see _wait_for_subscribers)
+SETTLE_S = 0.5
 
 
 class ReplayNode(Node):
@@ -103,6 +110,20 @@ class ReplayNode(Node):
                               first.log_time_ns, self._publish, options,
                               on_clock=self._publish_clock)
         self._wait_s = p['wait_for_subscribers_s']
+        self._start_ns = first.log_time_ns + int(p['start_offset_s'] * 1e9)
+        published = {self._topic_out[t]: pub for t, pub in self._replay_pubs.items()}
+        if self._clock_pub is not None:
+            published['/clock'] = self._clock_pub
+        required = p['required_subscribers']
+        if required is None:
+            required = [self._topic_out[t] for t in (p['duty_topic'],) if t in self._topic_out]
+            required += ['/clock'] if p['clock'] else []
+        unknown = sorted(set(required) - set(published))
+        if unknown:
+            raise ValueError(f'required_subscribers {unknown} are not published (published: '
+                             f'{sorted(published)})')
+        self._required = {name: published[name] for name in required}
+        self._published = published
         self._stop_event = threading.Event()
         self._zeroed = threading.Lock()
         self._zero_sent = False
@@ -168,17 +189,34 @@ class ReplayNode(Node):
             self._worker.start()
 
     def _wait_for_subscribers(self):
-        """Wait until every played topic is matched (or the wait ends); False if stopped."""
+        """
+        Wait until the required topics (else every played topic) are matched.
+
+        Returns False if stopped meanwhile. Raises RuntimeError when a required topic is
+        still unmatched after wait_for_subscribers_s: playing into nothing is not a replay.
+        Once matched it holds SETTLE_S more (publishing the start time on /clock), because
+        our publisher matching the subscriber does not mean the subscriber matched us yet.
+        """
+        waiting = self._required or self._published
         deadline = time.monotonic() + self._wait_s
-        while time.monotonic() < deadline:
-            if all(pub.get_subscription_count() for pub in self._replay_pubs.values()):
-                return True
-            if self._stop_event.wait(0.05):
-                return False
-        lonely = [self._topic_out[t] for t, pub in self._replay_pubs.items()
-                  if not pub.get_subscription_count()]
+        while not all(pub.get_subscription_count() for pub in waiting.values()):
+            if time.monotonic() > deadline or self._stop_event.wait(0.05):
+                break
+        missing = sorted(n for n, pub in self._required.items()
+                         if not pub.get_subscription_count())
+        if missing and not self._stop_event.is_set():
+            raise RuntimeError(f'no subscriber on {missing} within {self._wait_s:g} s '
+                               '(wait_for_subscribers_s): not playing')
+        lonely = sorted(n for n, pub in self._published.items()
+                        if not pub.get_subscription_count())
         if lonely:
             self.get_logger().warning(f'starting with no subscriber on {lonely}')
+        settle_end = time.monotonic() + (SETTLE_S if self._required else 0.0)
+        while time.monotonic() < settle_end:
+            if self._clock_pub is not None:
+                self._publish_clock(self._start_ns)
+            if self._stop_event.wait(0.05):
+                break
         return not self._stop_event.is_set()
 
     def _run(self):
