@@ -11,6 +11,7 @@ the node publishes duty ``[0, 0]`` on it, so a replay never leaves a wire heated
 Run: ``replay --ros-args -p bag_path:=runs/step1/bag -p rate:=2.0
 -p "remap:=['/sma/joint_states:=/measured/joint_states']"``
 """
+import queue
 import sys
 import threading
 import time
@@ -42,6 +43,10 @@ PARAMETERS = {
     'topics': (Parameter.Type.STRING_ARRAY, 'Topics to play; unset: all in the bag', None),
     'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
     'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
+    'follow_clock': (False, 'Lockstep with a node that owns /clock (plant_sim accelerated '
+                     'lockstep): on each /clock tick publish what is due by then (bag time '
+                     'counted from the first tick) and the last duty again if none is, '
+                     'instead of playing on the wall clock', None),
     'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
     'wait_for_subscribers_s': (10.0, 'Before the first message, wait at most this long for '
                                'the required_subscribers (else every played topic) [s]',
@@ -92,6 +97,15 @@ class ReplayNode(Node):
                 self._reader.topics[self._duty_topic].type != DUTY_TYPE:
             raise UnknownTypeError(self._reader.path, f"duty topic '{self._duty_topic}' is not "
                                                       f'{DUTY_TYPE}; cannot zero it on stop')
+        self._follow = p['follow_clock']
+        if self._follow and (p['clock'] or p['loop'] or p['rate'] != 1.0):
+            raise ValueError('follow_clock takes the time from /clock: it excludes clock, loop '
+                             'and rate')
+        self._ticks = queue.Queue()
+        if self._follow:
+            self.create_subscription(Clock, '/clock', lambda m: self._ticks.put(
+                m.clock.sec * 1_000_000_000 + m.clock.nanosec),
+                QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
         options = PlaybackOptions(
             rate=p['rate'], loop=p['loop'], start_offset_s=p['start_offset_s'],
             clock_period_s=1.0 / p['clock_frequency_hz'] if p['clock'] else None)
@@ -103,6 +117,7 @@ class ReplayNode(Node):
             raise BagError(self._reader.path, 'nothing to play: no topic with messages of an '
                                               f'installed type (bag topics: '
                                               f'{sorted(self._reader.topics)})')
+        self._topics = topics
         messages = self._reader.messages(topics)
         first = next(messages)  # the timeline (and start_offset_s) starts at the first played
         messages.close()
@@ -222,13 +237,50 @@ class ReplayNode(Node):
     def _run(self):
         try:
             if self._wait_for_subscribers():
-                self._player.run(self._stop_event)
+                if self._follow:
+                    self._follow_clock()
+                else:
+                    self._player.run(self._stop_event)
         except Exception as err:  # noqa: BLE001 - report, make safe, never die silently
             self._error = err
             self.get_logger().error(f'playback failed: {err}')
         finally:
             self._send_zero_duty()
             self.finished.set()
+
+    def _follow_clock(self):
+        """Publish on each /clock tick what is due by its bag time; see follow_clock."""
+        deadline = time.monotonic() + self._wait_s
+        while not self.count_publishers('/clock'):
+            if time.monotonic() > deadline:
+                raise RuntimeError(f'no /clock publisher within {self._wait_s:g} s: nothing '
+                                   'to follow')
+            if self._stop_event.wait(0.05):
+                return
+        while not self._ticks.empty():   # ticks queued while waiting are past: start afresh
+            self._ticks.get_nowait()
+        messages = self._reader.messages(self._topics)
+        pending = next(messages, None)
+        first_tick, last_duty = None, None
+        while pending is not None and not self._stop_event.is_set():
+            try:
+                tick = self._ticks.get(timeout=0.05)
+            except queue.Empty:
+                continue
+            first_tick = tick if first_tick is None else first_tick
+            due = self._start_ns + (tick - first_tick)
+            duty_sent = False
+            while pending is not None and pending.log_time_ns <= due:
+                self._publish(pending)
+                self._player.stats.published += 1
+                if pending.topic == self._duty_topic:
+                    last_duty, duty_sent = pending, True
+                pending = next(messages, None)
+            if not duty_sent and last_duty is not None:
+                self._publish(last_duty)   # the plant in lockstep waits for a reply per step
+        if first_tick is not None:
+            self.get_logger().info(f'followed /clock from {first_tick * 1e-9:.3f} s = bag time '
+                                   f'{self._start_ns * 1e-9:.3f} s')
 
     def _publish(self, msg):
         self._replay_pubs[msg.topic].publish(msg.data)
