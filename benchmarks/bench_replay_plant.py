@@ -85,6 +85,7 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
     """
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
     from sma_actuator.nodes import common as c
@@ -93,8 +94,10 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
     rclpy.init(context=context, domain_id=domain_id)
     node = rclpy.create_node('replay_probe', context=context, namespace=c.NAMESPACE)
     got = []
+    # a deep queue: this process may be starved by the busy loops while the plant runs ahead
+    deep = QoSProfile(depth=10000, reliability=ReliabilityPolicy.BEST_EFFORT)
     node.create_subscription(JointState, c.JOINT_STATES, lambda m: got.append(
-        (c.stamp_to_s(m.header.stamp), m.position[0])), c.SENSOR_QOS)
+        (c.stamp_to_s(m.header.stamp), m.position[0])), deep)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     # the plant owns the time and steps in lockstep with the replay (follow_clock), as it
@@ -143,7 +146,7 @@ def compare(reference, replayed, period_s=0.025, max_shift_s=30.0):
     for shift in np.arange(0.0, max_shift_s, period_s):
         tt = t - shift
         inside = (tt >= t_ref[0]) & (tt <= t_ref[-1])
-        if inside.sum() < 0.9 * len(t_ref):
+        if inside.sum() < 0.5 * len(t_ref):   # a best-effort probe may miss some
             continue
         error = p[inside] - np.interp(tt[inside], t_ref, p_ref)
         rms = float(np.sqrt(np.mean(error ** 2)))
