@@ -15,16 +15,45 @@ _sma_venv="${SMA_VENV:-$_sma_root/.venv}"
     "$py" -m venv "$_sma_venv"
   fi
   stamp="$_sma_venv/.sma_stamp_$_sma_set"
+  # ament_copyright (test/test_copyright.py) is on no reachable registry: vendored beside the clone
+  vendor_copyright="$_sma_root/../shared/vendor/ament-copyright-jazzy"
+  extra=()
+  if [ "$_sma_set" = test ]; then
+    if [ ! -f "$vendor_copyright/setup.py" ]; then
+      echo "bootstrap: $vendor_copyright is missing (ament_copyright for the lint tests;" \
+        "shared/ must sit beside the clone)" >&2
+      exit 1
+    fi
+    extra=("$vendor_copyright/setup.py" "$vendor_copyright/package.xml")
+  fi
   vendor="$_sma_root/../shared/vendor/ros2-launch-jazzy"
-  want="$(cat "$_sma_root/requirements/"*.txt "$_sma_root/setup.py" "$_sma_root/scripts/bootstrap.sh" \
-    "$_sma_root/scripts/build_composition_interfaces.py" | sha256sum | cut -c1-16)"
+  want="$(cat "$_sma_root/requirements/"*.txt "$_sma_root/setup.py" "${extra[@]}" \
+    "$_sma_root/scripts/bootstrap.sh" "$_sma_root/scripts/build_composition_interfaces.py" \
+    | sha256sum | cut -c1-16)"
   if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     "$_sma_venv/bin/python" -m pip install -q -r "$_sma_root/requirements/$_sma_set.txt" \
       -c "$_sma_root/requirements/constraints.txt"
+    if [ "$_sma_set" = test ]; then
+      # build from a copy: pip builds in tree and shared/ may be read-only
+      tmp_src="$(mktemp -d)"
+      cp -r "$vendor_copyright" "$tmp_src/ament_copyright"
+      rm -rf "$tmp_src/ament_copyright/build" "$tmp_src/ament_copyright/"*.egg-info
+      "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation \
+        "$tmp_src/ament_copyright"
+      rm -rf "$tmp_src"
+    fi
     "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$_sma_root"
-    # ROS 2 Jazzy launch system: no registry serves it; its PyPI deps are in requirements
-    "$_sma_venv/bin/python" -m pip install -q --no-deps "$vendor/launch" "$vendor/launch_ros" \
-      "$vendor/launch_xml" "$vendor/launch_yaml"
+    # ROS 2 Jazzy launch system: no registry serves it; its PyPI deps are in requirements.
+    # Built from a copy, as ament_copyright above.
+    tmp_src="$(mktemp -d)"
+    for pkg in launch launch_ros launch_xml launch_yaml; do
+      cp -r "$vendor/$pkg" "$tmp_src/$pkg"
+      rm -rf "$tmp_src/$pkg/build" "$tmp_src/$pkg/"*.egg-info
+    done
+    "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation "$tmp_src/launch" \
+      "$tmp_src/launch_ros" \
+      "$tmp_src/launch_xml" "$tmp_src/launch_yaml"
+    rm -rf "$tmp_src"
     "$_sma_venv/bin/python" "$_sma_root/scripts/build_composition_interfaces.py" \
       "$vendor/composition_interfaces" 2>&1 | grep -v -e '^Reading' -e '^Writing' -e 'duplicate entry'
     # what an ament_python install puts in share/: the ament index marker and share/<pkg>

@@ -1,25 +1,38 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """BagWriter output follows rosbag2_storage_mcap conventions and reads back independently."""
-import shutil
 from pathlib import Path
+import shutil
 
-import pytest
-import yaml
 from mcap.reader import make_reader
+import pytest
 from rosbags.highlevel import AnyReader
-
 from sma_actuator.bag import writer as writer_module
 from sma_actuator.bag.errors import BagExistsError, BagWriteError
 from sma_actuator.bag.msgdefs import DELIMITER, message_definition, type_description_hash
 from sma_actuator.bag.qos import load_offered_qos_profiles
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.synthetic import SMA_TOPICS, cdr_encoder, offered_profile, stamp
+from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, SMA_TOPICS, stamp
 from sma_actuator.bag.writer import BagWriter
+import yaml
 
 T0 = 1_700_000_000_123_456_789
 
 
 def _message(topic, i):
-    """A distinct, known message dict for message number i on a topic."""
+    """Return a distinct, known message dict for message number i on a topic."""
     type_name = SMA_TOPICS[topic][0]
     t = T0 + i * 1_000_000
     if type_name.endswith('Float64'):
@@ -229,8 +242,12 @@ def test_bad_writes_name_the_problem(tmp_path):
 
 
 def test_old_chunks_reach_the_file_before_close(tmp_path, monkeypatch):
-    """Crash safety: after chunk_max_age_s a chunk is on disk, so a copy of the unfinished file
-    (what a SIGKILL leaves) is recovered with all messages written before that point."""
+    """
+    Crash safety.
+
+    After chunk_max_age_s a chunk is on disk, so a copy of the unfinished file (what a SIGKILL
+    leaves) is recovered with all messages written before that point.
+    """
     clock = [100.0]
     monkeypatch.setattr(writer_module.time, 'monotonic', lambda: clock[0])
     bag = BagWriter(tmp_path / 'live', chunk_max_age_s=0.5)

@@ -1,4 +1,19 @@
-"""The bridge's ROS-free logic against the real MCU logic, on simulated time.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The bridge's ROS-free logic against the real MCU logic, on simulated time.
 
 BridgeCore and McuCore exchange their bytes directly (no port, no plant): the safety
 rules of issue 4 are checked at the MCU's outputs, where they matter.
@@ -6,7 +21,6 @@ rules of issue 4 are checked at the MCU's outputs, where they matter.
 import math
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import (BridgeConfig, BridgeCore, LinkState, sanitize_duty,
                                                to_counts)

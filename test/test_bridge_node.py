@@ -1,4 +1,19 @@
-"""hardware_bridge node <-> MCU emulator (shared plant core) through the real topics.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+hardware_bridge node <-> MCU emulator (shared plant core) through the real topics.
 
 The emulator runs in this process (a thread on a pty) so the tests can look at the
 "MCU" outputs directly: the safety rules are checked at the PWM pins, not in the bridge.
@@ -7,12 +22,11 @@ import math
 import threading
 import time
 
-import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
+from hardware_support import emulator_thread, Probe, start_emulator_process, stop_process, wait_for
+import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-
-from hardware_support import Probe, emulator_thread, start_emulator_process, stop_process, wait_for
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts

@@ -1,4 +1,19 @@
-"""The C++ firmware against the Python protocol, byte-for-byte.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The C++ firmware against the Python protocol, byte-for-byte.
 
 Compiles firmware/sma_mcu (framing, CRC, messages, MCU logic) and the real sketch with g++
 into a temporary directory, then checks: every vector in firmware/test_vectors.json is
@@ -7,13 +22,12 @@ agree on random and mutated streams; the sketch itself switches the outputs off 
 100 ms watchdog and on the interlock.
 """
 import json
+from pathlib import Path
 import random
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware import vectors
 

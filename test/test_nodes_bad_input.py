@@ -1,20 +1,38 @@
-"""Bad input through real topics: NaN / inf / out-of-range setpoint and duty are rejected
-with a diagnostics WARN and the last valid value is kept."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Bad input through real topics.
+
+NaN / inf / out-of-range setpoint and duty are rejected with a diagnostics WARN and the last valid
+value is kept.
+"""
 import math
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
 
 class TopicProbe:
@@ -36,8 +54,6 @@ class TopicProbe:
     def warnings(self, node_name, text):
         return [s for s in self.diags if s.name.startswith(node_name) and
                 s.level == DiagnosticStatus.WARN and text in s.message]
-
-
 
 
 @pytest.fixture

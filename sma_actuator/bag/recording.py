@@ -1,8 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Recorder logic without ROS: which topics to record and where the bag goes."""
-import fnmatch
-import re
 from datetime import datetime
+import fnmatch
 from pathlib import Path
+import re
 from typing import Iterable, Optional, Union
 
 #: Topics recorded by default: everything in the recorder's namespace (``/sma`` by default)
@@ -14,7 +28,8 @@ _SAFE_NAME = re.compile(r'^[A-Za-z0-9._-]+$')
 
 
 class TopicSelector:
-    """Decide which topics to record from names and glob patterns (``/sma/*``).
+    """
+    Decide which topics to record from names and glob patterns (``/sma/*``).
 
     :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``. A relative
         pattern (``*``, ``duty``) is resolved in ``namespace``, as ROS resolves topic names.
@@ -42,7 +57,8 @@ class TopicSelector:
 def bag_directory(output_dir: Union[str, Path], run_name: str,
                   name_template: str = DEFAULT_NAME_TEMPLATE,
                   now: Optional[datetime] = None) -> Path:
-    """Return the bag directory ``output_dir/<name>`` with the name made from a template.
+    """
+    Return the bag directory ``output_dir/<name>`` with the name made from a template.
 
     :param name_template: ``str.format`` template with fields ``run_name`` and ``date`` (a
         datetime, so ``{date:%Y%m%d}`` works).

@@ -1,4 +1,19 @@
-"""BagWriter: serialized ROS 2 messages into a rosbag2-compatible MCAP bag directory.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+BagWriter: serialized ROS 2 messages into a rosbag2-compatible MCAP bag directory.
 
 A bag is a directory ``<dir>/`` holding ``<dir name>_0.mcap`` (``_1``, ``_2``... after a split)
 and, once closed, ``metadata.yaml`` (rosbag2 Jazzy format), so ``ros2 bag info/play <dir>``,
@@ -13,16 +28,22 @@ a SIGKILL the file is readable (``BagReader``) up to the last closed chunk.
 
 The writer is thread-safe (one lock) and ROS-free: callers pass bytes already in CDR.
 """
+from pathlib import Path
 import threading
 import time
-from pathlib import Path
 from typing import Dict, List, Optional, Union
 
 from mcap.writer import CompressionType, Writer
 
 from .errors import BagExistsError, BagWriteError
-from .metadata import (BagRecord, FileRecord, METADATA_FILE, TopicRecord,
-                       dump_serialized_metadata, write_metadata_yaml)
+from .metadata import (
+    BagRecord,
+    dump_serialized_metadata,
+    FileRecord,
+    METADATA_FILE,
+    TopicRecord,
+    write_metadata_yaml,
+)
 from .msgdefs import message_definition, normalize_type_name, type_description_hash
 from .qos import dump_offered_qos_profiles
 from .. import __version__
@@ -121,7 +142,8 @@ class _StorageFile:
 
 
 class BagWriter:
-    """Write a rosbag2 bag directory of MCAP files from serialized (CDR) messages.
+    """
+    Write a rosbag2 bag directory of MCAP files from serialized (CDR) messages.
 
     Usage::
 
@@ -213,7 +235,8 @@ class BagWriter:
     def add_topic(self, name: str, type_name: str, offered_qos_profiles=None, *,
                   type_hash: Optional[str] = None, definition: Optional[str] = None,
                   serialization_format: str = 'cdr'):
-        """Declare a topic before writing to it.
+        """
+        Declare a topic before writing to it.
 
         :param name: Topic name, e.g. ``/sma/duty``.
         :param type_name: ``pkg/msg/Type``.
@@ -247,7 +270,8 @@ class BagWriter:
 
     def write(self, topic: str, data: bytes, log_time_ns: int,
               publish_time_ns: Optional[int] = None):
-        """Write one serialized message.
+        """
+        Write one serialized message.
 
         :param topic: A topic declared with :meth:`add_topic`.
         :param data: The CDR bytes, stored unchanged.
@@ -282,7 +306,8 @@ class BagWriter:
                 self._flush_if_due_locked()
 
     def close(self) -> BagRecord:
-        """Finish the open file (summary, index) and write ``metadata.yaml``; idempotent.
+        """
+        Finish the open file (summary, index) and write ``metadata.yaml``; idempotent.
 
         :return: The bag's metadata (files, topics and counts).
         """

@@ -1,4 +1,19 @@
-"""Host side of the hardware bridge, free of ROS and of the serial port.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Host side of the hardware bridge, free of ROS and of the serial port.
 
 `BridgeCore` turns duty commands into Duty frames and received frames into joint
 samples, and owns the host's safety rules:
@@ -16,13 +31,12 @@ write to the port. The caller serialises calls (one lock) and writes in call ord
 from __future__ import annotations
 
 import collections
+from dataclasses import dataclass
 import enum
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 
@@ -80,7 +94,8 @@ def to_counts(duty: float) -> int:
 
 
 def sanitize_duty(values, max_counts: int, interlock_counts: int) -> tuple[int, int, list[str]]:
-    """Validate and limit a [duty_a, duty_b] command; returns (a, b) in counts and notes.
+    """
+    Validate and limit a [duty_a, duty_b] command; returns (a, b) in counts and notes.
 
     Raises ValueError naming the problem for input that cannot be a duty command.
     Notes describe every change made (clamping, interlock). If both exceed the interlock,
@@ -161,7 +176,7 @@ class BridgeCore:
         self._enter(LinkState.DISCONNECTED, now_s)
 
     def on_open_failed(self, reason: str, now_s: float):
-        """Opening the port failed (retried with backoff by the link)."""
+        """Open the port failed (retried with backoff by the link)."""
         self.link_error = reason
         self.counters['open_failures'] += 1
         self._log_throttled('open', 'error', f'{reason} (retrying with backoff)', now_s)
@@ -191,7 +206,7 @@ class BridgeCore:
     # --- duty commands ------------------------------------------------------------------
 
     def on_duty_command(self, values, now_s: float) -> bytes:
-        """A /sma/duty command [duty_a, duty_b]; returns the Duty frame to send (if connected)."""
+        """Handle a /sma/duty command [duty_a, duty_b]; return the Duty frame to send, if any."""
         self.counters['commands'] += 1
         self._last_command_s = now_s
         if self.duty_timed_out:
@@ -338,7 +353,8 @@ class BridgeCore:
     # --- diagnostics --------------------------------------------------------------------
 
     def diagnostics(self) -> list[tuple[str, str, str, dict]]:
-        """(name, level, message, values) for the link, the MCU and the duty path.
+        """
+        (name, level, message, values) for the link, the MCU and the duty path.
 
         level is 'ok', 'warn', 'error' or 'stale'.
         """

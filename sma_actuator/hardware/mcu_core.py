@@ -1,4 +1,19 @@
-"""The microcontroller's protocol and safety logic, free of hardware and of ROS.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The microcontroller's protocol and safety logic, free of hardware and of ROS.
 
 Python twin of ``firmware/sma_mcu/sma_mcu_core.cpp``: both are driven with the same
 scenarios in ``firmware/test_vectors.json`` and must produce the same PWM values, fault
@@ -40,7 +55,8 @@ def elapsed_us(now_us: int, then_us: int) -> int:
 
 
 class McuCore:
-    """MCU logic: feed received bytes and poll regularly; both return the bytes to send.
+    """
+    MCU logic: feed received bytes and poll regularly; both return the bytes to send.
 
     `read_adc()` returns the potentiometer's ADC counts; it is called whenever an
     AdcReport is built. `pwm_a`/`pwm_b` are the duty counts the outputs must apply.

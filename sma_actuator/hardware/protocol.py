@@ -1,4 +1,19 @@
-"""Binary serial protocol between the host bridge and the PWM/ADC microcontroller.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Binary serial protocol between the host bridge and the PWM/ADC microcontroller.
 
 This is the one Python implementation of the protocol; the bridge (host side) and the MCU
 emulator both use it, and ``firmware/sma_mcu/sma_protocol.cpp`` is its C++ twin, checked
@@ -15,11 +30,11 @@ All multi-byte integers are little-endian. ``seq`` counts the frames each sender
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
 import operator
 import struct
-import zlib
-from dataclasses import dataclass, fields
 from typing import ClassVar, Iterator, Union
+import zlib
 
 PROTOCOL_VERSION = 1
 DUTY_FULL_SCALE = 65535          # duty counts meaning duty 1.0
@@ -52,7 +67,8 @@ def crc32(data: bytes) -> int:
 
 
 def cobs_encode(data: bytes) -> bytes:
-    """Consistent Overhead Byte Stuffing: `data` re-coded without any zero byte.
+    """
+    Consistent Overhead Byte Stuffing: `data` re-coded without any zero byte.
 
     A trailing 254-byte block gets no extra 0x01 code (the shortest encoding, as in
     most C implementations and in firmware/sma_mcu/sma_protocol.cpp).
@@ -95,7 +111,7 @@ def cobs_decode(encoded: bytes) -> bytes:
 class Frame:
     """One frame that passed COBS, length and CRC checks (its message is not yet parsed)."""
 
-    type: int
+    type: int  # noqa: A003 (the frame's type byte, docs/protocol.md)
     seq: int
     body: bytes
 
@@ -111,7 +127,7 @@ ERROR_KINDS = ('oversize', 'cobs', 'short', 'crc')
 
 
 def encode_frame(msg_type: int, seq: int, body: bytes) -> bytes:
-    """The wire bytes (COBS + trailing delimiter) of one frame."""
+    """Return the wire bytes (COBS + trailing delimiter) of one frame."""
     if not 0 <= msg_type <= 0xFF or not 0 <= seq <= 0xFF:
         raise ProtocolError(f'frame type {msg_type} and seq {seq} must both be in 0..255')
     payload = bytes((msg_type, seq)) + bytes(body)
@@ -138,7 +154,8 @@ def decode_chunk(chunk: bytes) -> Union[Frame, FrameError]:
 
 
 class FrameDecoder:
-    """Splits a byte stream at zero delimiters into frames, counting and skipping bad ones.
+    """
+    Splits a byte stream at zero delimiters into frames, counting and skipping bad ones.
 
     A bad chunk costs only itself: decoding restarts after the next delimiter. Empty
     chunks (repeated delimiters, used to flush a receiver) are ignored silently.
@@ -201,7 +218,7 @@ class Message:
     FORMAT: ClassVar[struct.Struct]
 
     def body(self) -> bytes:
-        """The packed body; raises ProtocolError naming any field out of its integer range."""
+        """Return the packed body; raise ProtocolError naming any field out of its int range."""
         values = []
         for f, code in zip(fields(self), self.FORMAT.format[1:]):
             value, (low, high) = getattr(self, f.name), _RANGES[code]
@@ -216,7 +233,7 @@ class Message:
         return self.FORMAT.pack(*values)
 
     def encode(self, seq: int) -> bytes:
-        """The complete wire frame of this message with sequence number `seq`."""
+        """Return the complete wire frame of this message with sequence number `seq`."""
         return encode_frame(self.TYPE, seq, self.body())
 
 
@@ -330,7 +347,8 @@ def fault_names(faults: int) -> list[str]:
 
 
 class MessageStream:
-    """FrameDecoder plus message parsing: feed bytes, get (seq, message) pairs.
+    """
+    FrameDecoder plus message parsing: feed bytes, get (seq, message) pairs.
 
     Frames whose type is not in `accept` or whose body has the wrong size are counted in
     `malformed`; `lost` counts frames missing according to the sender's seq numbers.

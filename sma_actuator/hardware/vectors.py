@@ -1,4 +1,19 @@
-"""Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
 
 ``python -m sma_actuator.hardware.vectors --write`` regenerates firmware/test_vectors.json
 from this package's protocol and MCU logic; ``--check`` verifies the file is up to date.
@@ -13,9 +28,9 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 import random
 import sys
-from pathlib import Path
 
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import McuCore
@@ -25,7 +40,7 @@ SEED = 20240604
 
 
 def scenario_adc():
-    """The ADC reading sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
+    """Return the ADC sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
     state = {'n': 0}
 
     def read():
@@ -47,7 +62,8 @@ def stream_events(data: bytes) -> str:
 
 
 def run_scenario(steps: list[tuple]) -> str:
-    """Run McuCore through `steps` and return its canonical per-step output text.
+    """
+    Run McuCore through `steps` and return its canonical per-step output text.
 
     steps: ('S', t_us) start, ('P', t_us) poll, ('R', t_us, bytes) receive then poll.
     Output per step: 'pwm_a,pwm_b,faults,txhex' ('-' for nothing sent).
@@ -190,7 +206,7 @@ def build_vectors() -> dict:
 
 
 def render(doc: dict) -> str:
-    """The exact file text: header keys, then one vector object per line."""
+    """Return the exact file text: header keys, then one vector object per line."""
     head = ', '.join(f'{json.dumps(k)}: {json.dumps(v)}' for k, v in doc.items() if k != 'vectors')
     lines = ',\n'.join(json.dumps(v) for v in doc['vectors'])
     return '{' + head + ', "vectors": [\n' + lines + '\n]}\n'
@@ -198,7 +214,7 @@ def render(doc: dict) -> str:
 
 def main(argv=None) -> int:
     """Write or check the vectors file; exit status 1 if --check finds it out of date."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--write', action='store_true', help='regenerate the file')
     parser.add_argument('--check', action='store_true',
                         help='fail if the file differs from the generator')

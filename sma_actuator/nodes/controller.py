@@ -1,4 +1,19 @@
-"""controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
 
 The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
 sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
@@ -11,21 +26,21 @@ Setpoints that are NaN/inf/outside [setpoint_min_rad, setpoint_max_rad] are reje
 (log + diagnostics WARN) and the last valid setpoint is kept. Mode, gains and limits are
 parameters that can be changed at runtime (validated; an invalid set is refused).
 """
-import time
 from collections import deque
 from dataclasses import fields
+import time
 
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
-from ..control.core import MODES, ControllerCore, ControllerSettings
+from . import common as c
+from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
 from ..control.model_file import load_model
-from . import common as c
 
 # runtime-tunable settings: (name, range or None, description)
 TUNABLE = (
@@ -116,7 +131,7 @@ class Controller(Node):
             self.ambient_c = msg.temperature
 
     def on_joint_state(self, msg, info):
-        received_ns = info.get("received_timestamp", 0) if isinstance(info, dict) else 0
+        received_ns = info.get('received_timestamp', 0) if isinstance(info, dict) else 0
         arrival_ns = received_ns if received_ns > 0 else time.time_ns()
         try:
             position = msg.position[list(msg.name).index(c.JOINT_NAME)]
@@ -194,8 +209,12 @@ class Controller(Node):
         return out
 
     def timing_stats(self):
-        """Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
-        jitter p99 [ms] (|interval − period_s|) over the last 2000 samples."""
+        """
+        Return latency and timer jitter over the last 2000 samples.
+
+        Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
+        jitter p99 [ms] (|interval − period_s|).
+        """
         out = {}
         if self.latencies:
             lat = np.asarray(self.latencies) * 1e3

@@ -1,4 +1,19 @@
-"""hardware_bridge: /sma/duty -> serial PWM/ADC microcontroller -> /sma/joint_states.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+hardware_bridge: /sma/duty -> serial PWM/ADC microcontroller -> /sma/joint_states.
 
 Drives the real rig (or the `mcu_emulator`) over the protocol of docs/protocol.md. The
 logic is in `hardware.bridge_core` (safety, handshake, calibration) and
@@ -21,18 +36,18 @@ import sys
 import threading
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+import rclpy
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
 
+from . import common as c
 from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
 from ..hardware.link import SerialLink
-from . import common as c
 
 POTENTIOMETER_RAW = 'potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers

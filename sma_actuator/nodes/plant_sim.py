@@ -1,4 +1,19 @@
-"""plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
 
 Topic names are relative to the node's namespace (default /sma; `-r __ns:=/left`).
 
@@ -23,18 +38,18 @@ import time
 
 import numpy as np
 import rclpy
-import yaml
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
+import yaml
 
-from ..control.inputs import LastValid, duty_problem
+from . import common as c
+from ..control.inputs import duty_problem, LastValid
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
-from . import common as c
 
 # (parameter, range, description) for every switchable effect of ActuatorParams; each range
 # lies within the workbench's fit bounds, so any record the plant makes can be diagnosed

@@ -1,4 +1,19 @@
-"""recorder node: record topics to a rosbag2-compatible MCAP bag (docs/recording.md).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+recorder node: record topics to a rosbag2-compatible MCAP bag (docs/recording.md).
 
 Subscribes (raw, so the CDR bytes are stored as received) to every topic matching ``topics``
 as soon as it has a publisher, with the QoS rosbag2 would request (reliable/transient_local
@@ -13,19 +28,31 @@ Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor,
 import functools
 import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+import rclpy
 from rclpy.node import Node
-
 from sma_actuator.bag.errors import BagError
 from sma_actuator.bag.msgdefs import type_description_hash
 from sma_actuator.bag.qos import adapt_request_to_offers
-from sma_actuator.bag.recording import (DEFAULT_NAME_TEMPLATE, DEFAULT_TOPICS, TopicSelector,
-                                        bag_directory)
-from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, diagnostics,
-                                          message_class, parameter_overrides, publisher_offers,
-                                          qos_profile, take_pending)
-from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
+from sma_actuator.bag.recording import (
+    bag_directory,
+    DEFAULT_NAME_TEMPLATE,
+    DEFAULT_TOPICS,
+    TopicSelector,
+)
+from sma_actuator.bag.ros_interop import (
+    declare_parameters,
+    diagnostics,
+    ERROR,
+    message_class,
+    OK,
+    parameter_overrides,
+    publisher_offers,
+    qos_profile,
+    take_pending,
+    WARN,
+)
+from sma_actuator.bag.writer import BagWriter, COMPRESSIONS
 from sma_actuator.nodes.common import init_with_stop_signals, NAMESPACE, spin_until_stopped
 
 PARAMETERS = {
@@ -58,7 +85,8 @@ DRAIN_CYCLES = 10
 
 
 class RecorderNode(Node):
-    """Record matching topics into a bag; see module doc.
+    """
+    Record matching topics into a bag; see module doc.
 
     :param context: rclpy context (tests, embedding); default: the global one.
     :param namespace: Node namespace; relative ``topics`` patterns resolve in it (a
@@ -171,7 +199,8 @@ class RecorderNode(Node):
                                            values))
 
     def close(self):
-        """Stop recording and finish the bag (summary, metadata.yaml); idempotent.
+        """
+        Stop recording and finish the bag (summary, metadata.yaml); idempotent.
 
         :return: The bag's metadata record (files, topics, counts).
         """
