@@ -45,8 +45,9 @@ PROFILE = {'profile': 'square', 'amplitude': 0.3, 'offset': 0.0, 'period_s': 8.0
 
 def _console(name):
     script = Path(sys.prefix) / 'lib' / 'sma_actuator' / name
-    return [str(script)] if script.exists() else [sys.executable, '-m',
-                                                   f'sma_actuator.nodes.{name}']
+    if script.exists():
+        return [str(script)]
+    return [sys.executable, '-m', f'sma_actuator.nodes.{name}']
 
 
 def record_reference(bag, duration_s=16.0):

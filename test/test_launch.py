@@ -27,13 +27,8 @@ import time
 
 import pytest
 
-launch = pytest.importorskip('launch')
+pytest.importorskip('launch')
 pytest.importorskip('launch_ros')
-
-from launch.actions import (IncludeLaunchDescription, RegisterEventHandler,  # noqa: E402
-                            SetLaunchConfiguration)
-from launch.event_handlers import OnProcessExit  # noqa: E402
-from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STEP_RAD = 0.3
@@ -80,8 +75,8 @@ class Watcher:
         self.context = rclpy.context.Context()
         rclpy.init(context=self.context, domain_id=domain_id)
         self.node = rclpy.create_node('launch_watcher', context=self.context)
-        self.setpoint = {ns: None for ns in namespaces}
-        self.reached = {ns: False for ns in namespaces}
+        self.setpoint = dict.fromkeys(namespaces)
+        self.reached = dict.fromkeys(namespaces, False)
         self.positions = {ns: [] for ns in namespaces}
         for ns in namespaces:
             self.node.create_subscription(
@@ -115,9 +110,12 @@ def run_launch(file, arguments, domain_id, namespaces, extra_check=None):
     Returns (watcher, [(process name, exit code)], what extra_check(node) returned while
     the loop was running).
     """
-    from launch import LaunchDescription, LaunchService
-    from launch_ros.substitutions import FindPackageShare  # noqa: F401 - installed check
     from ament_index_python.packages import get_package_share_directory
+    from launch import LaunchDescription, LaunchService
+    from launch.actions import (IncludeLaunchDescription, RegisterEventHandler,
+                                SetLaunchConfiguration)
+    from launch.event_handlers import OnProcessExit
+    from launch.launch_description_sources import PythonLaunchDescriptionSource
 
     path = Path(get_package_share_directory('sma_actuator')) / 'launch' / file
     exits = []

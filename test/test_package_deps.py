@@ -102,5 +102,6 @@ def test_template_test_depends_are_declared():
 
 def test_the_walk_sees_imports_inside_functions(tmp_path):
     module = tmp_path / 'm.py'
-    module.write_text('import os\n\n\ndef f():\n    from numba import njit\n    import serial.tools\n')
+    module.write_text('import os\n\n\ndef f():\n'
+                      '    from numba import njit\n    import serial.tools\n')
     assert sorted(third_party_imports([module])) == ['numba', 'serial']
