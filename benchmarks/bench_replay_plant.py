@@ -105,7 +105,7 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
     # did with the controller when the run was recorded
     plant = subprocess.Popen(_console('plant_sim') + [
         '--ros-args', '-p', 'accelerated:=true', '-p', 'lockstep:=true',
-        '-p', 'lockstep_timeout_s:=5.0', '-p', 'real_time_factor:=20.0'], env=env,
+        '-p', 'lockstep_timeout_s:=10.0', '-p', 'real_time_factor:=20.0'], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     replay = subprocess.Popen(_console('replay') + [
         '--ros-args', '-p', f'bag_path:={bag}', '-p', "topics:=['/sma/duty']",
@@ -114,6 +114,8 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
     try:
         deadline = time.monotonic() + wall_limit_s
         while replay.poll() is None and time.monotonic() < deadline:
+            if plant.poll() is not None:
+                raise RuntimeError(f'plant_sim exited {plant.returncode} during the replay')
             executor.spin_once(timeout_sec=0.05)
         end = time.monotonic() + 1.0
         while time.monotonic() < end:      # the last joint states in flight

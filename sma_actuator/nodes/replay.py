@@ -279,7 +279,9 @@ class ReplayNode(Node):
                                    'to follow')
             if self._stop_event.wait(0.05):
                 return
-        while not self._ticks.empty():   # ticks queued while waiting are past: start afresh
+        # of the ticks queued while waiting only the newest is live: the plant in lockstep
+        # waits at it for a reply (one reply per tick, else the steps slip)
+        while self._ticks.qsize() > 1:
             self._ticks.get_nowait()
         messages = self._reader.messages(self._topics)
         pending = next(messages, None)
