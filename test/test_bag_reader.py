@@ -172,7 +172,8 @@ def test_broken_metadata_yaml_is_reported(mcap_file):
         BagReader(path.parent)
 
 
-def test_directory_without_metadata_reads_files_in_split_order(tmp_path):
+def test_directory_without_metadata_reads_files_in_split_order(tmp_path, monkeypatch):
+    monkeypatch.setattr('sma_actuator.bag.writer.MIN_FILE_SIZE_BYTES', 1000)  # small files
     payloads = _write(tmp_path / 'b', count=200, max_file_size_bytes=3000)
     (tmp_path / 'b' / 'metadata.yaml').unlink()  # as after a crash
     reader = BagReader(tmp_path / 'b')

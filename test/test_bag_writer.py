@@ -209,7 +209,8 @@ def test_empty_existing_directory_is_used(tmp_path):
 
 @pytest.mark.parametrize('options', [{'max_file_size_bytes': 6000},
                                      {'max_file_duration_s': 0.01}])
-def test_split_files_each_complete_and_together_the_whole_bag(tmp_path, options):
+def test_split_files_each_complete_and_together_the_whole_bag(tmp_path, options, monkeypatch):
+    monkeypatch.setattr(writer_module, 'MIN_FILE_SIZE_BYTES', 1000)   # small files, fast test
     path = tmp_path / 'split'
     written = _write_bag(path, count=60, chunk_size_bytes=1024, **options)
     files = sorted(path.glob('*.mcap'))
@@ -267,3 +268,35 @@ def test_old_chunks_reach_the_file_before_close(tmp_path, monkeypatch):
     assert reader.recoveries and reader.recoveries[0].lost_bytes == 0
     bag.close()
     assert Path(tmp_path / 'live' / 'metadata.yaml').is_file()
+
+
+def test_max_file_size_below_the_minimum_is_a_one_line_error(tmp_path):
+    with pytest.raises(ValueError, match=r'max_file_size_bytes=100 is below the minimum 65536'):
+        BagWriter(tmp_path / 'b', max_file_size_bytes=100)
+    BagWriter(tmp_path / 'c', max_file_size_bytes=writer_module.MIN_FILE_SIZE_BYTES).close()
+
+
+def test_a_split_costs_the_same_however_many_files_came_before(tmp_path, monkeypatch):
+    # issue 13 item 9: each split used to serialise the metadata of every file so far
+    dumps, yamls = [], []
+    dump, write_yaml = writer_module.dump_serialized_metadata, writer_module.write_metadata_yaml
+    monkeypatch.setattr(writer_module, 'dump_serialized_metadata',
+                        lambda bag: dumps.append(len(bag.files)) or dump(bag))
+    monkeypatch.setattr(writer_module, 'write_metadata_yaml',
+                        lambda path, bag: yamls.append(len(bag.files)) or write_yaml(path, bag))
+    path = tmp_path / 'many'
+    payload = bytes(range(256)) * 40   # 10 KiB, incompressible enough
+    with BagWriter(path, compression='none', chunk_size_bytes=1024,
+                   max_file_size_bytes=writer_module.MIN_FILE_SIZE_BYTES) as bag:
+        bag.add_topic('/sma/blob', 'std_msgs/msg/UInt8MultiArray', definition='uint8[] data',
+                      type_hash='RIHS01_' + '0' * 64)
+        for i in range(400):
+            bag.write('/sma/blob', payload, T0 + i * 1000)
+    files = sorted(path.glob('*.mcap'))
+    assert len(files) >= 40
+    assert len(dumps) == len(files)           # one embedded record per file ...
+    assert set(dumps) == {1}                  # ... describing that file only
+    assert yamls == [len(files)]              # metadata.yaml once, at close, with all files
+    info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert sum(f['message_count'] for f in info['files']) == 400
+    assert [m.data for m in BagReader(path).messages()] == [payload] * 400

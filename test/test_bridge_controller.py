@@ -39,7 +39,7 @@ def test_controller_closes_the_loop_through_bridge_and_emulator(ros_context):
         bridge = HardwareBridge(context=ros_context, parameter_overrides=[
             Parameter('port', value=port), Parameter('diagnostics_rate_hz', value=10.0)])
         controller = Controller(context=ros_context)
-        probe = Probe(context=ros_context)
+        probe = Probe(duty=False, context=ros_context)
         setpoint_pub = probe.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
         executor = SingleThreadedExecutor(context=ros_context)
         for node in (bridge, controller, probe):

@@ -108,13 +108,27 @@ def test_vectors_show_the_firmware_watchdog_and_interlock():
     steps, outs = scenarios['watchdog_100ms']
     state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
     # last duty at 60 ms: still on at 159.999 ms
-    assert state['159999'] == ['40000', '100', '0']
+    assert state['159999'] == ['40000', '0', '0']
     assert state['160000'] == ['0', '0', str(p.FAULT_WATCHDOG)]   # 100 ms without duty: off
-    assert state['180000'] == ['0', '20000', '0']        # next duty frame re-enables
+    assert state['180000'] == ['20000', '0', '0']        # next duty frame re-enables
     steps, outs = scenarios['interlock_both_above']
     assert [o.split(',')[:3] for o in outs[2:]] == [
-        ['0', '0', str(p.FAULT_INTERLOCK)], ['19661', '60000', str(p.FAULT_CLAMPED)],
-        ['19662', '19661', '0']]
+        ['0', '0', str(p.FAULT_INTERLOCK)], ['0', '0', str(p.FAULT_REJECTED)],
+        ['0', '0', str(p.FAULT_INTERLOCK)]]
+    # dead time 25 ms: a off at 20 ms, so b is held until 45 ms (issue 13 item 1)
+    steps, outs = scenarios['dead_time_interlock']
+    state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
+    assert state['1000'] == ['30000', '0', '0']
+    assert state['20000'] == state['44999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['45000'] == ['0', '30000', '0']
+    assert state['79999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['80000'] == ['30000', '0', '0']
+    assert state['90000'] == state['100000'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    # a duty above max_duty is rejected, the last valid one kept, the watchdog not fed
+    steps, outs = scenarios['reject_above_max']
+    state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
+    assert state['30'] == ['30000', '0', str(p.FAULT_REJECTED)]
+    assert state['100020'] == ['0', '0', str(p.FAULT_WATCHDOG | p.FAULT_REJECTED)]
 
 
 def test_differential_fuzz_cpp_and_python_decoders_agree(vector_driver):

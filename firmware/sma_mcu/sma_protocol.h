@@ -46,8 +46,8 @@ enum MsgType : uint8_t {
 
 enum Fault : uint16_t {
   kFaultWatchdog = 1u << 0,       // no valid Duty frame for the watchdog time: outputs off
-  kFaultInterlock = 1u << 1,      // last Duty had both channels above the interlock: outputs off
-  kFaultClamped = 1u << 2,        // last Duty exceeded max_duty and was clamped
+  kFaultInterlock = 1u << 1,      // last Duty asked for heat the dead-time interlock holds off
+  kFaultRejected = 1u << 2,       // last Duty exceeded max_duty: ignored, outputs unchanged
   kFaultNotConfigured = 1u << 3,  // no valid Hello since reset: Duty ignored
   kFaultBadVersion = 1u << 4,     // last Hello asked for an unsupported protocol version
 };

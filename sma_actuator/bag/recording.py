@@ -38,6 +38,11 @@ class TopicSelector:
     """
 
     def __init__(self, patterns: Iterable[str], namespace: str = '/'):
+        if patterns is None or isinstance(patterns, (str, bytes)) or not all(
+                isinstance(p, str) for p in patterns):
+            # `topics:=[]` on the command line arrives untyped (None): an empty selection
+            raise ValueError(f'topics must be a list of topic names or patterns, got '
+                             f'{patterns!r}: give at least one (default {list(DEFAULT_TOPICS)})')
         if not namespace.startswith('/'):
             raise ValueError(f'namespace must be absolute (start with /): {namespace!r}')
         given = [p.strip() for p in patterns if p and p.strip()]

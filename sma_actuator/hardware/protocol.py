@@ -47,18 +47,34 @@ DELIMITER = 0
 
 # MCU fault bits, carried in AdcReport.faults and Status.faults/faults_latched.
 FAULT_WATCHDOG = 1 << 0        # no valid Duty frame for watchdog_ms: both outputs off
-FAULT_INTERLOCK = 1 << 1       # last Duty had both channels above the interlock: outputs off
-FAULT_CLAMPED = 1 << 2         # last Duty exceeded max_duty on a channel and was clamped
+FAULT_INTERLOCK = 1 << 1       # last Duty asked for heat the dead-time interlock holds off
+FAULT_REJECTED = 1 << 2        # last Duty exceeded max_duty on a channel: ignored, kept old
 FAULT_NOT_CONFIGURED = 1 << 3  # no valid Hello since reset: Duty frames ignored, outputs off
 FAULT_BAD_VERSION = 1 << 4     # last Hello asked for a protocol version the MCU lacks
 FAULT_NAMES = {
-    FAULT_WATCHDOG: 'watchdog', FAULT_INTERLOCK: 'interlock', FAULT_CLAMPED: 'clamped',
+    FAULT_WATCHDOG: 'watchdog', FAULT_INTERLOCK: 'interlock', FAULT_REJECTED: 'rejected',
     FAULT_NOT_CONFIGURED: 'not_configured', FAULT_BAD_VERSION: 'bad_version',
 }
 
 
 class ProtocolError(ValueError):
     """A frame or message that is not valid under this protocol."""
+
+
+def duty_to_counts(duty) -> int:
+    """
+    Return the counts 0..65535 of a duty fraction 0..1 (nearest).
+
+    Raises ProtocolError for anything else (NaN, inf, 1e308, 2.0, -0.1): garbage is never
+    clamped to full power.
+    """
+    try:
+        value = float(duty)
+    except (TypeError, ValueError):
+        raise ProtocolError(f'duty {duty!r} is not a number') from None
+    if not 0.0 <= value <= 1.0:     # also false for NaN
+        raise ProtocolError(f'duty {value!r} is outside [0, 1]')
+    return int(round(value * DUTY_FULL_SCALE))
 
 
 def crc32(data: bytes) -> int:
@@ -244,7 +260,7 @@ class Hello(Message):
     TYPE = 0x01
     FORMAT = struct.Struct('<BHHI')
     protocol_version: int
-    max_duty: int          # counts; each channel is clamped to this
+    max_duty: int          # counts; a Duty above this on a channel is rejected
     interlock_duty: int    # counts; both channels above this at once is refused
     adc_period_us: int     # longest gap between ADC reports
 

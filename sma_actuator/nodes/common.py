@@ -26,6 +26,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
 import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -64,6 +65,17 @@ def node_options(kwargs):
     `Node(namespace=...)` passes) still takes precedence over this default, as in rcl.
     """
     return {'namespace': NAMESPACE, **kwargs}
+
+
+def expiring_command_qos(lifespan_s):
+    """
+    Return COMMAND_QOS with a lifespan: samples older than `lifespan_s` are never taken.
+
+    For the duty subscriptions of the plant and the bridge (docs/safety.md): a sample
+    queued while the process was frozen expires instead of replaying old heat.
+    """
+    return QoSProfile(depth=COMMAND_QOS.depth, reliability=COMMAND_QOS.reliability,
+                      lifespan=Duration(seconds=lifespan_s))
 
 
 def install_stop_signals():

@@ -144,9 +144,12 @@ def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
     try:
         source = ExcitationSource(duty_a, duty_b, **kw)
         nodes.append(source)
+        # dead time 0: the rows must hold the duties the plant applied, and an excitation
+        # switches from one wire straight to the other; both at once is still refused
         plant_node = PlantSim(**kw, parameter_overrides=_overrides(
             {'accelerated': True, 'lockstep': True, 'lockstep_timeout_s': LOCKSTEP_TIMEOUT_S,
-             'real_time_factor': float(real_time_factor), **(plant or {})}))
+             'real_time_factor': float(real_time_factor), 'interlock_dead_time_s': 0.0,
+             **(plant or {})}))
         plant_node.timer.cancel()
         nodes.append(plant_node)
         for n in nodes:
