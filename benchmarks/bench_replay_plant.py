@@ -102,10 +102,12 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     # the plant owns the time and steps in lockstep with the replay (follow_clock), as it
-    # did with the controller when the run was recorded
+    # did with the controller when the run was recorded; its duty timeout is also the duty
+    # samples' lifespan in wall time, which a starved plant must not outwait
     plant = subprocess.Popen(_console('plant_sim') + [
         '--ros-args', '-p', 'accelerated:=true', '-p', 'lockstep:=true',
-        '-p', 'lockstep_timeout_s:=10.0', '-p', 'real_time_factor:=20.0'], env=env,
+        '-p', 'lockstep_timeout_s:=10.0', '-p', 'real_time_factor:=20.0',
+        '-p', 'duty_timeout_s:=5.0'], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     replay = subprocess.Popen(_console('replay') + [
         '--ros-args', '-p', f'bag_path:={bag}', '-p', "topics:=['/sma/duty']",
