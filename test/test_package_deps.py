@@ -31,7 +31,9 @@ ROOT = Path(__file__).resolve().parents[1]
 ROSDEP_KEYS = {
     'ament_index_python': 'ament_index_python',
     'builtin_interfaces': 'builtin_interfaces',
+    'dask': 'python3-dask',
     'diagnostic_msgs': 'diagnostic_msgs',
+    'distributed': 'python3-distributed',
     'launch': 'launch',
     'launch_ros': 'launch_ros',
     'lz4': 'python3-lz4',
@@ -40,6 +42,7 @@ ROSDEP_KEYS = {
     'mcap_ros2': 'python3-mcap-ros2-support-pip',
     'numba': 'python3-numba',
     'numpy': 'python3-numpy',
+    'pyarrow': 'python3-pyarrow',
     'rcl_interfaces': 'rcl_interfaces',
     'rclpy': 'rclpy',
     'rosgraph_msgs': 'rosgraph_msgs',
