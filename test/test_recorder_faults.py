@@ -111,5 +111,5 @@ def test_empty_topic_list_is_one_line_and_exit_status_1(tmp_path):
         capture_output=True, text=True, timeout=60)
     line = _one_line_failure(proc, proc.stdout + proc.stderr)
     # the parameter layer types the empty list, so it reaches the selector as []
-    assert 'no topics to record' in line and "'/sma/*'" in line, line
+    assert 'no topics to record' in line and "['*', '/diagnostics']" in line, line
     assert not (tmp_path / 'bag').exists()

@@ -85,7 +85,7 @@ class Controller(Node):
     """Controller node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('controller', **kwargs)
+        super().__init__('controller', **c.node_options(kwargs))
         p = c.declare_parameters(self, PARAMETERS)
         mode, model_file = p['mode'], p['model_file']
         values = {name: p[name] for name, *_ in TUNABLE}

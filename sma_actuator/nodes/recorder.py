@@ -60,6 +60,7 @@ from sma_actuator.nodes.common import (
     declare_parameters,
     handle_command_line,
     init_with_stop_signals,
+    NAMESPACE,
     overrides_from_kwargs,
     Param,
     spin_until_stopped,
@@ -67,7 +68,7 @@ from sma_actuator.nodes.common import (
 
 PARAMETERS = (
     Param('topics', list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also '
-          'matches /)'),
+          'matches /; relative ones are in the node namespace)'),
     Param('bag_path', '', 'Bag directory to write; empty: output_dir/<name from '
           'name_template>'),
     Param('output_dir', 'runs', 'Directory in which the bag directory is created'),
@@ -99,16 +100,18 @@ class RecorderNode(Node):
     Record matching topics into a bag; see module doc.
 
     :param context: rclpy context (tests, embedding); default: the global one.
+    :param namespace: Node namespace; relative ``topics`` patterns resolve in it (a
+        ``__ns`` remap on the command line overrides it).
     :param params: Parameter values by name (same names as config/recorder.yaml).
     :raises BagError: The bag cannot be created (exists and not overwrite, bad name...).
     :raises ValueError: An unknown parameter name or a bad value.
     """
 
-    def __init__(self, *, context=None, node_name='recorder', **params):
-        super().__init__(node_name, context=context,
+    def __init__(self, *, context=None, node_name='recorder', namespace=NAMESPACE, **params):
+        super().__init__(node_name, context=context, namespace=namespace,
                          parameter_overrides=overrides_from_kwargs(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
-        self._selector = TopicSelector(p['topics'])
+        self._selector = TopicSelector(p['topics'], self.get_namespace())
         path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
                                               p['name_template'])
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)

@@ -59,7 +59,7 @@ class Setpoint(Node):
     """Setpoint source node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('setpoint', **kwargs)
+        super().__init__('setpoint', **c.node_options(kwargs))
         p = c.declare_parameters(self, PARAMETERS)
         self.profile = Profile(p['profile'], **{name: p[name] for name, *_ in PROFILE_PARAMS})
         rate, self.duration_s, self.one_shot = p['rate_hz'], p['duration_s'], p['one_shot']
