@@ -47,7 +47,7 @@ def test_model_file_round_trip_keeps_every_parameter(tmp_path):
             assert got[key] == pytest.approx(want[key]), key
     for key in ('r', 'lo', 'hi', 'w'):
         np.testing.assert_allclose(got['hysteresis'][key], want['hysteresis'][key])
-    assert yaml.safe_load(text)['tau_fast_s'] == 0.1     # plain float, not a numpy object
+    assert yaml.safe_load(text)['model']['tau_fast_s'] == 0.1     # plain float, not numpy
 
 
 def test_committed_controller_model_is_identified_and_loadable():

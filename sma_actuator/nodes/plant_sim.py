@@ -21,7 +21,6 @@ import time
 
 import numpy as np
 import rclpy
-import yaml
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.time import Time
@@ -30,6 +29,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
 
 from ..control.inputs import LastValid, duty_problem
+from ..control.model_file import load_model
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 from . import common as c
@@ -81,8 +81,8 @@ class PlantSim(Node):
         self.duty_timeout_s = c.declare_float(
             self, 'duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero '
             'duty.', 0.01, 10.0)
-        model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
-                                   'to_dict) for the plant; the effect parameters override it.',
+        model_file = c.declare_str(self, 'model_file', '', 'Optional model file (sma-model fit '
+                                   '--out) for the plant; the effect parameters override it.',
                                    read_only=True)
         ambient = c.declare_float(self, 'ambient_c', 22.0, 'Nominal ambient temperature [°C].',
                                   -40.0, 80.0, read_only=True)
@@ -93,10 +93,7 @@ class PlantSim(Node):
         noise = c.declare_float(self, 'noise_rad', 0.001, 'Potentiometer noise std [rad].',
                                 0.0, 0.1, read_only=True)
         seed = c.declare_int(self, 'seed', 0, 'Noise seed.', 0, 2 ** 31 - 1, read_only=True)
-        base = ActuatorParams()
-        if model_file:
-            with open(model_file) as f:
-                base = ActuatorParams.from_dict(yaml.safe_load(f))
+        base = load_model(model_file) if model_file else ActuatorParams()
         effects = {name: c.declare_float(self, name, getattr(base, name), desc, lo, hi,
                                          read_only=True)
                    for name, lo, hi, desc in EFFECTS}
