@@ -18,7 +18,7 @@ measured angle, both in sensor units [rad] (the error that is judged is r − y)
 
 pi_inverse, effect by effect:
   * sensor nonlinearity: the PI and the inverse work on true angles, p^-1(r) and p^-1(y),
-    the potentiometer polynomial inverted exactly (`core.actuator.sensor_inverse`);
+    the potentiometer polynomial (`core.actuator.sensor_polynomial`) inverted on its rising branch;
   * delay D: the measurement is predicted D ahead (Smith predictor, `estimator`), and the
     reference is extrapolated D ahead (r + D ṙ, ṙ from the last two setpoints; a jump
     larger than `JUMP_RATE_RAD_S` dt is a step and is not extrapolated), so the PI compares
@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from ..core.actuator import sensor_inverse
+from ..core.actuator import sensor_polynomial
 from ..core.validate import finite_scalar
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
@@ -135,19 +135,23 @@ class ReferencePredictor:
 
 
 class SensorMap:
-    """The model's potentiometer polynomial and its exact inverse, tabulated once."""
+    """The model's potentiometer polynomial p and its exact inverse, tabulated once."""
 
     def __init__(self, params):
         self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
                              or params.sensor_c4_rad or params.sensor_c5_rad)
         if not self.identity:
-            readings = np.linspace(-3.2, 3.2, 6401)
-            angles = sensor_inverse(params, readings)
-            keep = np.concatenate([[True], np.diff(angles) > 0])
-            self._readings, self._angles = readings[keep], angles[keep]
+            # the rising branch of p through 0 over the travel and well beyond it
+            angles = np.linspace(-2.0, 2.0, 8001)
+            readings = sensor_polynomial(params, angles)
+            falls = np.flatnonzero(np.diff(readings) <= 0)
+            mid = len(angles) // 2
+            lo = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
+            hi = int(falls[falls >= mid].min()) + 1 if np.any(falls >= mid) else len(angles)
+            self._readings, self._angles = readings[lo:hi], angles[lo:hi]
 
     def angle(self, reading_rad):
-        """True angle [rad] for a sensor reading."""
+        """True angle [rad] for a sensor reading (p^-1, clamped to the tabulated branch)."""
         if self.identity:
             return reading_rad
         return float(np.interp(reading_rad, self._readings, self._angles))
