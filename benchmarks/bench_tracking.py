@@ -70,7 +70,7 @@ RICH_CASES = {
 
 
 def make_plant(source, case, seed):
-    """A fresh plant of `source` for `case`."""
+    """Return a fresh plant of `source` for `case`."""
     if source == 'plant':
         return CorePlant(ActuatorParams(**PLANT_CASES[case][0]), DT, seed=seed)
     from support.richsim_loop import RichPlant
@@ -79,7 +79,7 @@ def make_plant(source, case, seed):
 
 
 def excitation_record(source, case, seconds, seed):
-    """DynamicData of an open-loop multilevel excitation of the plant."""
+    """Return the DynamicData of an open-loop multilevel excitation of the plant."""
     duty_a, duty_b = multilevel(seconds, DT, seed=seed)
     plant = make_plant(source, case, seed + 1000)
     pos = [plant.measure()]
@@ -128,6 +128,35 @@ def step_metrics(model, mode, source, amplitude):
     return (float(t90 - t10) if reached else float('nan')), overshoot, rms
 
 
+def figure(path, models, seconds, seed):
+    """Plot pi_inverse on plant_sim's model with a 0.3 s delay: base vs delay model."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+    fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    runs = {}
+    for effects, label in (([], 'base model'), (['delay'], 'base model + delay')):
+        model, nrmse, _ = fitted_model(models, 'plant', 'delay', effects, seconds, seed)
+        ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+        run = run_tracking(ctrl, make_plant('plant', 'delay', 7), SINE, 61.0, DT)
+        rms = run.summary(21.0)['rms_error']
+        runs[label] = run
+        ax[0].plot(run.time_s, run.position, label=f'{label} (fit NRMSE {100 * nrmse:.2f} %): '
+                   f'RMS {rms:.3f} rad')
+        ax[1].plot(run.time_s, run.setpoint - run.position, label=label)
+    ax[0].plot(run.time_s, run.setpoint, 'k--', lw=1, label='setpoint')
+    ax[0].set_ylabel('measured angle [rad]')
+    ax[0].set_title('pi_inverse on plant_sim with a 0.3 s delay (models fitted by sma-model fit)')
+    ax[0].legend(fontsize=8, loc='lower left')
+    ax[1].set_ylabel('error [rad]')
+    ax[1].set_xlabel('time [s]')
+    ax[1].legend(fontsize=8)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    print(f'figure: {path}')
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[1])
     ap.add_argument('--source', nargs='*', default=['plant', 'richsim'],
@@ -138,6 +167,8 @@ def main():
     ap.add_argument('--excitation-s', type=float, default=300.0)
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')
     ap.add_argument('--no-steps', action='store_true', help='skip steps and the 0.2 Hz sine')
+    ap.add_argument('--figure', default='', metavar='PNG',
+                    help='also plot pi_inverse on the delayed plant, base vs delay model')
     ns = ap.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
     models = Path(ns.models)
@@ -166,6 +197,8 @@ def main():
                 ratio = rms['pi_inverse'] / rms['pi']
                 print(f'{source:8s} {case:20s} {label:24s} {rms["pi"]:8.4f} '
                       f'{rms["pi_inverse"]:11.4f} {ratio:7.3f} {cut:>23s}', flush=True)
+    if ns.figure:
+        figure(ns.figure, models, ns.excitation_s, ns.seed)
     if ns.no_steps:
         return
     print('\nplain plant, base model: steps from 0 (rise 10-90 % [s], overshoot [%], RMS [rad]) '

@@ -34,11 +34,10 @@ import sys
 
 import numpy as np
 import rclpy
-import yaml
-
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.nodes.harness import run_excitation
 from sma_actuator.workbench.cli import main as sma_model
+import yaml
 
 DT = 0.025
 
@@ -85,6 +84,8 @@ def main(argv=None):
         return status
     spec = yaml.safe_load(out.read_text(encoding='utf-8'))
     val = spec['scores']['validation']['nrmse']
+    m = spec['model']
+    tau = m['heat_capacity_j_per_k'] / m['conductance_w_per_k']
     header = (f'Produced by scripts/fit_controller_model.py --seconds {ns.seconds:g} '
               f'--seed {ns.seed}' + (f' --plant {" ".join(ns.plant)}' if ns.plant else '')
               + (f' --add {" ".join(ns.add)}' if ns.add else '') + '\n'
@@ -92,7 +93,7 @@ def main(argv=None):
               f'{plant or "(defaults)"} driven open loop by control.excitation.multilevel '
               f'(seed {ns.seed}, noise seed {ns.seed + 1000})\n'
               f'model: sma-model {" ".join(cmd[:-1])}; validation NRMSE {100 * val:.2f} %, '
-              f'tau_s {spec["model"]["heat_capacity_j_per_k"] / spec["model"]["conductance_w_per_k"]:.3f} s')
+              f'tau_s {tau:.3f} s')
     out.write_text(''.join(f'# {line}\n' for line in header.splitlines())
                    + out.read_text(encoding='utf-8'), encoding='utf-8')
     out.chmod(0o644)     # a package config file, readable by every user

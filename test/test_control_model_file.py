@@ -17,21 +17,20 @@ import warnings
 
 import numpy as np
 import pytest
-import yaml
-
 from sma_actuator.control import ControllerCore, ControllerSettings, load_model
 from sma_actuator.control.closed_loop import CorePlant
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.control.model_file import ModelFileError, ModelFormatWarning, save_model
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.workbench.cli import main as sma_model
+import yaml
 
 DT = 0.025
 
 
 @pytest.fixture(scope='module')
 def fitted_file(tmp_path_factory):
-    """A model file written by `sma-model fit --out` from a 90 s simulated record."""
+    """Return a model file written by `sma-model fit --out` from a 90 s simulated record."""
     folder = tmp_path_factory.mktemp('fit')
     duty_a, duty_b = multilevel(90.0, DT, seed=4)
     plant = CorePlant(ActuatorParams(), DT, seed=5)

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .metrics import summarize
 from ..core.actuator import AntagonisticActuator
 from ..core.sensor import Potentiometer
-from .metrics import summarize
 
 
 class CorePlant:
@@ -44,7 +44,7 @@ class CorePlant:
         return self.pot.angle(self.pot.counts(angle, self.rng))
 
     def measure(self):
-        """Reading [rad] now."""
+        """Return the reading [rad] now."""
         return self.reading
 
     def ambient_c(self):

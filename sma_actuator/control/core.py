@@ -39,8 +39,6 @@ import math
 
 import numpy as np
 
-from ..core.actuator import sensor_polynomial
-from ..core.validate import finite_scalar
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
@@ -48,6 +46,8 @@ from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
 from .tuning import simc_gains
+from ..core.actuator import sensor_polynomial
+from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
 # a setpoint moving faster than this [rad/s] between two samples is a step, not a trajectory
@@ -151,7 +151,7 @@ class SensorMap:
             self._readings, self._angles = readings[lo:hi], angles[lo:hi]
 
     def angle(self, reading_rad):
-        """True angle [rad] for a sensor reading (p^-1, clamped to the tabulated branch)."""
+        """Return the true angle [rad] of a sensor reading (p^-1 on the tabulated branch)."""
         if self.identity:
             return reading_rad
         return float(np.interp(reading_rad, self._readings, self._angles))

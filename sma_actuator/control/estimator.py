@@ -72,7 +72,7 @@ class WireEstimator:
         return self.model.reading_now - self.reading_delayed
 
     def hysteresis_inputs(self):
-        """Inputs of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
+        """Return each wire's hysteresis input θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
         th, y = self.temperature_c, self.contraction
         sigma = self.params.stress_k
         return np.array([th[0] - sigma * y[1], th[1] - sigma * y[0]])

@@ -1,4 +1,5 @@
-"""Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
+"""
+Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
 
 Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
 
@@ -130,7 +131,7 @@ class InverseFeedforward:
 
     def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None,
                offset_rad=None, stroke_rad=None):
-        """Steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+        """Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         h = p.hysteresis

@@ -13,7 +13,9 @@
 # limitations under the License.
 
 """
-Default PI gains from the fitted model: SIMC rules (Skogestad 2003) on a first-order-plus-delay fit.
+Default PI gains from the fitted model: SIMC rules (Skogestad 2003).
+
+The rules are applied to a first-order-plus-delay reading of the model.
 
 The controlled process, duty u -> measured angle φ, is read from the model as a first-order
 lag with dead time around the transformation:
@@ -33,10 +35,11 @@ SIMC PI for that process, with closed-loop time constant τc:
 
 τc = max(θ, τc,min): the SIMC choice τc = θ (about 3 of gain margin, 70 % of the delay
 margin), bounded below by `TAU_C_MIN_S` because the hysteresis slope varies along the loop
-(the PI must stay stable where the branch is steeper than its secant). A long delay therefore gives a
-proportionally gentler PI. In `pi_inverse` with the Smith predictor the delay is taken out
-of the nominal loop (θ without D) but kept as a lower bound on τc: the prediction is only
-as good as the model, and what it gets wrong still comes back through the delay.
+(the PI must stay stable where the branch is steeper than its secant). A long delay
+therefore gives a proportionally gentler PI. In `pi_inverse` with the Smith predictor the
+delay is taken out of the nominal loop (θ without D) but kept as a lower bound on τc: the
+prediction is only as good as the model, and what it gets wrong still comes back through
+the delay.
 """
 import math
 
@@ -51,7 +54,7 @@ TAU_C_MIN_S = 0.15
 
 def heating_slope_per_k(params):
     """
-    Return the secant slope h' [1/K] of the model's heating branch, ambient to 90 % contraction.
+    Return the secant slope h' [1/K] of the heating branch, ambient to 90 % contraction.
 
     The branch is traced from the cold state at the model's ambient up to ambient + G.
     """

@@ -23,8 +23,8 @@ network, Preisach hysteresis, fatigue, kinematics, sensor polynomial, noise and 
 """
 import math
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 from .richsim import _everett, _params, build_plant
 from .richsim_kernel import adc, ambient, contraction, joule_power, rk4_thermal, sensor_ideal
