@@ -74,7 +74,7 @@ class ControllerSettings:
     guard_horizon_s: float = 0.5    # thermal guard look-ahead [s]
     on_off_band_rad: float = 0.05   # relay half-band of mode on_off [rad]
     on_off_duty: float = 1.0        # heating duty of mode on_off
-    ff_horizon_s: float = 0.5       # pi_inverse thermal inverse horizon [s]; 0: static map
+    ff_horizon_s: float = 0.2       # pi_inverse thermal inverse horizon [s]; 0: static map
     smith: bool = True              # pi_inverse: predict the measurement over the delay
     drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
