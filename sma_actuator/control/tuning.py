@@ -80,14 +80,15 @@ def process_model(params, dt_s=0.025, smith=False):
     return max(k, 1e-3), params.tau_s, delay + params.tau_fast_s + 0.5 * dt_s
 
 
-def simc_gains(params, dt_s=0.025, smith=False):
+def simc_gains(params, dt_s=0.025, smith=False, tau_c_min_s=TAU_C_MIN_S):
     """
     Return SIMC (kp [duty/rad], ki [duty/(rad s)]) for the model (module docstring).
 
-    With smith=True the delay leaves θ but still bounds τc from below.
+    With smith=True the delay leaves θ but still bounds τc from below; tau_c_min_s is the
+    lower bound of τc [s].
     """
     k, t, theta = process_model(params, dt_s, smith)
-    tau_c = max(theta, TAU_C_MIN_S, params.delay_s if smith else 0.0)
+    tau_c = max(theta, tau_c_min_s, params.delay_s if smith else 0.0)
     kp = t / (k * (tau_c + theta))
     ti = min(t, 4.0 * (tau_c + theta))
     if not (math.isfinite(kp) and math.isfinite(ti)) or ti <= 0:
