@@ -24,7 +24,7 @@ from sma_actuator.control.core import SensorMap
 from sma_actuator.control.estimator import (DRIFT_OFFSET_BOUND_RAD, DRIFT_STROKE_BOUND,
                                             DriftEstimator)
 from sma_actuator.control.feedforward import current_limit_inverse, InverseFeedforward
-from sma_actuator.control.tuning import simc_gains
+from sma_actuator.control.tuning import KI_RANGE, KP_RANGE, simc_gains
 from sma_actuator.core.actuator import ActuatorParams, sensor_polynomial, simulate
 from sma_actuator.profiles import Profile
 
@@ -120,6 +120,8 @@ def test_default_gains_come_from_the_model_and_get_gentler_with_delay():
     assert ControllerCore(base, ControllerSettings(kp=2.0, ki=1.0)).gains() == (2.0, 1.0)
     # a stronger actuator (more stroke per duty) gets a smaller gain
     assert simc_gains(base.with_changes(stroke_rad=2.0))[0] == pytest.approx(kp0 / 2.0)
+    # a degenerate fit (almost no stroke) gets bounded gains, not absurd ones
+    assert simc_gains(base.with_changes(stroke_rad=1e-4)) == (KP_RANGE[1], KI_RANGE[1])
 
 
 def test_drift_estimator_converges_and_stays_within_its_bounds():

@@ -33,6 +33,7 @@ SIMC PI for that process, with closed-loop time constant τc:
 
     Kp = T / (K (τc + θ)),   Ti = min(T, 4 (τc + θ)),   Ki = Kp / Ti
 
+Both are clipped to `KP_RANGE` / `KI_RANGE` (a degenerate fit must not give an absurd PI).
 τc = max(θ, τc,min): the SIMC choice τc = θ (about 3 of gain margin, 70 % of the delay
 margin), bounded below by `TAU_C_MIN_S` because the hysteresis slope varies along the loop
 (the PI must stay stable where the branch is steeper than its secant). A long delay
@@ -50,6 +51,10 @@ from ..core.hysteresis import PlayHysteresis
 # lower bound of the closed-loop time constant [s]: within the transformation the branch
 # is several times steeper than its secant slope
 TAU_C_MIN_S = 0.15
+# sanity bounds of the derived gains [duty/rad], [duty/(rad s)]: a degenerate fit (a heating
+# branch that barely moves within ambient + G) must not give an absurd PI
+KP_RANGE = (0.05, 20.0)
+KI_RANGE = (0.01, 40.0)
 
 
 def heating_slope_per_k(params):
@@ -93,4 +98,5 @@ def simc_gains(params, dt_s=0.025, smith=False, tau_c_min_s=TAU_C_MIN_S):
     ti = min(t, 4.0 * (tau_c + theta))
     if not (math.isfinite(kp) and math.isfinite(ti)) or ti <= 0:
         raise ValueError('model gives no finite PI gains (check tau_s, gain_k, stroke_rad)')
-    return kp, kp / ti
+    return (min(max(kp, KP_RANGE[0]), KP_RANGE[1]),
+            min(max(kp / ti, KI_RANGE[0]), KI_RANGE[1]))
