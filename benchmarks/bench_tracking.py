@@ -16,8 +16,9 @@
 Tracking with the fitted model: pi vs pi_inverse, base model vs the model with the effect.
 
 For each plant (an effect switched on) the benchmark
-1. records an open-loop excitation (`control.excitation.multilevel`, 300 s at 40 Hz; its
-   own seed and noise seed) and fits two models with the workbench
+1. records an open-loop excitation (300 s at 40 Hz: `control.excitation.multilevel` on
+   plant_sim's model, the simulator's own excitation on the rich simulator) and fits two
+   models with the workbench
    (`workbench.engine.fit_model`, what `sma-model fit` runs): the paper's base model and
    the base model plus the plant's effect (`sma-model fit --add EFFECT`); each is written
    with the workbench's model file writer and read back with `control.load_model`;
@@ -79,7 +80,18 @@ def make_plant(source, case, seed):
 
 
 def excitation_record(source, case, seconds, seed):
-    """Return the DynamicData of an open-loop multilevel excitation of the plant."""
+    """
+    Return the DynamicData of an open-loop excitation record of the plant.
+
+    plant_sim's model: `control.excitation.multilevel` (what scripts/fit_controller_model.py
+    records); the rich simulator: its own open-loop excitation (test/support/richsim.py).
+    """
+    if source == 'richsim':
+        from support.richsim import simulate
+        effect, magnitude = RICH_CASES[case][0]
+        d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT, seed=seed)
+        return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
+                           d['ambient_temperature'])
     duty_a, duty_b = multilevel(seconds, DT, seed=seed)
     plant = make_plant(source, case, seed + 1000)
     pos = [plant.measure()]

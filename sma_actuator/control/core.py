@@ -32,7 +32,8 @@ pi_inverse, effect by effect:
     ambient is the recording's);
   * drift (`drift_correction`): offset and stroke corrected from the measurements
     (`estimator.DriftEstimator`), bounded.
-Gains: kp, ki default to SIMC rules on the model (`tuning`), gentler with a longer delay.
+Gains: kp, ki default to SIMC rules on the model (`tuning`), gentler with a longer delay;
+pi_inverse bounds the closed-loop time constant by `TAU_C_INVERSE_S`.
 """
 from dataclasses import dataclass, replace
 import math
@@ -45,7 +46,7 @@ from .guard import ThermalGuard
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
-from .tuning import simc_gains
+from .tuning import simc_gains, TAU_C_MIN_S
 from ..core.actuator import sensor_polynomial
 from ..core.validate import finite_scalar
 
@@ -55,6 +56,9 @@ JUMP_RATE_RAD_S = 3.0
 # longest reference extrapolation [rad]
 MAX_EXTRAPOLATION_RAD = 0.5
 NOMINAL_DT_S = 0.025
+# τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
+# step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
+TAU_C_INVERSE_S = 0.25
 
 
 @dataclass
@@ -193,7 +197,8 @@ class ControllerCore:
         """(kp, ki) in use for `settings` (default: the current ones): given or SIMC."""
         s = self.settings if settings is None else settings
         smith = s.mode == 'pi_inverse' and s.smith
-        kp, ki = simc_gains(self.model, NOMINAL_DT_S, smith=smith)
+        kp, ki = simc_gains(self.model, NOMINAL_DT_S, smith=smith,
+                            tau_c_min_s=TAU_C_INVERSE_S if s.mode == 'pi_inverse' else TAU_C_MIN_S)
         return (kp if s.kp is None else s.kp), (ki if s.ki is None else s.ki)
 
     def _apply(self, s):
