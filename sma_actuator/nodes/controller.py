@@ -12,9 +12,9 @@ Setpoints that are NaN/inf/outside [setpoint_min_rad, setpoint_max_rad] are reje
 parameters that can be changed at runtime (validated; an invalid set is refused).
 """
 import time
-import warnings
 from collections import deque
 from dataclasses import fields
+import warnings
 
 import numpy as np
 import rclpy
@@ -25,7 +25,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 
 from ..control.core import MODES, ControllerCore, ControllerSettings
 from ..control.inputs import LastValid, setpoint_problem
-from ..control.model_file import ModelFormatWarning, load_model
+from ..control.model_file import load_model, ModelFormatWarning
 from . import common as c
 
 # runtime-tunable settings: (name, range or None, description)
