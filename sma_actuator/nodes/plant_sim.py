@@ -50,11 +50,11 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
-import yaml
 
 from . import common as c
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
+from ..control.model_file import load_model
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 
@@ -112,7 +112,7 @@ PARAMETERS = (
     c.Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
             'applied duty for this long [plant s] (docs/safety.md).', (0.0, 10.0),
             read_only=True),
-    c.Param('model_file', '', 'Optional YAML (ActuatorParams.to_dict) for the plant; the '
+    c.Param('model_file', '', 'Optional model file (sma-model fit --out) for the plant; the '
             'effect parameters override it.', read_only=True),
     c.Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', (-40.0, 80.0),
             read_only=True),
@@ -328,9 +328,8 @@ def _base_model(model_file):
     if not model_file:
         return ActuatorParams()
     try:
-        with open(model_file) as f:
-            return ActuatorParams.from_dict(yaml.safe_load(f))
-    except (OSError, ValueError, TypeError, yaml.YAMLError) as err:
+        return load_model(model_file)
+    except (OSError, ValueError, TypeError) as err:
         raise c.ParameterError(f'parameter model_file: cannot load {model_file}: {err}') from err
 
 
