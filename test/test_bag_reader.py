@@ -80,7 +80,7 @@ def _chunk_indexes(path):
         return make_reader(f).get_summary().chunk_indexes
 
 
-def test_damaged_chunk_stops_recovery_there(mcap_file, tmp_path):
+def test_damaged_chunk_is_skipped_and_later_chunks_kept(mcap_file, tmp_path):
     path, payloads = mcap_file
     chunks = _chunk_indexes(path)
     victim = chunks[len(chunks) // 2]
@@ -91,10 +91,14 @@ def test_damaged_chunk_stops_recovery_there(mcap_file, tmp_path):
     damaged.write_bytes(bytes(data[:chunks[-1].chunk_start_offset]))  # and cut the end
     reader = BagReader(damaged)
     recovered = [m.data for m in reader.messages()]
-    # exactly the messages of the chunks before the damaged one
-    assert recovered == [p for i, p in enumerate(payloads)
-                         if T0 + i * 1_000_000 < victim.message_start_time]
-    assert reader.recoveries[0].recovered_bytes <= victim.chunk_start_offset
+    # every message except those of the damaged chunk and of the cut-off last chunk
+    times = [T0 + i * 1_000_000 for i in range(len(payloads))]
+    assert recovered == [p for t, p in zip(times, payloads)
+                         if not victim.message_start_time <= t <= victim.message_end_time
+                         and t < chunks[-1].message_start_time]
+    (report,) = reader.recoveries
+    assert report.damage[0].offset == victim.chunk_start_offset
+    assert f'at byte {victim.chunk_start_offset}' in str(report)
 
 
 @pytest.mark.parametrize('compression', ['none', 'lz4', 'zstd'])
