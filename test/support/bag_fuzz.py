@@ -34,7 +34,7 @@ SOURCES = {
     'zstd': {'compression': 'zstd', 'chunk_size_bytes': 2048},
     'lz4': {'compression': 'lz4', 'chunk_size_bytes': 2048},
     'none': {'compression': 'none', 'chunk_size_bytes': 2048},
-    'split': {'compression': 'zstd', 'chunk_size_bytes': 2048, 'max_file_duration_s': 1.5},
+    'split': {'compression': 'zstd', 'chunk_size_bytes': 2048, 'max_file_duration_s': 0.75},
     'one_chunk': {'compression': 'zstd'},
 }
 MCAP_KINDS = ('truncate', 'bitflip', 'zero')
@@ -64,7 +64,7 @@ def make_sources(root):
     """Write one demo recording per entry of `SOURCES`; return name -> bag directory."""
     out = {}
     for name, options in SOURCES.items():
-        out[name] = write_demo_run(Path(root) / name, duration_s=3.0, chunk_max_age_s=0.0,
+        out[name] = write_demo_run(Path(root) / name, duration_s=1.5, chunk_max_age_s=0.0,
                                    **options)
     return out
 
