@@ -196,7 +196,8 @@ def test_malformed_inputs_exit_0_with_valid_data_or_2_with_one_line(tmp_path, st
         name = names[case % len(names)]
         kind = kinds[rng.randrange(len(kinds))]
         target = tmp_path / 'bagcase' / name
-        what = mutate_bag(rng, sources[name], target, sources[names[(case + 1) % len(names)]], kind)
+        other = sources[names[(case + 1) % len(names)]]
+        what = mutate_bag(rng, sources[name], target, other, kind)
         argv = ['fit', str(target)] + (['--rate', rng.choice(RATES)] if case % 4 == 1 else [])
         outcome, detail = _classify(argv, stub_fit)
         outcomes[outcome] += 1

@@ -17,13 +17,13 @@ from the summary statistics, or from ``metadata.yaml``; otherwise a lower bound)
 All sizes read from the file are checked against the file and chunk sizes before anything is
 allocated, and decompression is bounded by the chunk's declared size.
 """
+from dataclasses import dataclass, field
 import io
 import mmap
-import struct
-import zlib
-from dataclasses import dataclass, field
 from pathlib import Path
+import struct
 from typing import Dict, Iterator, List, Optional, Tuple
+import zlib
 
 import lz4.frame
 from mcap.data_stream import ReadDataStream
@@ -112,7 +112,7 @@ class RecoveryReport:
 
     def __str__(self) -> str:
         what = ('damaged chunks (summary intact)' if self.has_summary else
-                'no usable summary (recording did not finish, or the file is damaged)')
+                'no summary (recording did not finish) or a damaged one')
         text = (f'{self.path}: {what}; recovered {self.recovered_messages} messages in '
                 f'{self.recovered_bytes} of {self.file_size} bytes')
         if self.lost_messages or self.lost_exact:
