@@ -1,4 +1,19 @@
-"""BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
 
 Accepts a bag directory (with or without ``metadata.yaml``) or a single ``.mcap`` file. Files
 with a valid summary are read through mcap's indexed reader; files without one (the recorder was
@@ -31,7 +46,7 @@ class TopicInfo:
     """A topic of the bag: type, encodings, recorded QoS and type hash, message count."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 (rosbag2's TopicMetadata field name)
     serialization_format: str
     schema_encoding: str
     definition: str
@@ -100,7 +115,8 @@ class _McapFile:
         self.recovery = _report(path, size, found, summary, expected)
 
     def _read_summary(self, size: int):
-        """Return ``(summary, header profile)``, or ``(None, None)`` without a usable summary.
+        """
+        Return ``(summary, header profile)``, or ``(None, None)`` without a usable summary.
 
         A summary counts only if its CRC (when the writer stored one) matches and it lists
         chunk indexes for all its messages.
@@ -216,7 +232,8 @@ def _report(path: Path, size: int, found, summary, expected: Optional[_Expected]
 
 
 def _bag_files(path: Path):
-    """Resolve a bag path (directory or .mcap file) to its storage files, in order.
+    """
+    Resolve a bag path (directory or .mcap file) to its storage files, in order.
 
     :return: ``[(file, expected counts from metadata.yaml or None), ...]``.
     """
@@ -262,7 +279,8 @@ def _expected_counts(info, n_files: int) -> List[Optional[_Expected]]:
 
 
 class BagReader:
-    """Read an MCAP bag directory or file.
+    """
+    Read an MCAP bag directory or file.
 
     :param path: Bag directory (rosbag2 layout) or a single ``.mcap`` file.
     :raises BagNotFoundError: The path does not exist or holds no .mcap file.
@@ -323,7 +341,8 @@ class BagReader:
 
     def messages(self, topics: Optional[Iterable[str]] = None,
                  start_time_ns: Optional[int] = None) -> Iterator[BagMessage]:
-        """Yield messages in log-time order (per file; files in sequence).
+        """
+        Yield messages in log-time order (per file; files in sequence).
 
         :param topics: Only these topics (default: all).
         :param start_time_ns: Skip messages logged before this time [ns].

@@ -1,8 +1,24 @@
-"""`sma-model`: fit, compare and diagnose actuator models on recorded data.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`sma-model`: fit, compare and diagnose actuator models on recorded data.
 
     sma-model fit DATA [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml] [--json]
     sma-model compare DATA --model FITTED.yaml [--report DIR] [--json]
     sma-model diagnose DATA [--model MODEL.yaml] [--report DIR] [--json]
+    sma-model batch DATA... --out DIR [--model MODEL.yaml] [--rounds N] [--scheduler ADDRESS]
     sma-model effects [--json]        (the catalog, with plug-ins)
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
@@ -14,9 +30,9 @@ docs/workbench.md.
 import argparse
 import json
 import os
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -39,10 +55,12 @@ class OneLineParser(argparse.ArgumentParser):
 
 # ------------------------------------------------------------------------------ progress
 class Progress:
-    """Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
+    """
+    Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
 
     Called as progress(done, total, label); `close()` clears the line.
     """
+
     WIDTH = 24
 
     #: Without a terminal: plain lines, one per 10 %, once a stage has run this long [s].
@@ -166,7 +184,7 @@ def _pct(x):
 
 
 def score_line(part, s):
-    """'validation: NRMSE 1.23 %  RMSE ...' for a scores dict (or n/a)."""
+    """Return 'validation: NRMSE 1.23 %  RMSE ...' for a scores dict (or n/a)."""
     if not s:
         return f'{part:>10}: n/a'
     return (f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}  fit '
@@ -174,7 +192,7 @@ def score_line(part, s):
 
 
 def model_line(effects, kind):
-    """'modified PI base + saturation, delay' ('... (the paper's model)' without effects)."""
+    """Return 'modified PI base + saturation, delay' ('... (the paper's model)' if none)."""
     if effects:
         return f'{kind} PI base + {", ".join(effects)}'
     return f'{kind} PI base' + (" (the paper's model)" if kind == 'modified' else '')
@@ -218,7 +236,7 @@ def cmd_fit(args):
 
 
 def fit_json(fit, out):
-    """The `fit --json` document."""
+    """Return the `fit --json` document."""
     val = fit.validation or {}
     return {'effects': list(fit.effects), 'kind': fit.kind,
             'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
@@ -278,7 +296,6 @@ def _write_report(args, comparison, title, data_line, model, diagnosis=None, alt
 # ------------------------------------------------------------------------------ diagnose
 def cmd_diagnose(args):
     """sma-model diagnose: refit with each candidate effect, rank by held-out improvement."""
-    from .compare import compare
     from .data import describe
     from .engine import diagnose, fit_model
     from .report import check_report_dir
@@ -302,24 +319,15 @@ def cmd_diagnose(args):
         progress.close()
     doc = diag.to_json()
     if args.report:
-        best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
-        alternative = (f'model + {best["effect"]}', _flat(data, best['fit'].prediction)) \
-            if best else None
-        result = compare(data, base.prediction, base.signals, split=base.split)
-        model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.values}
-        _write_report(args, result, f'{PROG} diagnose: {args.data}', describe(data), model,
-                      doc, alternative)
+        from .report import write_diagnosis_report
+        index = write_diagnosis_report(args.report, data, diag, f'{PROG} diagnose: {args.data}',
+                                       describe(data), force=args.force)
+        _note(args, f'report: {index}')
     if args.json:
         print_json(doc)
     else:
         print('\n'.join(diagnosis_lines(doc, base.kind)))
     return 0
-
-
-def _flat(data, prediction):
-    from .compare import flat_static_prediction
-    from .data import is_static
-    return flat_static_prediction(data, prediction) if is_static(data) else prediction
 
 
 def diagnosis_lines(doc, kind):
@@ -342,6 +350,61 @@ def diagnosis_lines(doc, kind):
     return lines
 
 
+# ------------------------------------------------------------------------------ batch
+def cmd_batch(args):
+    """sma-model batch: fit, compare and diagnose every record on a Dask cluster."""
+    from .batch import BatchOptions, BatchProgress, find_records, run_batch, start_client
+    from .fleet import write_index, write_table
+    catalog = setup_effects(args)
+    spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
+    if args.candidates:
+        check_effect_names(args.candidates, catalog, '--candidates')
+    paths = find_records(args.data)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f'--out {out}: exists and is not a directory')
+    if any(out.resolve() == p for p in paths):
+        raise UsageError(f'--out {out} is one of the records; choose another path')
+    out.mkdir(parents=True, exist_ok=True)
+    from .modelfile import is_fitted
+    options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
+                           candidates=tuple(args.candidates) if args.candidates else None,
+                           rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
+                           reference=json_safe(spec) if is_fitted(spec) else None)
+    _note(args, f'batch: {len(paths)} records -> {out}')
+    results = []
+    client = start_client(args.scheduler, args.workers)
+    try:
+        run_batch(paths, out, options, client, force=args.force,
+                  progress=BatchProgress(len(paths)), results=results)
+    except KeyboardInterrupt:
+        write_table(out, results)
+        write_index(out, results)
+        print(f'{PROG}: interrupted; {out / "batch.parquet"} holds the {len(results)} of '
+              f'{len(paths)} records finished so far (rerun to continue)', file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        _close_client(client)
+    table, _ = write_table(out, results)
+    index = write_index(out, results)
+    failed = sum(1 for r in results if r['error'])
+    if args.json:
+        print_json({'out': str(out), 'records': len(results), 'errors': failed,
+                    'table': str(table), 'index': str(index),
+                    'named': {Path(r['record']).name: r['effects_added'] for r in results}})
+    else:
+        print(f'{len(results)} records, {failed} errors; table {table}; index {index}')
+    return 0
+
+
+def _close_client(client):
+    """Close the client and, if it started one, its local cluster."""
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
 # ------------------------------------------------------------------------------ effects
 def cmd_effects(args):
     """sma-model effects: list the catalog (with plug-ins): parameters, signature, physics."""
@@ -362,7 +425,7 @@ def cmd_effects(args):
 
 # ------------------------------------------------------------------------------ parser
 def build_parser():
-    """The argparse parser of `sma-model` (one-line errors, exit code 2)."""
+    """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument('data', metavar='DATA',
                         help='CSV (dynamic or static curves) or MCAP bag (file or directory)')
@@ -404,6 +467,33 @@ def build_parser():
     dia.add_argument('--jobs', type=_non_negative_int, default=0, metavar='N',
                      help='processes for the candidate refits (default 0: every core)')
     dia.set_defaults(func=cmd_diagnose)
+    bat = sub.add_parser('batch', help='fit, compare and diagnose many records (Dask)',
+                         description='Run fit, compare and diagnose on every record, on a '
+                         'Dask cluster; write a table (Parquet, CSV) and an HTML index.')
+    bat.add_argument('data', nargs='+', metavar='DATA',
+                     help='CSV files, MCAP bags, directories or globs')
+    bat.add_argument('--out', required=True, metavar='DIR',
+                     help='output directory (results are resumed from it)')
+    bat.add_argument('--model', metavar='MODEL.yaml',
+                     help='effects (and kind) to start from; a fitted model (fit --out) is '
+                     'also compared with every record (column reference_nrmse)')
+    bat.add_argument('--kind', choices=('classical', 'modified'),
+                     help='hysteresis base (default: from MODEL.yaml, else modified)')
+    bat.add_argument('--candidates', nargs='+', action='extend', metavar='EFFECT',
+                     help='only try these effects (default: every catalog effect)')
+    bat.add_argument('--rounds', type=_positive_int, default=1, metavar='N',
+                     help='diagnose rounds: add the named effect and diagnose again (default 1)')
+    bat.add_argument('--scheduler', metavar='ADDRESS',
+                     help='a running Dask scheduler, e.g. tcp://10.0.0.5:8786 '
+                     '(default: a local cluster on every core)')
+    bat.add_argument('--workers', type=_positive_int, metavar='N',
+                     help='local cluster size in processes (default: every core)')
+    bat.add_argument('--rate', type=_positive_float, metavar='HZ',
+                     help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
+    bat.add_argument('--no-reports', action='store_true', help='skip the per-record reports')
+    bat.add_argument('--force', action='store_true', help='recompute finished records')
+    bat.add_argument('--json', action='store_true', help='print a JSON summary')
+    bat.set_defaults(func=cmd_batch, plugin=None)
     eff = sub.add_parser('effects', help='list the effect catalog (with plug-ins)',
                          description='List every effect: parameters, physics, signature.')
     eff.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
@@ -424,6 +514,13 @@ def _positive_float(text):
     if not MIN_RATE_HZ <= value <= MAX_RATE_HZ:
         raise argparse.ArgumentTypeError(f'{text} Hz is outside {MIN_RATE_HZ:g} to '
                                          f'{MAX_RATE_HZ:g} Hz')
+    return value
+
+
+def _positive_int(text):
+    value = _non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a positive integer')
     return value
 
 
