@@ -37,11 +37,11 @@ import pytest
 from sma_actuator.bag.arrays import load_run
 from sma_actuator.bag.errors import BagError
 from sma_actuator.bag.reader import BagReader
-from support.bag_fuzz import (CaseTimeout, MCAP_KINDS, make_sources, mutate_bag, SOURCES,
+from support.bag_fuzz import (CaseTimeout, make_sources, MCAP_KINDS, mutate_bag, SOURCES,
                               time_limit)
 
 SEED = 1313
-CASES = int(os.environ.get("FUZZ_CASES", 2200))
+CASES = int(os.environ.get('FUZZ_CASES', 2200))
 CASE_TIME_LIMIT_S = 10.0
 LOAD_RUN_EVERY = 10  # load_run (the workbench path) on every 10th case, BagReader on all
 
@@ -119,11 +119,10 @@ def test_mutated_bags_end_as_correct_recovered_or_bag_error(tmp_path):
         by_kind[kind][outcome] += 1
         if outcome == 'failure':
             failures.append(f'case {case} ({name}, {what}): {detail}')
-    summary = (f'{CASES} mutated bags: ' + ', '.join(f'{k} {outcomes[k]}' for k in
-                                                    ('correct', 'recovered', 'error',
-                                                     'failure'))
-               + '; by mutation: ' + '; '.join(f'{k}: {dict(v)}' for k, v in
-                                               sorted(by_kind.items())))
+    names_out = ('correct', 'recovered', 'error', 'failure')
+    counts = ', '.join(f'{k} {outcomes[k]}' for k in names_out)
+    kinds_text = '; '.join(f'{k}: {dict(v)}' for k, v in sorted(by_kind.items()))
+    summary = f'{CASES} mutated bags: {counts}; by mutation: {kinds_text}'
     print(summary)
     for line in failures[:40]:
         print('  ' + line[:400])

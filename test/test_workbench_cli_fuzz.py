@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 
 from sma_actuator.workbench import cli, engine, limits
-from support.bag_fuzz import MCAP_KINDS, make_sources, mutate_bag
+from support.bag_fuzz import make_sources, MCAP_KINDS, mutate_bag
 
 SEED = 7013
 CSV_CASES = int(os.environ.get('FUZZ_CASES', 1000))
@@ -44,7 +44,7 @@ RATES = ('1e308', '1e-300', 'nan', '-1', '0', '١', '1_0', '5e4', '0.01', 'inf',
 
 
 def _dynamic_csv(rows=60):
-    """A valid dynamic record (time [s], duties, position [rad])."""
+    """Return a valid dynamic record (time [s], duties, position [rad])."""
     t = np.arange(rows) * 0.02
     duty_a = 0.5 + 0.4 * np.sin(2 * np.pi * 0.5 * t)
     position = 0.3 * np.sin(2 * np.pi * 0.5 * t - 0.3)

@@ -19,14 +19,13 @@ Every mutation is drawn from a ``random.Random`` so a seed replays a case exactl
 """
 import contextlib
 import os
+from pathlib import Path
 import shutil
 import signal
 import struct
-from pathlib import Path
-
-import yaml
 
 from sma_actuator.bag.synthetic import write_demo_run
+import yaml
 
 _HEAD = struct.Struct('<BQ')
 #: Recorder bags the fuzzers start from: name -> BagWriter options.
