@@ -42,6 +42,13 @@ def spin_until(executor, condition, timeout_s=NOTICE_S, step_s=0.01):
     return False
 
 
+def pytest_collection_modifyitems(items):
+    """Mark every test that uses the ROS fixtures `ros` (`-m "not ros"`: the ROS-free part)."""
+    for item in items:
+        if 'ros_domain_id' in getattr(item, 'fixturenames', ()):
+            item.add_marker(pytest.mark.ros)
+
+
 @pytest.fixture
 def ros_domain_id():
     """A DDS domain id private to this test (also exported for subprocess nodes)."""
