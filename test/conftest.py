@@ -8,7 +8,13 @@ import random
 import time
 from pathlib import Path
 
-import pytest
+# One BLAS thread, set before anything imports numpy: on a loaded machine OpenBLAS's
+# spinning threads fight the other jobs for the cores and slow the fits many times over
+# (the workbench's worker processes use one thread each already).
+for _name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):
+    os.environ.setdefault(_name, '1')
+
+import pytest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
