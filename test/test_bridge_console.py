@@ -52,8 +52,8 @@ def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(
             watcher.start()
             code = stop_process(proc, sig=signal.SIGINT)
             # the final frame reaches the emulated MCU (through its line delay) a little later
-            wait_for(lambda: samples and samples[-1][0] == 0
-                     and not samples[-1][1] & p.FAULT_WATCHDOG)
+            wait_for(lambda: any(pwm == 0 and not faults & p.FAULT_WATCHDOG
+                                 for pwm, faults in list(samples)))
             done.set()
             watcher.join()
             assert code == 0
