@@ -11,7 +11,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
-from hardware_support import NOTICE_S, Probe, emulator_thread, wait_for
+from hardware_support import emulator_thread, NOTICE_S, Probe, wait_for
 from sma_actuator.hardware import protocol as p
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.controller import Controller

@@ -12,7 +12,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
-from hardware_support import (NOTICE_S, Probe, emulator_thread, start_emulator_process,
+from hardware_support import (emulator_thread, NOTICE_S, Probe, start_emulator_process,
                               stop_process, wait_for)
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.hardware import protocol as p

@@ -7,7 +7,7 @@ import time
 import pytest
 import serial
 
-from hardware_support import NOTICE_S, console_command, start_emulator_process, stop_process
+from hardware_support import console_command, NOTICE_S, start_emulator_process, stop_process
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import elapsed_us
 
