@@ -82,7 +82,7 @@ def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
     stored = _write_bag(tmp_path / 'bag')
     replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'), rate=2.0,
                         topics=['/sma/duty', '/sma/joint_states'], clock=True,
-                        clock_frequency_hz=50.0, wait_for_subscribers_s=5.0,
+                        clock_frequency_hz=50.0, wait_for_subscribers_s=NOTICE_S,
                         remap=['/sma/joint_states:=/measured/joint_states'])
     extra.append(replay)
     executor.add_node(replay)
@@ -110,7 +110,7 @@ def test_stop_mid_playback_zeroes_the_duty(probe, tmp_path):
     node, executor, got, extra = probe
     stored = _write_bag(tmp_path / 'bag', count=200, period_ms=20)
     replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'),
-                        wait_for_subscribers_s=5.0, loop=True)
+                        wait_for_subscribers_s=NOTICE_S, loop=True)
     extra.append(replay)
     executor.add_node(replay)
     replay.start()
