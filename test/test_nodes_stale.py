@@ -52,7 +52,7 @@ def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ro
             js.publish(JointState(name=['shaft'], position=[0.0], velocity=[0.0],
                                   header=_stamp(node)))
             spin_until(ex, lambda: False, 0.025)
-        assert duties and duties[-1][1][0] > 0.1
+        assert any(d[0] > 0.1 for _, d in duties)       # wire a was heated
         n0 = len(diags)                                # the feedback stops here
         assert spin_until(ex, lambda: _first(diags[n0:], 'stale') is not None)
         error = _first(diags[n0:], 'stale')
