@@ -25,19 +25,17 @@ each line-noise rate, and the load average.
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import sys
 import threading
 import time
-from pathlib import Path
-
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.parameter import Parameter
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 from hardware_support import emulator_thread, Probe, wait_for  # noqa: E402
-
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
 from sma_actuator.nodes.hardware_bridge import HardwareBridge  # noqa: E402
 
 

@@ -86,7 +86,7 @@ def test_pty_handshake_duty_reports_and_real_time_watchdog(pty_emulator):
 
 
 def _watchdog_status(received):
-    """The MCU's Status frame reporting the watchdog trip (sent on the fault change), or None."""
+    """Return the MCU's Status frame reporting the watchdog trip, or None."""
     return next((m for _, m in received if isinstance(m, p.Status)
                  and m.faults & p.FAULT_WATCHDOG), None)
 
