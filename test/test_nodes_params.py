@@ -111,7 +111,7 @@ def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_
 
 
 def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain_id):
-    node = rclpy.create_node('listener', context=ros_context)
+    node = rclpy.create_node('listener', context=ros_context, namespace=c.NAMESPACE)
     got = []
     node.create_subscription(Float64, c.SETPOINT, lambda m: got.append(m.data), c.COMMAND_QOS)
     ex = SingleThreadedExecutor(context=ros_context)
@@ -162,7 +162,7 @@ def test_plant_follows_the_ambient_topic_and_rejects_a_bad_ambient(ros_context):
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('use_ambient_topic', value=True), Parameter('accelerated', value=True),
         Parameter('real_time_factor', value=50.0)])
-    node = rclpy.create_node('ambient_source', context=ros_context)
+    node = rclpy.create_node('ambient_source', context=ros_context, namespace=c.NAMESPACE)
     pub = node.create_publisher(Temperature, c.AMBIENT_TEMPERATURE, c.SENSOR_QOS)
     warns = []
     node.create_subscription(DiagnosticArray, c.DIAGNOSTICS,

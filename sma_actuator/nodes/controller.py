@@ -66,7 +66,7 @@ class Controller(Node):
     """Controller node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('controller', **kwargs)
+        super().__init__('controller', **c.node_options(kwargs))
         d = ControllerSettings()
         mode = c.declare_str(self, 'mode', d.mode, 'Control mode.', MODES)
         values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
