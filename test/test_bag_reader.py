@@ -93,7 +93,7 @@ def _chunk_indexes(path):
         return make_reader(f).get_summary().chunk_indexes
 
 
-def test_damaged_chunk_stops_recovery_there(mcap_file, tmp_path):
+def test_damaged_chunk_is_skipped_and_later_chunks_kept(mcap_file, tmp_path):
     path, payloads = mcap_file
     chunks = _chunk_indexes(path)
     victim = chunks[len(chunks) // 2]
@@ -104,10 +104,14 @@ def test_damaged_chunk_stops_recovery_there(mcap_file, tmp_path):
     damaged.write_bytes(bytes(data[:chunks[-1].chunk_start_offset]))  # and cut the end
     reader = BagReader(damaged)
     recovered = [m.data for m in reader.messages()]
-    # exactly the messages of the chunks before the damaged one
-    assert recovered == [p for i, p in enumerate(payloads)
-                         if T0 + i * 1_000_000 < victim.message_start_time]
-    assert reader.recoveries[0].recovered_bytes <= victim.chunk_start_offset
+    # every message except those of the damaged chunk and of the cut-off last chunk
+    times = [T0 + i * 1_000_000 for i in range(len(payloads))]
+    assert recovered == [p for t, p in zip(times, payloads)
+                         if not victim.message_start_time <= t <= victim.message_end_time
+                         and t < chunks[-1].message_start_time]
+    (report,) = reader.recoveries
+    assert report.damage[0].offset == victim.chunk_start_offset
+    assert f'at byte {victim.chunk_start_offset}' in str(report)
 
 
 @pytest.mark.parametrize('compression', ['none', 'lz4', 'zstd'])
@@ -197,3 +201,76 @@ def test_reads_a_rosbag2_bag_written_by_an_independent_writer(tmp_path):
     assert reader.topics['/sma/setpoint'].type == 'std_msgs/msg/Float64'
     assert reader.topics['/sma/setpoint'].schema_encoding == 'ros2msg'
     assert [m.data for m in reader.messages()] == sent
+
+
+# --- issue 13: integrity checks, loss report, metadata.yaml trust ----------------------------
+def test_one_flipped_bit_in_a_chunk_of_a_complete_bag_is_reported_not_read(mcap_file):
+    path, payloads = mcap_file
+    victim = _chunk_indexes(path)[2]
+    data = bytearray(path.read_bytes())
+    data[victim.chunk_start_offset + victim.chunk_length - 5] ^= 0x10  # in the compressed data
+    path.write_bytes(bytes(data))
+    reader = BagReader(path.parent)
+    got = [m.data for m in reader.messages()]
+    times = [T0 + i * 1_000_000 for i in range(len(payloads))]
+    assert got == [p for t, p in zip(times, payloads)
+                   if not victim.message_start_time <= t <= victim.message_end_time]
+    (report,) = reader.recoveries
+    lost = len(payloads) - len(got)
+    assert report.lost_exact and report.lost_messages == lost > 0
+    assert report.lost_by_topic == {'/sma/duty': lost}
+    assert report.lost_seconds == pytest.approx((lost - 1) * 1e-3)
+    assert f'lost {lost} messages (/sma/duty {lost})' in str(report)
+    assert f'at byte {victim.chunk_start_offset}' in str(report)
+
+
+def test_cut_bag_with_metadata_reports_the_exact_loss(mcap_file):
+    path, payloads = mcap_file
+    path.write_bytes(path.read_bytes()[:len(path.read_bytes()) // 2])
+    reader = BagReader(path.parent)
+    (report,) = reader.recoveries
+    got = sum(1 for _ in reader.messages())
+    assert report.lost_exact and report.lost_messages == len(payloads) - got > 0
+    assert 'holding at least 0' not in str(report) and report.lost_seconds > 0
+
+
+@pytest.mark.parametrize('paths', [None, 5, [None], [1, 2], 'bag_0.mcap', ['bag_0.mcap'] * 2])
+def test_metadata_paths_of_the_wrong_type_are_a_bag_error(mcap_file, paths):
+    path, _ = mcap_file
+    meta = path.parent / 'metadata.yaml'
+    info = yaml.safe_load(meta.read_text())
+    info['rosbag2_bagfile_information']['relative_file_paths'] = paths
+    meta.write_text(yaml.safe_dump(info))
+    if paths is None:
+        assert BagReader(path.parent).message_count == 300  # absent: the directory's files
+        return
+    with pytest.raises(BagError, match='relative_file_paths must be'):
+        BagReader(path.parent)
+
+
+def test_metadata_paths_leaving_the_bag_are_rejected(mcap_file, tmp_path):
+    path, _ = mcap_file
+    other = tmp_path / 'other'
+    _write(other, count=5)
+    meta = path.parent / 'metadata.yaml'
+    info = yaml.safe_load(meta.read_text())
+    (path.parent / 'link_0.mcap').symlink_to(other / 'other_0.mcap')
+    for rel in (str(other / 'other_0.mcap'), '../other/other_0.mcap', 'link_0.mcap'):
+        info['rosbag2_bagfile_information']['relative_file_paths'] = [rel]
+        info['rosbag2_bagfile_information'].pop('files', None)
+        meta.write_text(yaml.safe_dump(info))
+        with pytest.raises(BagError, match='outside the bag directory'):
+            BagReader(path.parent)
+
+
+@pytest.mark.parametrize('text, problem', [
+    ('a: ' + '[' * 100_000 + ']' * 100_000, 'nested deeper than 32'),
+    ('# ' + 'x' * (5 << 20), 'over the limit'),
+    ('rosbag2_bagfile_information:\n  files: [{path: bag_0.mcap, message_count: x}]\n',
+     r'files\[0\].message_count must be'),
+])
+def test_hostile_metadata_yaml_is_a_bag_error(mcap_file, text, problem):
+    path, _ = mcap_file
+    (path.parent / 'metadata.yaml').write_text(text)
+    with pytest.raises(BagError, match=problem):
+        BagReader(path.parent)

@@ -102,7 +102,7 @@ def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_
         assert ctrl.core.settings.mode == 'pi_inverse' and ctrl.core.pi.kp == 5.0
         bad = ctrl.set_parameters([Parameter('mode', value='bang_bang')])
         assert not bad[0].successful and ctrl.core.settings.mode == 'pi_inverse'
-        out_of_range = ctrl.set_parameters([Parameter('kp', value=-1.0)])
+        out_of_range = ctrl.set_parameters([Parameter('kp', value=-2.0)])
         assert not out_of_range[0].successful and ctrl.core.pi.kp == 5.0
         read_only = ctrl.set_parameters([Parameter('period_s', value=0.01)])
         assert not read_only[0].successful

@@ -53,6 +53,8 @@ REQUIRED_ROLES = ('joint_states', 'duty')
 JOINT_NAME = 'shaft'
 #: Largest grid load_run builds (10 h at 1 kHz); beyond that the log times are suspect.
 MAX_SAMPLES = 36_000_000
+#: Grid points allowed per joint-state message (resampling up to 100x the recorded rate).
+MAX_GRID_PER_MESSAGE = 100
 _NS = 1e-9
 
 
@@ -138,18 +140,26 @@ def _read_series(reader: BagReader, path: Path, topic_of: Dict[str, str]):
         # DecoderFactory caches decoders by schema id, so each needs its own id.
         schema = Schema(id=schema_id, name=info.type, encoding='ros2msg',
                         data=info.definition.encode())
-        decoders[topic] = factory.decoder_for('cdr', schema)
+        try:
+            decoders[topic] = factory.decoder_for('cdr', schema)
+        except Exception as err:  # noqa: BLE001 - any parse failure of the stored text
+            raise UnknownTypeError(path, f"cannot read the definition of '{info.type}' stored "
+                                         f"for '{topic}': {type(err).__name__}: "
+                                         f'{str(err)[:200]}') from None
         role_of[topic] = role
         series[role] = ([], [])
     for msg in reader.messages(topics=list(role_of)):
         role = role_of[msg.topic]
         try:
-            decoded = decoders[msg.topic](msg.data)
+            value = _EXTRACT[role](decoders[msg.topic](msg.data), path)
+        except BagError:
+            raise
         except Exception as err:  # noqa: BLE001 - name the file and message, keep the cause
             raise BagError(path, f"cannot decode a '{msg.topic}' message logged at "
-                                 f'{msg.log_time_ns} ns: {err}') from err
+                                 f'{msg.log_time_ns} ns: {type(err).__name__}: '
+                                 f'{str(err)[:200]}') from None
         series[role][0].append(msg.log_time_ns)
-        series[role][1].append(_EXTRACT[role](decoded, path))
+        series[role][1].append(value)
     return {role: (np.asarray(t, dtype=np.int64), np.asarray(v, dtype=float))
             for role, (t, v) in series.items()}
 
@@ -216,11 +226,17 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     rate = default_rate_hz(js_t) if rate_hz is None else float(rate_hz)
     if not np.isfinite(rate) or rate <= 0:
         raise ValueError(f'rate_hz must be a positive number, got {rate_hz!r}')
-    count = int(np.floor((js_t[-1] - js_t[0]) * _NS * rate + 1e-9)) + 1
-    if count > MAX_SAMPLES:
-        raise BagError(path, f'joint states span {(js_t[-1] - js_t[0]) * _NS:.6g} s: at '
-                             f'{rate:g} Hz that is {count} samples (limit {MAX_SAMPLES}); log '
-                             'times jump, e.g. recorded on sim time before /clock started')
+    span_s = (js_t[-1] - js_t[0]) * _NS
+    samples = np.floor(span_s * rate + 1e-9) + 1  # float: a huge rate must not overflow int
+    # The grid may hold at most MAX_GRID_PER_MESSAGE points per joint state: more means the
+    # log times jump (damaged data, or sim time before /clock), not a real recording.
+    limit = min(MAX_SAMPLES, MAX_GRID_PER_MESSAGE * js_t.size + 1000)
+    if not samples <= limit:
+        raise BagError(path, f'joint states span {span_s:.6g} s: at {rate:g} Hz that is '
+                             f'{samples:.6g} samples (limit {limit} for {js_t.size} joint '
+                             'states); log times jump, e.g. recorded on sim time before '
+                             '/clock started or damaged data, or the rate is too high')
+    count = int(samples)
     grid = js_t[0] + np.round(np.arange(count) / rate * 1e9).astype(np.int64)
     duty_t, duty = _sorted(*data['duty'])
     duty_ab = zero_order_hold(duty_t, duty, grid, before=0.0)

@@ -48,6 +48,10 @@ class TruncatedBagError(BagError):
     """The file is empty or cut off before its first complete chunk: nothing can be recovered."""
 
 
+class DamagedBagError(BagError):
+    """A file's data is damaged where it cannot be recovered (the message gives the offset)."""
+
+
 class UnknownTypeError(BagError):
     """A message type is unknown: no installed definition, or an unexpected type on a topic."""
 

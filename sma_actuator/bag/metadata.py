@@ -35,6 +35,13 @@ from .qos import load_offered_qos_profiles
 #: rosbag2 metadata version written (Jazzy).
 METADATA_VERSION = 9
 METADATA_FILE = 'metadata.yaml'
+#: Largest metadata.yaml read [bytes]; a bag with thousands of files and topics needs < 1 MiB.
+MAX_METADATA_BYTES = 4 << 20
+#: Deepest YAML nesting read (rosbag2 metadata nests 5 levels).
+MAX_METADATA_DEPTH = 32
+# libyaml's safe loader when installed (fast); its parser is not recursive, and documents are
+# only composed after the nesting depth was checked (deep nesting overflows the C stack).
+_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 _ROOT_KEY = 'rosbag2_bagfile_information'
 
 
@@ -143,20 +150,106 @@ def write_metadata_yaml(directory: Path, bag: BagRecord) -> Path:
     return path
 
 
+def _nesting_depth_ok(text: str, limit: int) -> bool:
+    """Return whether no YAML collection in `text` nests deeper than `limit` (event parse)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=_LOADER):
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > limit:
+                return False
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+    return True
+
+
 def read_metadata_yaml(path: Path) -> Dict[str, Any]:
     """
     Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
 
-    :raises BagError: The file is not valid rosbag2 metadata.
+    The file may hold at most :data:`MAX_METADATA_BYTES` and nest at most
+    :data:`MAX_METADATA_DEPTH` levels; every field this package uses is type-checked.
+
+    :raises BagError: The file is not valid rosbag2 metadata (the message says which field).
     """
+    path = Path(path)
     try:
-        data = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
-        raise BagError(path, f'cannot read rosbag2 metadata: {err}') from err
+        size = path.stat().st_size
+        if size > MAX_METADATA_BYTES:
+            raise BagError(path, f'metadata file of {size} bytes is over the limit of '
+                                 f'{MAX_METADATA_BYTES} bytes; not rosbag2 metadata')
+        text = path.read_text(encoding='utf-8')
+        if not _nesting_depth_ok(text, MAX_METADATA_DEPTH):
+            raise BagError(path, f'YAML nested deeper than {MAX_METADATA_DEPTH} levels; not '
+                                 'rosbag2 metadata')
+        data = yaml.load(text, Loader=_LOADER)  # a safe loader: plain data only
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as err:
+        reason = 'nested too deeply' if isinstance(err, RecursionError) else \
+            ' '.join(str(err).split())
+        raise BagError(path, f'cannot read rosbag2 metadata: {reason}') from None
     if not isinstance(data, dict) or not isinstance(data.get(_ROOT_KEY), dict):
         raise BagError(path, f"not rosbag2 metadata (no '{_ROOT_KEY}' mapping)")
     info = data[_ROOT_KEY]
     if info.get('storage_identifier') not in (None, 'mcap'):
-        raise BagError(path, f"storage '{info.get('storage_identifier')}' is not supported "
-                             '(only mcap bags can be read)')
+        raise BagError(path, f"storage '{info.get('storage_identifier')!s:.40}' is not "
+                             'supported (only mcap bags can be read)')
+    _check_schema(path, info)
     return info
+
+
+def _is_count(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 1 << 63
+
+
+def _check_schema(path: Path, info: Dict[str, Any]):
+    """Raise BagError naming the first field this package reads that has the wrong type."""
+    def bad(field_name, want):
+        raise BagError(path, f'metadata field {field_name} must be {want}')
+
+    paths = info.get('relative_file_paths')
+    if paths is not None and (not isinstance(paths, list) or not all(
+            isinstance(p, str) and p for p in paths)):
+        bad('relative_file_paths', 'a list of file names')
+    if paths is not None and len(set(paths)) != len(paths):
+        bad('relative_file_paths', 'a list without repeated files')
+    files = info.get('files')
+    if files is not None:
+        if not isinstance(files, list) or not all(isinstance(f, dict) for f in files):
+            bad('files', 'a list of mappings')
+        for i, f in enumerate(files):
+            if not isinstance(f.get('path'), str):
+                bad(f'files[{i}].path', 'a file name')
+            if not _is_count(f.get('message_count')):
+                bad(f'files[{i}].message_count', 'a non-negative integer')
+            for key, inner in (('starting_time', 'nanoseconds_since_epoch'),
+                               ('duration', 'nanoseconds')):
+                if not isinstance(f.get(key), dict) or not _is_count(f[key].get(inner)):
+                    bad(f'files[{i}].{key}.{inner}', 'a non-negative integer')
+    topics = info.get('topics_with_message_count')
+    if topics is not None:
+        if not isinstance(topics, list) or not all(isinstance(t, dict) for t in topics):
+            bad('topics_with_message_count', 'a list of mappings')
+        for i, t in enumerate(topics):
+            meta = t.get('topic_metadata')
+            if not isinstance(meta, dict) or not isinstance(meta.get('name'), str):
+                bad(f'topics_with_message_count[{i}].topic_metadata.name', 'a topic name')
+            if not _is_count(t.get('message_count')):
+                bad(f'topics_with_message_count[{i}].message_count', 'a non-negative integer')
+
+
+def bag_file_paths(bag_dir: Path, info: Dict[str, Any], meta_path: Path) -> List[Path]:
+    """
+    Return the storage files ``metadata.yaml`` lists, each checked to lie in ``bag_dir``.
+
+    :raises BagError: A path is absolute, leaves the directory (``..`` or a symlink out).
+    """
+    root = Path(bag_dir).resolve()
+    out = []
+    for rel in info.get('relative_file_paths') or []:
+        candidate = Path(rel)
+        if candidate.is_absolute() or '..' in candidate.parts or \
+                root not in (root / candidate).resolve().parents:
+            raise BagError(meta_path, f"listed file '{rel}' is outside the bag directory "
+                                      '(absolute path, .. or a symlink out)')
+        out.append(Path(bag_dir) / candidate)
+    return out

@@ -21,16 +21,21 @@ killed) are recovered up to the last complete chunk, see :mod:`.recovery` and
 :attr:`BagReader.recoveries`.
 """
 from dataclasses import dataclass
+import io
 from pathlib import Path
+import struct
 from typing import Dict, Iterable, Iterator, List, Optional, Union
+import zlib
 
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap.records import Footer
 
-from .errors import (BagError, BagNotFoundError, NotMcapError, TruncatedBagError,
-                     UnknownTypeError)
-from .metadata import METADATA_FILE, read_metadata_yaml
-from .recovery import iter_span_messages, RecoveryReport, scan
+from .errors import (BagError, BagNotFoundError, DamagedBagError, NotMcapError,
+                     TruncatedBagError, UnknownTypeError)
+from .metadata import bag_file_paths, METADATA_FILE, read_metadata_yaml
+from .recovery import check_indexed, iter_span_messages, RecoveryReport, scan
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_AND_MAGIC = 9 + 20 + 8  # footer record (opcode, length, 20-byte body) + magic
@@ -61,9 +66,16 @@ class BagMessage:
 
 
 class _McapFile:
-    """One storage file: summary-based when complete, scan-based when recovered."""
+    """
+    One storage file, every chunk checked when it is opened.
 
-    def __init__(self, path: Path):
+    A complete file with an intact summary whose chunks all pass their checks is read through
+    mcap's indexed reader (log-time order across chunks). Otherwise (no usable summary, or a
+    damaged chunk) the intact chunks are read one by one and :attr:`recovery` says what was
+    lost.
+    """
+
+    def __init__(self, path: Path, expected: Optional['_Expected'] = None):
         self.path = path
         self.recovery: Optional[RecoveryReport] = None
         self._spans = None
@@ -80,30 +92,58 @@ class _McapFile:
             f.seek(max(0, size - len(MCAP_MAGIC)))
             complete = size >= 2 * len(MCAP_MAGIC) + _FOOTER_AND_MAGIC and \
                 f.read() == MCAP_MAGIC
-        summary, profile = self._read_summary() if complete else (None, None)
+        summary, profile = self._read_summary(size) if complete else (None, None)
         if summary is not None:
-            self.schemas, self.channels = summary.schemas, summary.channels
-            stats = summary.statistics
-            self.counts = dict(stats.channel_message_counts) if stats else {}
+            found = check_indexed(path, summary)
+            if not found.damage:
+                self.schemas, self.channels = summary.schemas, summary.channels
+                self.counts = found.message_counts
+                self.profile = profile
+                return
             self.profile = profile
-            return
-        found = scan(path)
-        if found.header is None:
-            raise TruncatedBagError(path, f'file is cut off after {size} bytes, before the '
-                                          'MCAP header; nothing to recover')
-        self.recovery = found.report
+        else:
+            found = scan(path)
+            if found.header is None and not found.spans:
+                damage = found.damage[0] if found.damage else None
+                where = f' (damaged at byte {damage.offset}: {damage.reason})' \
+                    if damage and damage.offset > len(MCAP_MAGIC) else ''
+                raise TruncatedBagError(path, f'file is cut off after {size} bytes, before the '
+                                              f'MCAP header{where}; nothing to recover')
+            self.profile = found.header.profile if found.header else ''
         self.schemas, self.channels = found.schemas, found.channels
         self.counts, self._spans = found.message_counts, found.data_spans
-        self.profile = found.header.profile
+        self.recovery = _report(path, size, found, summary, expected)
 
-    def _read_summary(self):
-        """Return ``(summary, header profile)``, or ``(None, None)`` if there is no summary."""
+    def _read_summary(self, size: int):
+        """
+        Return ``(summary, header profile)``, or ``(None, None)`` without a usable summary.
+
+        A summary counts only if its CRC (when the writer stored one) matches and it lists
+        chunk indexes for all its messages.
+        """
         try:
             with open(self.path, 'rb') as f:
-                reader = make_reader(f)
-                return reader.get_summary(), reader.get_header().profile
-        except (McapError, ValueError, OSError, EOFError):
+                reader = make_reader(f, validate_crcs=True)
+                f.seek(size - _FOOTER_AND_MAGIC + 9)
+                footer = Footer.read(ReadDataStream(io.BytesIO(f.read(20))))
+                if not len(MCAP_MAGIC) < footer.summary_start < size - _FOOTER_AND_MAGIC:
+                    return None, None
+                if footer.summary_crc:
+                    f.seek(footer.summary_start)
+                    covered = f.read(size - footer.summary_start - len(MCAP_MAGIC) - 4)
+                    if zlib.crc32(covered) != footer.summary_crc:
+                        return None, None
+                summary = reader.get_summary()
+                profile = reader.get_header().profile
+        except (McapError, ValueError, OSError, EOFError, KeyError, struct.error,
+                OverflowError, MemoryError, RecursionError, UnicodeDecodeError):
             return None, None
+        if summary is None:
+            return None, None
+        stats = summary.statistics
+        if stats is not None and stats.message_count and not summary.chunk_indexes:
+            return None, None  # unchunked messages: find them by scanning
+        return summary, profile
 
     def messages(self, topics: Optional[Iterable[str]],
                  start_time_ns: Optional[int]) -> Iterator[BagMessage]:
@@ -113,38 +153,103 @@ class _McapFile:
             source = iter_span_messages(self.path, self._spans)
         else:
             source = self._indexed(wanted, start_time_ns)
-        for msg in source:
-            topic = by_id.get(msg.channel_id)
-            if topic is None or (wanted is not None and topic not in wanted):
-                continue
-            if start_time_ns is not None and msg.log_time < start_time_ns:
-                continue
-            yield BagMessage(topic, msg.data, msg.log_time, msg.publish_time)
+        try:
+            for msg in source:
+                topic = by_id.get(msg.channel_id)
+                if topic is None or (wanted is not None and topic not in wanted):
+                    continue
+                if start_time_ns is not None and msg.log_time < start_time_ns:
+                    continue
+                yield BagMessage(topic, msg.data, msg.log_time, msg.publish_time)
+        except (McapError, ValueError, OSError, EOFError, KeyError, struct.error,
+                OverflowError, MemoryError, RecursionError) as err:
+            # The chunks were checked when the file was opened: it changed since.
+            raise DamagedBagError(self.path, f'cannot read a chunk checked at open ({err}); '
+                                             'was the file changed?') from None
 
     def _indexed(self, wanted, start_time_ns):
         with open(self.path, 'rb') as f:
-            reader = make_reader(f)
+            reader = make_reader(f, validate_crcs=True)
             for _, _, msg in reader.iter_messages(topics=None if wanted is None else list(wanted),
                                                   starting_at=start_time_ns,
                                                   log_time_order=True):
                 yield msg
 
 
-def _bag_files(path: Path) -> List[Path]:
-    """Resolve a bag path (directory or .mcap file) to its storage files, in order."""
+@dataclass
+class _Expected:
+    """Message counts ``metadata.yaml`` gives for one file (total, and per topic if known)."""
+
+    total: int
+    by_topic: Optional[Dict[str, int]] = None
+    end_ns: Optional[int] = None
+
+
+def _report(path: Path, size: int, found, summary, expected: Optional[_Expected]):
+    """Build the loss report of a damaged or unfinished file (see RecoveryReport)."""
+    topic_of = {cid: ch.topic for cid, ch in found.channels.items()}
+    recovered: Dict[str, int] = {}
+    for cid, n in found.message_counts.items():
+        recovered[topic_of[cid]] = recovered.get(topic_of[cid], 0) + n
+    total = sum(recovered.values())
+    exact, by_topic, lost = False, {}, found.partial_messages + found.orphan_messages
+    stats = summary.statistics if summary is not None else None
+    if stats is not None:
+        want: Dict[str, int] = {}
+        for cid, n in stats.channel_message_counts.items():
+            topic = summary.channels[cid].topic if cid in summary.channels else f'channel {cid}'
+            want[topic] = want.get(topic, 0) + n
+        expected = _Expected(sum(want.values()), want)
+    elif not found.damage and found.data_complete:
+        expected = _Expected(total, dict(recovered))
+    if expected is not None and expected.by_topic is not None and all(
+            expected.by_topic.get(t, 0) >= n for t, n in recovered.items()) and \
+            sum(expected.by_topic.values()) == expected.total:
+        by_topic = {t: n - recovered.get(t, 0) for t, n in expected.by_topic.items()}
+        lost, exact = sum(by_topic.values()), True
+    elif expected is not None and expected.total >= total:
+        lost, exact = expected.total - total, True
+    spans = sorted((s for s in found.spans if s.start_ns is not None),
+                   key=lambda s: s.offset)
+    first = min((s.start_ns for s in spans), default=None)
+    intervals = []
+    if lost:
+        for d in found.damage:
+            before = [s.end_ns for s in spans if s.offset < d.offset]
+            after = [s.start_ns for s in spans if s.offset > d.offset]
+            a = d.start_ns if d.start_ns is not None else max(before, default=first)
+            b = d.end_ns if d.end_ns is not None else min(
+                after, default=expected.end_ns if expected is not None else None)
+            if a is not None and b is not None and b >= a:
+                intervals.append((a, b))
+    lost_bytes = sum(d.length for d in found.damage)
+    return RecoveryReport(
+        path=path, file_size=size, recovered_bytes=size - lost_bytes, recovered_messages=total,
+        lost_messages=lost, last_log_time_ns=max((s.end_ns for s in spans), default=None),
+        lost_exact=exact, lost_by_topic={t: n for t, n in by_topic.items() if n},
+        lost_intervals_ns=intervals, damage=list(found.damage),
+        has_summary=summary is not None, first_log_time_ns=first)
+
+
+def _bag_files(path: Path):
+    """
+    Resolve a bag path (directory or .mcap file) to its storage files, in order.
+
+    :return: ``[(file, expected counts from metadata.yaml or None), ...]``.
+    """
     if not path.exists():
         raise BagNotFoundError(path, 'no such file or directory')
     if path.is_file():
-        return [path]
+        return [(path, None)]
     meta = path / METADATA_FILE
     if meta.is_file():
         info = read_metadata_yaml(meta)
-        files = [path / rel for rel in info.get('relative_file_paths') or []]
+        files = bag_file_paths(path, info, meta)
         missing = [f.name for f in files if not f.is_file()]
         if missing:
             raise BagNotFoundError(path, f'metadata.yaml lists missing files: {missing}')
         if files:
-            return files
+            return list(zip(files, _expected_counts(info, len(files))))
 
     def split_index(p: Path):
         tail = p.stem.rsplit('_', 1)[-1]
@@ -153,7 +258,24 @@ def _bag_files(path: Path) -> List[Path]:
     files = sorted(path.glob('*.mcap'), key=split_index)
     if not files:
         raise BagNotFoundError(path, 'directory holds no .mcap file')
-    return files
+    return [(f, None) for f in files]
+
+
+def _expected_counts(info, n_files: int) -> List[Optional[_Expected]]:
+    """Per-file message counts from (schema-checked) metadata; per topic for one file."""
+    files = info.get('files')
+    if not files or [f['path'] for f in files] != info.get('relative_file_paths'):
+        return [None] * n_files  # counts that cannot be matched to the files are not used
+    out = [_Expected(f['message_count'], None, f['starting_time']['nanoseconds_since_epoch']
+                     + f['duration']['nanoseconds']) for f in files]
+    topics = info.get('topics_with_message_count')
+    if n_files == 1 and topics is not None:
+        by_topic: Dict[str, int] = {}
+        for t in topics:
+            name = t['topic_metadata']['name']
+            by_topic[name] = by_topic.get(name, 0) + t['message_count']
+        out[0].by_topic = by_topic
+    return out
 
 
 class BagReader:
@@ -164,12 +286,16 @@ class BagReader:
     :raises BagNotFoundError: The path does not exist or holds no .mcap file.
     :raises NotMcapError: A file is not MCAP.
     :raises TruncatedBagError: A file is empty or cut before its header.
+    :raises BagError: ``metadata.yaml`` is not valid (paths out of the bag, wrong types).
+
+    Every chunk is decompressed and its CRC checked when the bag is opened; damaged chunks are
+    skipped and reported in :attr:`recoveries` like the cut-off end of an unfinished file.
     :raises UnknownTypeError: One topic is stored with two different types.
     """
 
     def __init__(self, path: Union[str, Path]):
         self.path = Path(path)
-        self._files = [_McapFile(p) for p in _bag_files(self.path)]
+        self._files = [_McapFile(p, expected) for p, expected in _bag_files(self.path)]
         self.topics: Dict[str, TopicInfo] = {}
         for f in self._files:
             self._collect_topics(f)

@@ -72,17 +72,19 @@ def stamp(time_ns: int) -> Dict[str, int]:
 
 def write_demo_run(path: Union[str, Path], *, duration_s: float = 2.0,
                    joint_state_rate_hz: float = 100.0, duty_rate_hz: float = 50.0,
-                   start_ns: int = 1_700_000_000_000_000_000, overwrite: bool = False) -> Path:
+                   start_ns: int = 1_700_000_000_000_000_000, overwrite: bool = False,
+                   **writer_options) -> Path:
     """
     Write a bag of a made-up step response on the contract topics.
 
     Setpoint steps to 0.2 rad at 10 % of the run; duty_a follows a proportional law, duty_b is 0;
     the shaft angle is a first-order lag (tau 0.2 s) of 2 rad x duty_a; ambient is 22 degC.
 
+    :param writer_options: Passed to :class:`BagWriter` (compression, chunk size, splits).
     :return: The bag directory.
     """
     enc = {t: cdr_encoder(ty) for t, (ty, _) in SMA_TOPICS.items()}
-    with BagWriter(path, overwrite=overwrite) as bag:
+    with BagWriter(path, overwrite=overwrite, **writer_options) as bag:
         for topic, (type_name, reliability) in SMA_TOPICS.items():
             if topic != '/diagnostics':
                 bag.add_topic(topic, type_name, [offered_profile(reliability)])

@@ -47,11 +47,11 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
-import yaml
 
 from . import common as c
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
+from ..control.model_file import load_model
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 
@@ -109,8 +109,8 @@ class PlantSim(Node):
             self, 'interlock_dead_time_s', 0.05, 'A wire heats only after the other has had '
             'zero applied duty for this long [plant s] (docs/safety.md).', 0.0, 10.0,
             read_only=True)
-        model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
-                                   'to_dict) for the plant; the effect parameters override it.',
+        model_file = c.declare_str(self, 'model_file', '', 'Optional model file (sma-model fit '
+                                   '--out) for the plant; the effect parameters override it.',
                                    read_only=True)
         ambient = c.declare_float(self, 'ambient_c', 22.0, 'Nominal ambient temperature [°C].',
                                   -40.0, 80.0, read_only=True)
@@ -121,10 +121,7 @@ class PlantSim(Node):
         noise = c.declare_float(self, 'noise_rad', 0.001, 'Potentiometer noise std [rad].',
                                 0.0, 0.1, read_only=True)
         seed = c.declare_int(self, 'seed', 0, 'Noise seed.', 0, 2 ** 31 - 1, read_only=True)
-        base = ActuatorParams()
-        if model_file:
-            with open(model_file) as f:
-                base = ActuatorParams.from_dict(yaml.safe_load(f))
+        base = load_model(model_file) if model_file else ActuatorParams()
         effects = {name: c.declare_float(self, name, getattr(base, name), desc, lo, hi,
                                          read_only=True)
                    for name, lo, hi, desc in EFFECTS}

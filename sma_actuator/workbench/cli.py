@@ -24,13 +24,15 @@
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
 --force to overwrite existing output files. Bad input ends with exit code 2 and one line
 ``sma-model: error: ...`` on stderr, before any output file is written. Progress goes to
-stderr only when stderr is a terminal. See docs/workbench.md.
+stderr: a bar on a terminal, otherwise plain lines for long stages and large files. See
+docs/workbench.md.
 """
 import argparse
 import json
 import os
 from pathlib import Path
 import sys
+import time
 
 import numpy as np
 
@@ -61,14 +63,31 @@ class Progress:
 
     WIDTH = 24
 
+    #: Without a terminal: plain lines, one per 10 %, once a stage has run this long [s].
+    LOG_AFTER_S = 5.0
+
     def __init__(self, stage='', stream=None):
         self.stream = stream or sys.stderr
         self.enabled = bool(getattr(self.stream, 'isatty', lambda: False)())
         self.stage = stage
         self.drawn = False
+        self.started = time.monotonic()
+        self.logged = (None, -1)  # (stage, tenths) of the last logged line
+
+    def _log(self, done, total, label):
+        """Print a plain progress line (for logs) each 10 % of a long-running stage."""
+        elapsed = time.monotonic() - self.started
+        tenths = int(10 * done / total) if total else 10
+        if elapsed < self.LOG_AFTER_S or self.logged == (self.stage, tenths):
+            return
+        self.logged = (self.stage, tenths)
+        self.stream.write(f'{PROG}: {self.stage} {10 * tenths} % ({done}/{total} {label}, '
+                          f'{elapsed:.0f} s)\n')
+        self.stream.flush()
 
     def __call__(self, done, total, label=''):
         if not self.enabled:
+            self._log(done, total, label)
             return
         frac = min(max(done / total, 0.0), 1.0) if total else 1.0
         bar = '#' * int(round(frac * self.WIDTH))
@@ -485,12 +504,16 @@ def build_parser():
 
 
 def _positive_float(text):
+    from .limits import MAX_RATE_HZ, MIN_RATE_HZ, parse_number
     try:
-        value = float(text)
+        value = parse_number(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
+        raise argparse.ArgumentTypeError(f'{text[:40]!r} is not a number') from None
     if not np.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
+    if not MIN_RATE_HZ <= value <= MAX_RATE_HZ:
+        raise argparse.ArgumentTypeError(f'{text} Hz is outside {MIN_RATE_HZ:g} to '
+                                         f'{MAX_RATE_HZ:g} Hz')
     return value
 
 

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
 from ..core.identification import DynamicData
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'duty_b', 'position')
@@ -102,6 +103,10 @@ def read_csv_table(path):
     that is not a finite number.
     """
     try:
+        size = Path(path).stat().st_size
+        if size > limits.MAX_CSV_BYTES:
+            raise DataError(f'{path}: {size} bytes is over the limit of {limits.MAX_CSV_BYTES} '
+                            'bytes for a CSV file (split or decimate the record)')
         with open(path, encoding='utf-8-sig', newline='') as fh:
             text = fh.read()
     except UnicodeDecodeError:
@@ -112,17 +117,29 @@ def read_csv_table(path):
                 if line.strip() and not line.lstrip().startswith('#')]
     if not numbered:
         raise DataError(f'{path}: empty file (no header row); {FORMATS_HELP}')
+    if len(numbered) - 1 > limits.MAX_ROWS:
+        raise DataError(f'{path}: {len(numbered) - 1} data rows is over the limit of '
+                        f'{limits.MAX_ROWS} rows (split or decimate the record)')
     header_line, header_text = numbered[0]
-    header = [h.strip().lower() for h in next(csv.reader([header_text]))]
+    header = [h.strip().lower() for h in _csv_fields(path, header_line, header_text)]
     _check_header(path, header_line, header)
     rows, lines = [], []
-    for line_no, fields in zip((n for n, _ in numbered[1:]),
-                               csv.reader([t for _, t in numbered[1:]])):
-        rows.append(_parse_row(path, line_no, header, fields))
+    progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
+    for line_no, text_line in numbered[1:]:
+        rows.append(_parse_row(path, line_no, header, _csv_fields(path, line_no, text_line)))
         lines.append(line_no)
+        progress(len(rows))
     if not rows:
         raise DataError(f'{path}: no data rows after the header (line {header_line})')
     return header, np.array(rows, float), np.array(lines)
+
+
+def _csv_fields(path, line_no, text):
+    """Split one CSV line into fields; a malformed or oversized field is a `DataError`."""
+    try:
+        return next(csv.reader([text]), [])
+    except csv.Error as err:
+        raise DataError(f'{path}: line {line_no}: not a valid CSV row ({err})') from None
 
 
 def _check_header(path, line_no, header):
@@ -139,11 +156,7 @@ def _check_header(path, line_no, header):
 
 
 def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return limits.is_number(text)
 
 
 def _parse_row(path, line_no, header, fields):
@@ -156,10 +169,10 @@ def _parse_row(path, line_no, header, fields):
         if not text:
             raise DataError(f"{path}: line {line_no}, column '{name}': empty value")
         try:
-            value = float(text)
+            value = limits.parse_number(text)
         except ValueError:
-            raise DataError(f"{path}: line {line_no}, column '{name}': {text!r} is not a "
-                            'number') from None
+            raise DataError(f"{path}: line {line_no}, column '{name}': {text[:40]!r} is not a "
+                            'number (write plain ASCII decimals such as 1.5 or 2e-3)') from None
         if not np.isfinite(value):
             raise DataError(f"{path}: line {line_no}, column '{name}': {text} (NaN or "
                             'infinite values are not allowed; drop or fill the row)')
@@ -202,6 +215,9 @@ def check_time(path, time, lines):
         raise DataError(f"{path}: line {lines[k]}, column 'time': {time[k]:g} {what} "
                         f'{time[k - 1]:g} on line {lines[k - 1]} (time must increase strictly)')
     median = float(np.median(steps))
+    problem = limits.period_problem(median)
+    if problem:
+        raise DataError(f"{path}: column 'time': median {problem}; time is in seconds")
     off = np.flatnonzero(np.abs(steps - median) > STEADY_RATE_TOLERANCE * median)
     if off.size:
         k = off[0] + 1
@@ -284,6 +300,10 @@ def load_bag(path, rate_hz=None):
             arrays.pop('setpoint')
         else:
             arrays['setpoint'] = np.where(np.isfinite(setpoint), setpoint, setpoint[known[0]])
+    if len(arrays['time']) >= 2:
+        problem = limits.period_problem(float(arrays['time'][1] - arrays['time'][0]))
+        if problem:
+            raise DataError(f'{path}: resampled {problem}; choose --rate in that range')
     if len(arrays['time']) < MIN_SAMPLES:
         raise DataError(f'{path}: {len(arrays["time"])} samples after resampling; a dynamic '
                         f'record needs at least {MIN_SAMPLES}')
