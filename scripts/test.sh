@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # The test command: installs what it needs (.venv), then runs the whole test suite.
+# Arguments go to pytest: `bash scripts/test.sh -m "not slow"` is the quick run (under
+# 2 minutes; CI runs everything), `bash scripts/test.sh test/test_x.py` one file.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$root/scripts/bootstrap.sh" test

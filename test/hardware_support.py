@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 
+from conftest import NOTICE_S
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -32,7 +33,7 @@ from sma_actuator.nodes.hardware_bridge import POTENTIOMETER_RAW
 from std_msgs.msg import Float64MultiArray, UInt16
 
 
-def wait_for(condition, timeout_s=3.0, period_s=0.005):
+def wait_for(condition, timeout_s=NOTICE_S, period_s=0.005):
     """Poll `condition` until true (returns True) or timeout (returns False)."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -117,10 +118,17 @@ class Probe(Node):
         self.duty_pub.publish(Float64MultiArray(data=[float(a), float(b)]))
         self.last_duty_s = time.monotonic()
 
-    def hold(self, a, b, seconds, rate_hz=40.0):
-        """Publish the duty pair at rate_hz for `seconds` (like a controller would)."""
+    def hold(self, a, b, seconds, rate_hz=40.0, until=None):
+        """
+        Publish the duty pair at rate_hz for `seconds` (like a controller would).
+
+        With `until`, keep publishing past `seconds` until `until()` holds (at most NOTICE_S
+        more): on a loaded machine the effect of the duty may take longer to show.
+        """
         end = time.monotonic() + seconds
-        while time.monotonic() < end:
+        give_up = end + NOTICE_S
+        while time.monotonic() < end or (until is not None and not until()
+                                         and time.monotonic() < give_up):
             self.duty(a, b)
             time.sleep(1.0 / rate_hz)
 

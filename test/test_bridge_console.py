@@ -42,12 +42,13 @@ def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(
         thread = threading.Thread(target=executor.spin, daemon=True)
         thread.start()
         try:
-            assert wait_for(lambda: emulator.mcu.configured, 20.0), 'bridge never sent Hello'
-            assert wait_for(lambda: probe.duty_pub.get_subscription_count() > 0, 10.0)
-            probe.hold(0.5, 0.0, 0.5)
+            assert wait_for(lambda: emulator.mcu.configured), 'bridge never sent Hello'
+            assert wait_for(lambda: probe.duty_pub.get_subscription_count() > 0)
+            probe.hold(0.5, 0.0, 0.5, until=lambda: emulator.mcu.pwm_a == to_counts(0.5)
+                       and len(probe.joint_states) > 20 and len(probe.raw) > 20)
             assert emulator.mcu.pwm_a == to_counts(0.5)
             assert len(probe.joint_states) > 20 and len(probe.raw) > 20
-            assert wait_for(lambda: probe.status('link') is not None, 2.0)
+            assert wait_for(lambda: probe.status('link') is not None)
             assert probe.status('link')[2]['port'] == port
             # Keep commanding while the node shuts down, and watch the MCU outputs: they must
             # go to zero by the bridge's final Duty(0, 0) frame.
@@ -63,7 +64,9 @@ def test_console_script_runs_from_params_file_and_zeroes_duty_on_sigint(
             watcher = threading.Thread(target=feed_and_watch)
             watcher.start()
             code = stop_process(proc, sig=signal.SIGINT)
-            time.sleep(0.05)
+            # the final frame reaches the emulated MCU (through its line delay) a little later
+            wait_for(lambda: any(pwm == 0 and not faults & p.FAULT_WATCHDOG
+                                 for pwm, faults in list(samples)))
             done.set()
             watcher.join()
             assert code == 0

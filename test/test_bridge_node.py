@@ -73,7 +73,7 @@ def emulated(ros_context):
     with emulator_thread(baud=1_000_000, seed=0) as (emulator, port):
         loop = Loop(ros_context, port, baud=1_000_000)
         try:
-            assert wait_for(lambda: loop.level('link') == OK, 10.0), 'bridge did not connect'
+            assert wait_for(lambda: loop.level('link') == OK), 'bridge did not connect'
             yield emulator, loop
         finally:
             loop.close()
@@ -82,33 +82,46 @@ def emulated(ros_context):
 def test_duty_topic_drives_the_emulated_wires_and_joint_states_follow(emulated):
     emulator, loop = emulated
     probe = loop.probe
-    probe.hold(1.0, 0.0, 1.5)                            # heat wire A
+    started_wall_s = time.time()
+    probe.hold(1.0, 0.0, 1.5, until=lambda: emulator.mcu.pwm_a == p.DUTY_FULL_SCALE
+               and probe.joint_states[-1][1].position[0] > 0.3)   # heat wire A
     assert emulator.mcu.pwm_a == p.DUTY_FULL_SCALE and emulator.mcu.pwm_b == 0
     t, js = probe.joint_states[-1]
     peak = js.position[0]
     assert js.name == ['shaft'] and peak > 0.3           # wire A pulls the shaft positive
-    assert abs(js.position[0] - emulator.angle_rad) < 0.02
-    assert abs(js.header.stamp.sec + js.header.stamp.nanosec * 1e-9 - time.time()) < 1.0
+    # calibrated: the latest joint state is the emulated shaft angle (once the executor has
+    # caught up with the stream, however loaded the machine is)
+    assert wait_for(lambda: abs(probe.joint_states[-1][1].position[0] - emulator.angle_rad)
+                    < 0.02)
+    # stamped with the node clock at reception: between the start of the test and now
+    assert started_wall_s - 1e-3 <= js.header.stamp.sec + js.header.stamp.nanosec * 1e-9 \
+        <= time.time()
     assert max(m.velocity[0] for _, m in probe.joint_states) > 0.2
-    probe.hold(0.0, 1.0, 1.0)                            # heat wire B
-    assert probe.joint_states[-1][1].position[0] < peak - 0.3
+    probe.hold(0.0, 1.0, 1.0, until=lambda: probe.joint_states[-1][1].position[0] < peak - 0.3)
+    assert probe.joint_states[-1][1].position[0] < peak - 0.3      # wire B pulls it back
     # raw counts topic: the same samples, before calibration
     pot = Potentiometer()
     raw_angles = {round(pot.angle(counts), 9) for _, counts in probe.raw[-50:]}
     assert round(probe.joint_states[-1][1].position[0], 9) in raw_angles
-    rate = sum(1 for t, _ in probe.joint_states if t > time.monotonic() - 1.0)
-    assert rate > 150                                    # 200 Hz reports (+ one per duty frame)
+    # the stream keeps flowing (progress, not a rate: the rate is the machine's, not the link's)
+    n = len(probe.joint_states)
+    assert wait_for(lambda: len(probe.joint_states) > n + 100)
 
 
-def test_host_watchdog_zeroes_duty_200_ms_after_the_last_command(emulated):
+def test_host_watchdog_zeroes_duty_at_its_first_tick_200_ms_after_the_last_command(
+        emulated):
     emulator, loop = emulated
-    loop.probe.hold(0.5, 0.0, 0.5)
+    loop.probe.hold(0.5, 0.0, 0.5, until=lambda: emulator.mcu.pwm_a == to_counts(0.5))
     assert emulator.mcu.pwm_a == to_counts(0.5)
-    assert wait_for(lambda: emulator.mcu.pwm_a == 0, 2.0, period_s=0.001)
-    off_after = time.monotonic() - loop.probe.last_duty_s
-    assert 0.195 <= off_after <= 0.4, off_after
-    assert wait_for(lambda: loop.level('duty') == WARN, 1.0)
-    assert 'no /sma/duty' in loop.probe.status('duty')[1]
+    assert wait_for(lambda: emulator.mcu.pwm_a == 0)
+    assert wait_for(lambda: loop.level('duty') == WARN)
+    _, message, values = loop.probe.status('duty')
+    assert 'no /sma/duty' in message
+    # on the bridge's own clock: zero at its first tick after 200 ms of silence, not before
+    # (how soon this test's threads notice it depends on the machine's load, not the bridge)
+    silence_ms = float(values['watchdog_trip_silence_ms'])
+    tick_gap_ms = float(values['watchdog_trip_tick_gap_ms'])
+    assert 200.0 < silence_ms <= 200.0 + tick_gap_ms + 0.002, values
     assert loop.level('link') == OK                      # zero duty keeps flowing, link is fine
 
 
@@ -122,37 +135,38 @@ def test_never_both_wires_heated_at_the_mcu(emulated):
         time.sleep(0.002)
     assert all(pair == (0, 0) for pair in seen)
     assert not emulator.mcu.faults_latched & p.FAULT_INTERLOCK
-    assert wait_for(lambda: int(loop.probe.status('duty')[2]['interlock_held']) > 0, 1.0)
+    assert wait_for(lambda: int(loop.probe.status('duty')[2]['interlock_held']) > 0)
 
 
 def test_bad_duty_message_is_rejected_and_the_last_valid_one_kept(emulated):
     emulator, loop = emulated
-    loop.probe.hold(0.4, 0.0, 0.2)
+    loop.probe.hold(0.4, 0.0, 0.2, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))
     assert emulator.mcu.pwm_a == to_counts(0.4)
     for bad in ((math.nan, 0.0), (1e308, 0.0), (2.0, 0.0)):
         loop.probe.duty(*bad)
-    assert wait_for(lambda: loop.level('duty') == ERROR, 1.0)
+    assert wait_for(lambda: loop.level('duty') == ERROR)
     assert 'outside [0, 1]' in loop.probe.status('duty')[1]
-    assert emulator.mcu.pwm_a == to_counts(0.4)          # never full power
-    loop.probe.hold(0.4, 0.0, 0.1)
+    # never full power (zero once the host watchdog runs out, if this test is slow to look)
+    assert emulator.mcu.pwm_a in (to_counts(0.4), 0)
+    loop.probe.hold(0.4, 0.0, 0.1, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))
     assert emulator.mcu.pwm_a == to_counts(0.4)
 
 
 def test_a_second_duty_publisher_zeroes_the_duty_with_an_error(emulated, ros_context):
     emulator, loop = emulated
-    loop.probe.hold(0.4, 0.0, 0.3)
+    loop.probe.hold(0.4, 0.0, 0.3, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))
     assert emulator.mcu.pwm_a == to_counts(0.4)
     other = rclpy.create_node('second_controller', context=ros_context, namespace=c.NAMESPACE)
     try:
         other.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
-        assert wait_for(lambda: emulator.mcu.pwm_a == 0 and loop.level('duty') == ERROR, 5.0)
+        assert wait_for(lambda: emulator.mcu.pwm_a == 0 and loop.level('duty') == ERROR)
         assert '2 publishers' in loop.probe.status('duty')[1]
         loop.probe.hold(0.4, 0.0, 0.3)
         assert emulator.mcu.pwm_a == 0
     finally:
         other.destroy_node()
-    assert wait_for(lambda: loop.level('duty') != ERROR, 5.0)
-    loop.probe.hold(0.4, 0.0, 0.3)
+    assert wait_for(lambda: loop.level('duty') != ERROR)
+    loop.probe.hold(0.4, 0.0, 0.3, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))
     assert emulator.mcu.pwm_a == to_counts(0.4)
 
 
@@ -160,13 +174,18 @@ def test_line_noise_is_counted_and_the_stream_resynchronises(ros_context):
     with emulator_thread(baud=1_000_000, seed=2, line_noise_hz=40.0) as (emulator, port):
         loop = Loop(ros_context, port, baud=1_000_000)
         try:
-            assert wait_for(lambda: loop.level('link') == OK, 10.0)
-            loop.probe.hold(0.3, 0.0, 1.5)
-            values = loop.probe.status('link')[2]
-            assert int(values['crc_errors']) + int(values['framing_errors']) >= 10
+            assert wait_for(lambda: loop.level('link') == OK)
+
+            def errors():
+                values = loop.probe.status('link')[2]
+                return int(values['crc_errors']) + int(values['framing_errors'])
+            loop.probe.hold(0.3, 0.0, 1.5, until=lambda: errors() >= 10)
+            assert errors() >= 10 and loop.level('link') == OK
+            # after the noise the stream has resynchronised: joint states keep coming and the
+            # link stays up (progress, not a rate: the rate is the machine's, not the link's)
+            n, seen = len(loop.probe.joint_states), errors()
+            assert wait_for(lambda: errors() > seen and len(loop.probe.joint_states) > n + 100)
             assert loop.level('link') == OK
-            rate = sum(1 for t, _ in loop.probe.joint_states if t > time.monotonic() - 1.0)
-            assert rate > 150
         finally:
             loop.close()
 
@@ -176,20 +195,26 @@ def test_unplugged_mcu_gives_error_zero_duty_and_reconnects(ros_context, tmp_pat
     proc, port = start_emulator_process('--link', link, '--baud', '1000000')
     loop = Loop(ros_context, link, baud=1_000_000, reconnect_backoff_max_s=0.4)
     try:
-        assert wait_for(lambda: loop.level('link') == OK, 10.0)
+        assert wait_for(lambda: loop.level('link') == OK)
         loop.probe.hold(0.5, 0.0, 0.3)
         stop_process(proc, sig=9)                         # "cable pulled"
-        unplugged = time.monotonic()
-        assert wait_for(lambda: loop.level('link') == ERROR, 3.0)
+        assert wait_for(lambda: loop.level('link') == ERROR)
         assert loop.bridge.core.duty == (0, 0)
-        n = len(loop.probe.joint_states)
+        down_s = time.time()                              # the link is closed by now
+
+        def received_since_down():
+            # joint states are stamped at reception: ones sent before the close may still be
+            # on their way to this test's probe, but none may be stamped after it
+            return sum(1 for _, m in loop.probe.joint_states
+                       if m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 > down_s)
         time.sleep(0.5)
-        assert len(loop.probe.joint_states) <= n + 1     # no data while unplugged
+        assert received_since_down() == 0                 # no data while unplugged
         proc, _ = start_emulator_process('--link', link, '--baud', '1000000')
-        assert wait_for(lambda: loop.level('link') == OK, 5.0), loop.probe.status('link')
-        assert wait_for(lambda: len(loop.probe.joint_states) > n + 20, 3.0)
-        assert int(loop.probe.status('link')[2]['opens']) >= 2
-        assert time.monotonic() - unplugged < 10.0
+        assert wait_for(lambda: loop.level('link') == OK), loop.probe.status('link')
+        assert wait_for(lambda: received_since_down() > 20)
+        values = loop.probe.status('link')[2]
+        assert int(values['opens']) >= 2
+        assert float(values['reconnect_backoff_s']) <= 0.4   # retried at the capped backoff
     finally:
         loop.close()
         stop_process(proc)
@@ -199,7 +224,8 @@ def test_unopenable_port_is_an_error_not_a_crash(ros_context, tmp_path):
     loop = Loop(ros_context, str(tmp_path / 'no_such_tty'), reconnect_backoff_max_s=0.2)
     try:
         loop.probe.hold(0.5, 0.0, 0.8)
-        assert wait_for(lambda: loop.level('link') == ERROR, 2.0)
+        assert wait_for(lambda: loop.level('link') == ERROR
+                        and int(loop.probe.status('link')[2]['open_failures']) >= 2)
         level, message, values = loop.probe.status('link')
         assert 'cannot open' in message and int(values['open_failures']) >= 2
         assert loop.thread.is_alive() and loop.bridge.core.duty == (0, 0)

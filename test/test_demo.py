@@ -22,6 +22,7 @@ import pytest
 demo = pytest.importorskip('sma_actuator.demo')
 
 
+@pytest.mark.slow
 def test_demo_writes_the_summary_schema_and_one_figure_per_response(ros_context, tmp_path):
     out = tmp_path / 'run'
     summary = demo.run_all(ros_context, out, profiles=['step'], modes=['pi', 'pi_inverse'],
@@ -46,6 +47,7 @@ def test_demo_writes_the_summary_schema_and_one_figure_per_response(ros_context,
         assert len(rows) > 15.0 / 0.025 * 0.95          # 40 Hz over the 15 s run
 
 
+@pytest.mark.slow
 def test_recorder_hook_records_each_run_to_mcap(ros_context, tmp_path):
     if demo.recorder_factory(tmp_path / 'probe') is None:
         pytest.skip('sma_actuator.nodes.recorder not available')

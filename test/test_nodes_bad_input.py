@@ -77,18 +77,20 @@ def loop(ros_context):
 
 def test_bad_setpoints_are_rejected_and_last_valid_kept(loop):
     ex, plant, ctrl, tester = loop
-    assert spin_until(ex, lambda: tester.sp.get_subscription_count() > 0, 5)
+    assert spin_until(ex, lambda: tester.sp.get_subscription_count() > 0)
     tester.sp.publish(Float64(data=0.3))
-    assert spin_until(ex, lambda: len(tester.positions) > 40 and tester.positions[-1] > 0.2, 10)
+    assert spin_until(ex, lambda: len(tester.positions) > 40 and tester.positions[-1] > 0.2)
     for k, bad in enumerate([math.nan, math.inf, -math.inf, 5.0, -1.5], start=1):
         tester.sp.publish(Float64(data=bad))
-        assert spin_until(ex, lambda: ctrl.setpoint.rejected >= k, 3), f'{bad} not rejected'
+        assert spin_until(ex, lambda: ctrl.setpoint.rejected >= k), f'{bad} not rejected'
     # diagnostics WARN at once, then at most once per second (issue 13 item 4)
     assert 1 <= len(tester.warnings('controller', 'rejected setpoint')) <= 2
     n0 = len(tester.positions)
-    spin_until(ex, lambda: len(tester.positions) > n0 + 40, 3)      # one more second
+    spin_until(ex, lambda: len(tester.positions) > n0 + 40)         # one more second
     assert ctrl.setpoint.value == 0.3
-    assert abs(tester.positions[-1] - 0.3) < 0.05                  # still holding 0.3
+    # the loop goes on to 0.3 (a bad setpoint taken would send it elsewhere); how soon it gets
+    # there on the wall-clock plant depends on the machine's load
+    assert spin_until(ex, lambda: abs(tester.positions[-1] - 0.3) < 0.05)
     assert all(math.isfinite(d) for pair in tester.duties for d in pair)
 
 
@@ -100,13 +102,13 @@ def test_bad_duties_are_rejected_by_the_plant_and_last_valid_kept(ros_context):
     for n in (plant, tester.node):
         ex.add_node(n)
     try:
-        assert spin_until(ex, lambda: tester.duty_pub.get_subscription_count() > 0, 5)
+        assert spin_until(ex, lambda: tester.duty_pub.get_subscription_count() > 0)
         tester.duty_pub.publish(Float64MultiArray(data=[0.4, 0.0]))
-        assert spin_until(ex, lambda: plant.applied == (0.4, 0.0), 3)
+        assert spin_until(ex, lambda: plant.applied == (0.4, 0.0))
         for k, bad in enumerate([[math.nan, 0.0], [0.2, math.inf], [1.5, 0.0], [0.0, -0.1],
                                  [0.1]], start=1):
             tester.duty_pub.publish(Float64MultiArray(data=bad))
-            assert spin_until(ex, lambda: plant.duty.rejected >= k, 3), f'{bad} not rejected'
+            assert spin_until(ex, lambda: plant.duty.rejected >= k), f'{bad} not rejected'
         assert 1 <= len(tester.warnings('plant_sim', 'rejected duty')) <= 2
         spin_until(ex, lambda: False, 0.2)
         assert plant.applied == (0.4, 0.0)
@@ -119,7 +121,7 @@ def test_bad_duties_are_rejected_by_the_plant_and_last_valid_kept(ros_context):
 def test_non_finite_joint_state_is_rejected_with_a_warning(loop):
     ex, plant, ctrl, tester = loop
     js = tester.node.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
-    assert spin_until(ex, lambda: js.get_subscription_count() > 0, 5)
+    assert spin_until(ex, lambda: js.get_subscription_count() > 0)
     js.publish(JointState(name=['shaft'], position=[math.nan]))
-    assert spin_until(ex, lambda: tester.warnings('controller', 'rejected joint state'), 3)
+    assert spin_until(ex, lambda: tester.warnings('controller', 'rejected joint state'))
     assert ctrl.rejected_feedback >= 1

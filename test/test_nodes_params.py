@@ -24,6 +24,7 @@ import subprocess
 import sys
 import time
 
+from conftest import NOTICE_S, spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
@@ -120,11 +121,11 @@ def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain
                             env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        deadline = time.monotonic() + 20
+        deadline = time.monotonic() + NOTICE_S
         while proc.poll() is None and time.monotonic() < deadline:
             ex.spin_once(timeout_sec=0.05)
-        for _ in range(10):
-            ex.spin_once(timeout_sec=0.05)
+        assert spin_until(ex, lambda: got)
+        spin_until(ex, lambda: False, 0.5)            # a second value would show up by now
         assert proc.returncode == 0
         assert got == [0.3]
     finally:
@@ -147,10 +148,7 @@ def test_every_node_reports_on_diagnostics(ros_context):
     for n in nodes + [listener]:
         ex.add_node(n)
     try:
-        deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and not {'plant_sim', 'controller',
-                                                   'setpoint'} <= names:
-            ex.spin_once(timeout_sec=0.05)
+        spin_until(ex, lambda: {'plant_sim', 'controller', 'setpoint'} <= names)
         assert {'plant_sim', 'controller', 'setpoint'} <= names
     finally:
         ex.shutdown()
@@ -175,14 +173,10 @@ def test_plant_follows_the_ambient_topic_and_rejects_a_bad_ambient(ros_context):
     for n in (plant, node):
         ex.add_node(n)
     try:
-        deadline = time.monotonic() + 5
-        while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
-            ex.spin_once(timeout_sec=0.05)
+        spin_until(ex, lambda: pub.get_subscription_count() > 0)
         pub.publish(Temperature(temperature=40.0))
         pub.publish(Temperature(temperature=float('nan')))
-        deadline = time.monotonic() + 10
-        while plant.sim_time < 10.0 and time.monotonic() < deadline:
-            ex.spin_once(timeout_sec=0.05)
+        spin_until(ex, lambda: plant.sim_time >= 10.0)   # sim time: the wall time is the host's
         assert plant.ambient_c == 40.0                  # NaN rejected, 40 kept
         assert any('rejected ambient' in w for w in warns)
         # zero duty: both wires relax to the new ambient (T = 2 s, 10 s elapsed)

@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 
+from conftest import NOTICE_S
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
@@ -33,6 +34,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rosbags.highlevel import AnyReader, AnyReaderError  # noqa: E402
+from sma_actuator.bag.errors import BagError  # noqa: E402
 from sma_actuator.bag.reader import BagReader  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
@@ -72,7 +74,7 @@ def recording(ros_context, tmp_path):
 def _publish(node, executor, count, period_s=0.005):
     """Publish 0..count-1 on /sma/setpoint (reliable) once the recorder is subscribed."""
     pub = node.create_publisher(Float64, '/sma/setpoint', 10)
-    end = time.monotonic() + 15.0
+    end = time.monotonic() + NOTICE_S
     while pub.get_subscription_count() == 0 and time.monotonic() < end:
         executor.spin_once(timeout_sec=0.05)
     assert pub.get_subscription_count() == 1, 'recorder never subscribed'
@@ -83,13 +85,26 @@ def _publish(node, executor, count, period_s=0.005):
     return pub
 
 
+def _on_disk(bag, count):
+    """Wait until `count` messages of the unfinished bag have reached the file; return whether."""
+    end = time.monotonic() + NOTICE_S
+    while time.monotonic() < end:
+        try:
+            if sum(1 for _ in BagReader(bag).messages()) >= count:
+                return True
+        except BagError:
+            pass              # nothing (readable) written yet
+        time.sleep(0.1)
+    return False
+
+
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_sigint_and_sigterm_finish_the_bag(recording, sig):
     proc, bag, node, executor = recording
     _publish(node, executor, 200)
-    time.sleep(0.5)
+    assert _on_disk(bag, 200), 'the recorder did not write the messages'
     proc.send_signal(sig)
-    output = proc.communicate(timeout=15)[0].decode()
+    output = proc.communicate(timeout=NOTICE_S)[0].decode()
     assert proc.returncode == 0, output
     assert (bag / 'metadata.yaml').is_file(), output
     with AnyReader([bag]) as reader:
@@ -101,11 +116,12 @@ def test_sigint_and_sigterm_finish_the_bag(recording, sig):
 def test_sigkill_leaves_a_recoverable_file(recording):
     proc, bag, node, executor = recording
     pub = _publish(node, executor, 300)
-    time.sleep(0.6)  # > chunk_max_age_s: the chunks of the messages above reached the file
+    # chunks older than chunk_max_age_s reach the file: wait for all of the above to be there
+    assert _on_disk(bag, 300), 'the recorder did not write the messages'
     for i in range(300, 320):  # these may still be in the recorder's memory at the kill
         pub.publish(Float64(data=float(i)))
     proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=10)
+    proc.wait(timeout=NOTICE_S)
     assert not (bag / 'metadata.yaml').exists()
     with pytest.raises(AnyReaderError, match='magic'):
         with AnyReader([bag / 'bag_0.mcap']) as reader:

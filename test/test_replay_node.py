@@ -20,7 +20,7 @@ import signal
 import subprocess
 import sys
 
-from conftest import spin_until
+from conftest import NOTICE_S, spin_until
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
@@ -63,7 +63,7 @@ def _write_bag(path, count=30, period_ms=10):
     return stored
 
 
-def _spin_until(executor, condition, timeout_s=10.0):
+def _spin_until(executor, condition, timeout_s=NOTICE_S):
     return spin_until(executor, condition, timeout_s, step_s=0.02)
 
 
@@ -95,7 +95,7 @@ def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
     stored = _write_bag(tmp_path / 'bag')
     replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'), rate=2.0,
                         topics=['/sma/duty', '/sma/joint_states'], clock=True,
-                        clock_frequency_hz=50.0, wait_for_subscribers_s=5.0,
+                        clock_frequency_hz=50.0, wait_for_subscribers_s=NOTICE_S,
                         remap=['/sma/joint_states:=/measured/joint_states'])
     extra.append(replay)
     executor.add_node(replay)
@@ -106,7 +106,7 @@ def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
     assert offers == {'/sma/duty': 'RELIABLE', '/measured/joint_states': 'BEST_EFFORT'}
     replay.start()
     assert _spin_until(executor, replay.finished.is_set)
-    _spin_until(executor, lambda: len(got['/sma/duty']) > len(stored['/sma/duty']), 2.0)
+    _spin_until(executor, lambda: len(got['/sma/duty']) > len(stored['/sma/duty']))
 
     assert replay.stats.published == 60
     assert got['/sma/duty'][:-1] == stored['/sma/duty']
@@ -123,13 +123,13 @@ def test_stop_mid_playback_zeroes_the_duty(probe, tmp_path):
     node, executor, got, extra = probe
     stored = _write_bag(tmp_path / 'bag', count=200, period_ms=20)
     replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'),
-                        wait_for_subscribers_s=5.0, loop=True)
+                        wait_for_subscribers_s=NOTICE_S, loop=True)
     extra.append(replay)
     executor.add_node(replay)
     replay.start()
     assert _spin_until(executor, lambda: len(got['/sma/duty']) >= 5)
     replay.stop()
-    _spin_until(executor, lambda: False, 0.3)
+    _spin_until(executor, lambda: _last_duty(got) == ZERO_DUTY)
     duty = [deserialize_message(d, Float64MultiArray).data.tolist() for d in got['/sma/duty']]
     assert duty[-1] == ZERO_DUTY
     assert got['/sma/duty'][:-1] == stored['/sma/duty'][:len(duty) - 1]
@@ -173,15 +173,18 @@ def test_console_script_interrupted_zeroes_duty_before_exit(probe, tmp_path):
                              '-p', "remap:=['/sma/joint_states:=/measured/joint_states']"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=dict(os.environ))
     try:
-        assert _spin_until(executor, lambda: len(got['/sma/duty']) >= 10, 20.0)
+        assert _spin_until(executor, lambda: len(got['/sma/duty']) >= 10)
         assert len(got['/measured/joint_states']) > 0 and got['/sma/joint_states'] == []
         proc.send_signal(signal.SIGINT)
-        output = proc.communicate(timeout=15)[0].decode()
-        _spin_until(executor, lambda: False, 0.3)
+        output = proc.communicate(timeout=NOTICE_S)[0].decode()
+        _spin_until(executor, lambda: _last_duty(got) == ZERO_DUTY)   # its last word
     finally:
         if proc.poll() is None:
             proc.kill()
-            proc.wait(timeout=10)
+            proc.wait(timeout=NOTICE_S)
     assert proc.returncode == 0, output
-    last = deserialize_message(got['/sma/duty'][-1], Float64MultiArray).data.tolist()
-    assert last == ZERO_DUTY, output
+    assert _last_duty(got) == ZERO_DUTY, output
+
+
+def _last_duty(got):
+    return deserialize_message(got['/sma/duty'][-1], Float64MultiArray).data.tolist()

@@ -134,6 +134,7 @@ def test_compare_json_and_report_on_the_fitting_record(fitted, tmp_path):
     assert 'hysteresis.png' in page and (tmp_path / 'rep' / 'time.png').exists()
 
 
+@pytest.mark.slow
 def test_diagnose_names_a_hidden_delay_and_reports_it(tmp_path):
     data = write_record(tmp_path / 'delay.csv', n=800, seed=3, delay_s=0.4)
     proc = run('diagnose', data, '--candidates', 'delay', '--json', '--report', tmp_path / 'r')
@@ -275,6 +276,7 @@ def catalog_guard():
     CATALOG.update(before)
 
 
+@pytest.mark.slow
 def test_plugin_file_effect_is_fitted_through_the_cli(tmp_path):
     (tmp_path / 'dead_time.py').write_text(PLUGIN)
     data = write_record(tmp_path / 'dt.csv', n=600, seed=5, dead_duty=0.2)

@@ -106,6 +106,7 @@ def test_strong_sensor_polynomial_is_fitted_to_the_noise():
     assert fit.validation['nrmse'] < 0.4 * base.validation['nrmse']
 
 
+@pytest.mark.slow
 def test_fatigue_of_each_wire_is_identified_from_its_own_cycles():
     truth = act.ActuatorParams(fatigue_stroke=0.3, fatigue_cycles=12.0,
                                fatigue_offset_rad=-0.1, fatigue_offset_b_rad=0.04)
@@ -129,6 +130,7 @@ def test_phase_resistance_sign_follows_the_drive():
     assert hi == 0.0 and lo < 0 and lo <= start <= hi
 
 
+@pytest.mark.slow
 def test_ablation_removes_the_gain_of_a_real_effect():
     data = record(act.ActuatorParams(delay_s=0.25), seconds=240.0, seed=8)
     base = engine.fit_model(data, ())
@@ -152,6 +154,7 @@ class DeadTime(Effect):
                 np.clip((duty_b - d0) / (1 - d0), 0, 1), ambient)
 
 
+@pytest.mark.slow
 def test_plugin_ablation_uses_its_neutral_value():
     rng = np.random.default_rng(4)
     n = int(240 / DT)
@@ -225,6 +228,7 @@ class OwnGrid(Effect):
         return {'ambient_shift': (1.0, 5.0, 2.5)}
 
 
+@pytest.mark.slow
 def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
     data = record(act.ActuatorParams(), seconds=120.0)
     base = engine.fit_model(data, ())
@@ -274,6 +278,7 @@ def test_phase_resistance_scratch_start_is_a_strong_effect_of_the_drives_sign():
         assert lo <= k <= hi and abs(k) >= 0.5 * max(abs(lo), abs(hi))
 
 
+@pytest.mark.slow
 def test_feedback_weights_are_settled_to_their_fixed_point():
     # heating depends on the wire's own contraction (phase resistance), so the regression
     # sees the hysteresis through a reference model; settled, the fit at the true kappa and
@@ -294,6 +299,7 @@ def test_feedback_weights_are_settled_to_their_fixed_point():
     assert err_settled < 0.004 and fit.train['rmse'] < 0.004       # noise 1 mrad, 2 rad travel
 
 
+@pytest.mark.slow
 def test_candidates_refitted_on_two_cores_equal_one_core_and_plugins_stay_local():
     rng = np.random.default_rng(4)
     n = int(150 / DT)

@@ -29,6 +29,8 @@ from sma_actuator.workbench.engine import diagnose
 from support.parallel import imap_on_cores
 from support.richsim import simulate
 
+pytestmark = pytest.mark.slow   # about 6 min alone: CI runs it, the quick run does not
+
 # effect, magnitude, excitation, noise [rad], rate [Hz], seed
 STRONG = [
     ('none', 0.0, 'open', 0.002, 40, 11),

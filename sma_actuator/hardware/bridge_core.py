@@ -148,6 +148,8 @@ class BridgeCore:
         self.max_counts = to_counts(config.max_duty)
         self.interlock_counts = to_counts(config.interlock_threshold)
         self.duty_timed_out = False
+        self.watchdog_trip = None       # (silence, tick gap) [s] when the host watchdog tripped
+        self._last_tick_s = now_s
         self.last_command_bad = ''
         self.counters = collections.Counter()
         self.rtt_s = collections.deque(maxlen=100)          # heartbeat round trips
@@ -276,8 +278,10 @@ class BridgeCore:
         """Timers: host watchdog, duty refresh, heartbeat, Hello retry, link timeout."""
         cfg, tx = self.config, bytearray()
         silent_s = now_s - self._last_command_s
+        tick_gap_s, self._last_tick_s = now_s - self._last_tick_s, now_s
         if not self.duty_timed_out and silent_s > cfg.duty_timeout_s:
             self.duty_timed_out = True
+            self.watchdog_trip = (silent_s, tick_gap_s)
             self.counters['host_watchdog_trips'] += 1
             self.requested = (0, 0)
             self._apply(now_s)
@@ -465,6 +469,9 @@ class BridgeCore:
         if self.state != LinkState.CONNECTED:
             return 'duty', 'warn', 'MCU not connected: commands dropped, zero duty', values
         if self.duty_timed_out:
+            # the trip on the bridge's own clock: zero at the first tick after the timeout
+            values['watchdog_trip_silence_ms'] = _ms(self.watchdog_trip[0])
+            values['watchdog_trip_tick_gap_ms'] = _ms(self.watchdog_trip[1])
             text = f'no /sma/duty for over {self.config.duty_timeout_s} s: zero duty'
             return 'duty', 'warn', text, values
         return 'duty', 'ok', 'commands arriving', values

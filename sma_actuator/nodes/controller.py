@@ -125,6 +125,8 @@ class Controller(Node):
         self.last_sample = None       # header stamp [s] of the last sample used for control
         self.last_step = None
         self.stale = False
+        self.last_check = None        # node time [s] of the previous watchdog check
+        self.zeroed = None            # node times [s] (zero duty, check before) of a timeout
         self.rejected_feedback = 0
         self._last_reject_diag = 0.0
         self._last_setpoint_diag = -1.0
@@ -209,9 +211,12 @@ class Controller(Node):
             self.tick_intervals.append(wall - self._last_tick_wall)
         self._last_tick_wall = wall
         now = self.now_s()
+        previous_check, self.last_check = self.last_check, now
         if self.last_feedback is not None and now - self.last_feedback <= self.feedback_timeout_s:
             return
         first = not self.stale
+        if first:
+            self.zeroed = (now, previous_check)
         self.stale = True
         self.last_sample = None
         self.last_step = self.core.idle(self.period_s, self.ambient_c)
@@ -239,6 +244,11 @@ class Controller(Node):
                'rejected_setpoints': self.setpoint.rejected,
                'rejected_joint_states': self.rejected_feedback}
         out.update(self.timing_stats())
+        if self.stale and self.last_feedback is not None and None not in self.zeroed:
+            # the timeout as the controller saw it, on its own clock (full precision)
+            out.update(last_joint_state_s=f'{self.last_feedback:.6f}',
+                       zero_duty_since_s=f'{self.zeroed[0]:.6f}',
+                       previous_check_s=f'{self.zeroed[1]:.6f}')
         if s is not None:
             out.update(duty_a=s.duty_a, duty_b=s.duty_b, error_rad=s.error,
                        theta_est_a_c=float(s.theta_est_c[0]),

@@ -161,6 +161,8 @@ class PlantSim(Node):
         self.sim_time = 0.0
         self.last_tick = None
         self.was_stale = True
+        self.last_step_time = None     # plant time [s] of the previous step
+        self.zeroed = None             # plant times [s] (zero applied, step before) of a timeout
         self.awaiting_since = None     # wall time of the joint state awaiting a duty (lockstep)
 
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
@@ -252,10 +254,12 @@ class PlantSim(Node):
             self.get_logger().warn(f'interlock: {held}; applying {self.applied}',
                                    throttle_duration_sec=1.0)
         if stale and not self.was_stale and self.last_duty_time is not None:
+            self.zeroed = (self.now_s(), self.last_step_time)
             self.get_logger().warn(f'no valid duty for {self.duty_timeout_s:g} s: zero duty')
             self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(),
                               self.stamp())
         self.was_stale = stale
+        self.last_step_time = self.now_s()
         angle = self.actuator.step(*self.applied, dt,
                                    self.ambient_c if self.use_ambient_topic else None)
         position = self.pot.angle(self.pot.counts(angle, self.rng))
@@ -317,10 +321,18 @@ class PlantSim(Node):
 
     def _status(self):
         th = self.actuator.temperature_c
-        return {'applied_duty_a': float(self.applied[0]), 'applied_duty_b': float(self.applied[1]),
-                'theta_a_c': float(th[0]), 'theta_b_c': float(th[1]),
-                'rejected_duties': self.duty.rejected, 'interlock_held': self.interlock.held,
-                'duty_publishers': self.duty_publishers, 'sim_time_s': float(self.now_s())}
+        out = {'applied_duty_a': float(self.applied[0]), 'applied_duty_b': float(self.applied[1]),
+               'theta_a_c': float(th[0]), 'theta_b_c': float(th[1]),
+               'rejected_duties': self.duty.rejected, 'interlock_held': self.interlock.held,
+               'duty_publishers': self.duty_publishers, 'sim_time_s': float(self.now_s())}
+        # the timeout as the plant saw it, on its own clock (full precision: epoch seconds)
+        if self.zeroed and self.last_duty_time is not None \
+                and self.last_duty_time <= self.zeroed[0]:
+            zero_s, previous_step_s = self.zeroed
+            out.update(last_valid_duty_s=f'{self.last_duty_time:.6f}',
+                       zero_duty_applied_s=f'{zero_s:.6f}',
+                       previous_step_s=f'{previous_step_s:.6f}')
+        return out
 
 
 def _base_model(model_file):
