@@ -24,7 +24,6 @@ import time
 from hardware_support import emulator_thread, NOTICE_S, Probe, wait_for
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from sma_actuator.hardware import protocol as p
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.controller import Controller
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
