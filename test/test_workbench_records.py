@@ -28,8 +28,7 @@ from conftest import real_data_path
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import fit_model, record_scores
-from sma_actuator.workbench.records import join, segment_of
+from sma_actuator.workbench.engine import fit_model
 
 WIRE = Path(real_data_path()).parent / 'spring_biased_wire'
 DT = 0.05
@@ -182,17 +181,44 @@ def test_a_quiet_validation_window_is_uninformative_not_a_huge_error(tmp_path, c
 
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_trained_without_full_cooling_the_model_cools_to_the_measured_rest():
-    """Step and ramp records never cool; the square record does, and its prediction must
-    end at its measured rest (the saturated hysteresis closes at the major loop's cold end,
-    it does not freeze where the training stopped)."""
-    recs = [(n, load_data(WIRE / f'{n}.csv')) for n in ('step_a', 'ramp_a', 'square_a')]
-    data = join(recs, held_out=('square_a',))
-    fit = fit_model(data, effects=('sensor_zero',))
-    a, b = segment_of(data, 'square_a')
-    span = np.ptp(data.position[data.scored])
-    end_measured = np.mean(data.position[b - 200:b])
-    end_model = np.mean(fit.prediction[b - 200:b])
+    """
+    Train on the first 70 % of the square record, which ends before the wire has cooled.
+
+    The prediction of the rest must end at the measured rest: the saturated hysteresis
+    closes at the cold end of the major loop, it does not freeze where training stopped
+    (before: 1.4 mm above the rest, 7.2 % held-out NRMSE).
+    """
+    d = load_data(WIRE / 'square_a.csv')
+    fit = fit_model(d)
+    span = np.ptp(d.position)
+    assert d.position[fit.split] > 0.05 * span          # training stopped before the rest
+    end_measured, end_model = np.mean(d.position[-200:]), np.mean(fit.prediction[-200:])
     assert abs(end_model - end_measured) < 0.02 * span
-    whole = {r['data']: r['scores']['all']['nrmse']
-             for r in record_scores(data, fit.prediction, fit.split)}
-    assert whole['square_a'] < 0.08
+    assert fit.validation['nrmse'] < 0.04
+
+
+def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
+    """The package's plant with a transport delay and an engaged current limit at once."""
+    from support.richsim_excitation import open_loop_duty
+    from sma_actuator.core.identification import DynamicData
+    rng = np.random.default_rng(seed)
+    cmd = open_loop_duty(rng, duration_s, duty_max=0.6)
+    dt = 1.0 / rate_hz
+    t = np.arange(int(round(duration_s * rate_hz))) * dt
+    tick = np.minimum((t / 0.025).astype(int), len(cmd) - 1)
+    da, db = cmd[tick, 0], cmd[tick, 1]
+    params = ActuatorParams(delay_s=0.4, duty_limit=0.45)
+    y = simulate(params, da, db, dt).position_rad + rng.normal(0, 0.002, len(t))
+    return DynamicData(t, da, db, y)
+
+
+@pytest.mark.slow
+def test_rounds_find_both_hidden_effects_and_each_lowers_the_error():
+    from sma_actuator.workbench.engine import diagnose_rounds
+    data = two_effect_record()
+    base = fit_model(data)
+    diags, added, final = diagnose_rounds(data, base, 4, jobs=0)
+    names = [r['added'] for r in added]
+    assert set(names[:2]) == {'delay', 'current_limit'}, names
+    errors = [base.validation['nrmse']] + [r['validation_nrmse'] for r in added]
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors

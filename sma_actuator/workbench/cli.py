@@ -381,7 +381,7 @@ def cmd_diagnose(args):
     """sma-model diagnose: refit with each candidate effect, rank by held-out improvement."""
     from .compare import compare
     from .data import is_static
-    from .engine import diagnose, fit_model
+    from .engine import diagnose_rounds, fit_model
     from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -396,21 +396,11 @@ def cmd_diagnose(args):
     for line in data_lines(data):
         _note(args, line)
     progress = Progress('base fit')
-    rounds, diags = [], []
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
-        for i in range(max(args.rounds, 1)):
-            progress.stage = f'diagnose round {i + 1}' if args.rounds > 1 else 'diagnose'
-            diag = diagnose(data, base=base, candidates=args.candidates, progress=progress,
-                            jobs=args.jobs)
-            diags.append(diag)
-            best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect),
-                        None)
-            if best is None:
-                break
-            rounds.append({'added': best['effect'],
-                           'validation_nrmse': best['fit'].validation['nrmse']})
-            base = best['fit']
+        progress.stage = 'diagnose'
+        diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
+                                              progress=progress, jobs=args.jobs)
     finally:
         progress.close()
     first = diags[0]

@@ -426,6 +426,28 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     return Diagnosis(base, out, best)
 
 
+def diagnose_rounds(data, base, rounds, **kw):
+    """
+    Diagnose, add the missing effect, refit, diagnose again: up to `rounds` rounds.
+
+    Stops when nothing is significant. The refit of a round is the named candidate's own
+    refit (base grid, warm start, also from scratch for `own_grid` effects). Returns
+    (the Diagnosis of every round, [{'added': name, 'validation_nrmse': x}, ...], the
+    final ModelFit). kw: passed to `diagnose` (candidates, progress, jobs, ...).
+    """
+    diags, added = [], []
+    for _ in range(max(int(rounds), 1)):
+        diag = diagnose(data, base=base, **kw)
+        diags.append(diag)
+        best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
+        if best is None:
+            break
+        added.append({'added': best['effect'],
+                      'validation_nrmse': best['fit'].validation['nrmse']})
+        base = best['fit']
+    return diags, added, base
+
+
 def _candidate(task):
     """Refit with one candidate effect and judge it (see the module docstring); returns
     the candidate's entry of `Diagnosis.candidates` (module level: runs in worker processes)."""
