@@ -1,12 +1,13 @@
 """`sma-model`: fit, compare and diagnose actuator models on recorded data.
 
-    sma-model fit DATA [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml] [--json]
-    sma-model compare DATA --model FITTED.yaml [--report DIR] [--json]
-    sma-model diagnose DATA [--model MODEL.yaml] [--report DIR] [--json]
+    sma-model fit DATA [DATA ...] [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml]
+    sma-model compare DATA [DATA ...] --model FITTED.yaml [--report DIR] [--json]
+    sma-model diagnose DATA [DATA ...] [--model MODEL.yaml] [--rounds N] [--report DIR]
     sma-model effects [--json]        (the catalog, with plug-ins)
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
---force to overwrite existing output files. Bad input ends with exit code 2 and one line
+--force to overwrite existing output files; DATA commands take --validate-on DATA ...,
+--layout single|antagonistic and --position-unit UNIT. Bad input ends with exit code 2 and one line
 ``sma-model: error: ...`` on stderr, before any output file is written. Progress goes to
 stderr only when stderr is a terminal. See docs/workbench.md.
 """
@@ -433,6 +434,11 @@ def cmd_diagnose(args):
         print_json(doc)
     else:
         print('\n'.join(diagnosis_lines(doc, first.baseline.kind)))
+        val = first.baseline.validation or {}
+        if val.get('informative') is False:
+            print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
+                  'measured range, too little to rank effects reliably (hold out another '
+                  'record: give two or more records, or --validate-on)')
         if args.rounds > 1:
             print('\n'.join(rounds_lines(doc, args.rounds)))
     return 0

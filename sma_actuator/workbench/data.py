@@ -3,9 +3,12 @@
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
 names are case-insensitive, column order is free, extra columns are ignored):
 
-* dynamic CSV  ``time,duty_a,duty_b,position[,ambient_temperature][,setpoint]``
+* dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
   time [s] strictly increasing at a steady rate (steps within 1 % of the median),
-  duties [0, 1], position [rad], ambient temperature [°C], setpoint [rad];
+  duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
+  comment (``# ... position in mm``) or the caller names (default rad), ambient
+  temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
+  a bias spring (layout 'single');
 * static CSV   ``input,output[,curve]`` or ``curve,voltage,deflection`` (quasi-static
   loops, e.g. the morphing-wing data: voltage [V] -> deflection [mm]); curve ids are
   integers, all rows belong to curve 0 without a curve column;
