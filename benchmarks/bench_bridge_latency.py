@@ -1,5 +1,22 @@
-"""Bridge round-trip latency over the MCU emulator: /sma/duty in -> Duty frame out ->
-ADC report back -> /sma/joint_states out, p50/p99 at 1 Mbaud and 115200 baud.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Bridge round-trip latency over the MCU emulator.
+
+/sma/duty in -> Duty frame out -> ADC report back -> /sma/joint_states out, p50/p99 at 1 Mbaud and
+115200 baud.
 
 Three processes, as on a real rig: `mcu_emulator` (pty, UART modelled at the given baud),
 the `hardware_bridge` console script, and this script's probe node, which publishes a
@@ -13,20 +30,18 @@ diagnostics (excludes DDS), and the pure wire time of the two frames.
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import sys
 import threading
 import time
-from pathlib import Path
-
-import numpy as np
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-from hardware_support import (Probe, console_command, start_emulator_process,  # noqa: E402
+from hardware_support import (console_command, Probe, start_emulator_process,  # noqa: E402
                               stop_process, wait_for)
-
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sma_actuator.hardware import protocol as p  # noqa: E402
 
 PERIOD_S = 0.02
@@ -86,7 +101,7 @@ def measure(baud, samples, domain):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument(
         '--samples',
         type=int,

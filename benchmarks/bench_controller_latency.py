@@ -1,5 +1,22 @@
-"""Controller timing: joint-state arrival -> duty publication (p50/p99) and the 25 ms
-watchdog timer's jitter (p99), with the controller running as its own process.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Controller timing.
+
+Joint-state arrival -> duty publication (p50/p99) and the 25 ms watchdog timer's jitter (p99), with
+the controller running as its own process.
 
 A probe in this process publishes /sma/joint_states at 40 Hz (a slowly moving shaft, so
 the controller does real work in mode pi_inverse) and listens on /sma/duty and
@@ -22,18 +39,17 @@ import subprocess
 import sys
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, Float64MultiArray, Header
-
 from sma_actuator.nodes import common as c
+from std_msgs.msg import Float64, Float64MultiArray, Header
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--seconds', type=float, default=30.0)
     ap.add_argument('--mode', default='pi_inverse', choices=['pi', 'pi_inverse', 'on_off'])
     ap.add_argument('--warmup', type=float, default=2.0, help='seconds not counted')
@@ -82,7 +98,8 @@ def main():
             cleared.append(True)
         sent[0] = time.perf_counter()
         js.publish(JointState(name=[c.JOINT_NAME], position=[0.3 * math.sin(0.3 * t)],
-                              velocity=[0.0], header=Header(stamp=node.get_clock().now().to_msg())))
+                              velocity=[0.0],
+                              header=Header(stamp=node.get_clock().now().to_msg())))
 
     try:
         deadline = time.monotonic() + 30

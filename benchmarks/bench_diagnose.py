@@ -1,4 +1,19 @@
-"""Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Benchmark: `diagnose` over every catalog effect on 10 minutes of 40 Hz data.
 
 Target (issue 6): under 60 s wall time on the 2-core CI machine. The record is simulated
 with `sma_actuator.core.actuator.simulate` (paper model, Flexinol defaults) under random
@@ -19,7 +34,6 @@ import sys
 import time
 
 import numpy as np
-
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.effects import CATALOG
@@ -42,7 +56,7 @@ def antagonistic_duties(n, dt, rng):
 
 
 def make_record(minutes=10.0, rate_hz=40.0, seed=0):
-    """A simulated run as DynamicData (time [s], duties, position [rad], ambient [°C])."""
+    """Return a simulated run as DynamicData (time [s], duties, position [rad], ambient [°C])."""
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate_hz
     n = int(round(minutes * 60.0 * rate_hz))
@@ -55,7 +69,7 @@ def make_record(minutes=10.0, rate_hz=40.0, seed=0):
 
 def main(argv=None):
     """Run the benchmark; print the wall time and the diagnosis."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--minutes', type=float, default=10.0)
     ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz]')
     ap.add_argument('--seed', type=int, default=0)
@@ -82,7 +96,7 @@ def main(argv=None):
         first, last = list(runs.values())[0][0], list(runs.values())[-1][0]
         print(f'speed-up jobs={args.jobs[-1]} over jobs={args.jobs[0]}: {first / last:.2f}x')
     total, _, diag = runs[args.jobs[-1]]
-    print(f'candidates (jobs={args.jobs[-1]}; seconds are each refit\'s own wall time):')
+    print(f"candidates (jobs={args.jobs[-1]}; seconds are each refit's own wall time):")
     for c in diag.candidates:
         imp = 'n/a' if c['improvement'] is None else f'{100 * c["improvement"]:+.1f} %'
         print(f'  {c["effect"]:<20} {imp:>9}  {c.get("seconds", 0.0):6.1f} s  '

@@ -1,4 +1,19 @@
-"""Detection limits of `sma-model diagnose` on data with one hidden effect.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Detection limits of `sma-model diagnose` on data with one hidden effect.
 
 For every catalog effect and a few magnitudes, generate a record with that one hidden
 effect, run diagnose, and print: the base model's held-out NRMSE, whether the hidden effect
@@ -16,18 +31,17 @@ Also the null case. Two sources of records:
                                 seconds column then includes the contention)
 """
 import argparse
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
+from sma_actuator.core.identification import DynamicData  # noqa: E402
+from sma_actuator.workbench.engine import diagnose  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import EFFECTS, simulate  # noqa: E402
-
-from sma_actuator.core.identification import DynamicData  # noqa: E402
-from sma_actuator.workbench.engine import diagnose  # noqa: E402
 
 
 def run_case(case):
@@ -54,7 +68,7 @@ def run_case(case):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--duration', type=float, default=480.0)
     ap.add_argument('--rate', type=float, default=40.0)
     ap.add_argument('--source', choices=('richsim', 'plant'), default='richsim')
@@ -72,7 +86,8 @@ def main():
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
           f'{"open" if plant else args.excitation} loop, noise {args.noise} rad'
           + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else ''))
-    print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} {"improvement":>11s} {"s":>5s}')
+    print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '
+          f'{"improvement":>11s} {"s":>5s}')
     rows = []
 
     def report(row):

@@ -1,4 +1,19 @@
-"""Forward PI kernel throughput: numba kernel vs per-sample numpy loop vs plain C (gcc -O2).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Forward PI kernel throughput: numba kernel vs per-sample numpy loop vs plain C (gcc -O2).
 
 1,000,000 samples x 16 play operators (classical PI, eq. 5, in the kernel's normalised
 form). Prints operator updates per second for each and the kernel/C ratio (target >= 1/3),
@@ -12,14 +27,13 @@ import tempfile
 import time
 
 import numpy as np
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import kernels
 from sma_actuator.core.hysteresis import PrandtlIshlinskii
 
 N_SAMPLES, N_OPS, NUMPY_SLICE = 1_000_000, 16, 100_000
 
-C_SOURCE = r'''
+C_SOURCE = r"""
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -49,7 +63,7 @@ int main(int argc, char **argv) {
     printf("%.6e %.17g\n", (double)n * m / dt, check);
     return 0;
 }
-'''
+"""
 
 
 def make_input():

@@ -1,4 +1,19 @@
-"""Recorder throughput: messages recorded without loss at 1 kHz on 5 topics, and the highest rate.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Recorder throughput: messages recorded without loss at 1 kHz on 5 topics, and the highest rate.
 
 A publisher process sends the five /sma topics with their contract QoS (setpoint/duty reliable,
 joint states/temperatures best effort), each at RATE Hz for DURATION s, a sequence number in
@@ -14,6 +29,7 @@ ROS_DOMAIN_ID; numbers depend on the machine and on what else runs on it.
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import shutil
 import signal
@@ -21,7 +37,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 DEFAULT_RATES = [1000, 2000, 4000, 6000, 8000, 12000, 16000]
 TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_temperature',
@@ -152,7 +167,7 @@ def _ranges(numbers):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--rates', type=int, nargs='*', default=None,
                         help='per-topic rates [Hz] to run (default: 1 kHz up, until loss)')
     parser.add_argument('--duration', type=float, default=5.0, help='seconds per rate')

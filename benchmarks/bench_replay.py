@@ -1,4 +1,19 @@
-"""Replay timing error p50/p99 against the recorded log times.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Replay timing error p50/p99 against the recorded log times.
 
 Writes a bag of the five /sma topics at RATE Hz each (log times exactly periodic, topics phase
 shifted), plays it with the replay console script at each rate factor, and subscribes in
@@ -11,13 +26,13 @@ constant offset (median); it prints p50/p99/max of the absolute error and the me
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -116,7 +131,7 @@ def measure(bag, factor, rate_hz, duration_s):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--rate', type=float, default=200.0, help='per-topic rate in the bag')
     parser.add_argument('--duration', type=float, default=5.0, help='bag length [s]')
     parser.add_argument('--factors', type=float, nargs='*', default=[1.0, 2.0])

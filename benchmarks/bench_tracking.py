@@ -1,4 +1,19 @@
-"""Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
 
 1. Identification run: plant_sim (accelerated) driven open loop by a multilevel duty
    excitation (`control.excitation.multilevel`, its own seed and its own noise seed);
@@ -16,20 +31,19 @@ Run: python benchmarks/bench_tracking.py [--periods 3] [--plant gain_ratio_b=1.1
 """
 import argparse
 import os
+from pathlib import Path
 import random
 import tempfile
 import time
-from pathlib import Path
 
 import rclpy
-
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.control.metrics import summarize
 from sma_actuator.control.model_file import save_model
 from sma_actuator.core.identification import DynamicData, fit_dynamic
 from sma_actuator.nodes.harness import run_closed_loop, run_excitation
 
-SINE = dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0)
+SINE = {'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0, 'delay_s': 1.0}
 
 
 def identify(context, seconds, seed, plant, free=None):
@@ -59,7 +73,7 @@ def parse_overrides(items):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--periods', type=int, default=3, help='sine periods per tracking run')
     ap.add_argument('--excitation-s', type=float, default=150.0)
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')
@@ -107,7 +121,8 @@ def main():
           f'tau_s {fit.params.tau_s:.3f} s, {fit.params.hysteresis.n_operators} play operators'
           f', free {fit.free}; model {model_path}')
     print(f'plant overrides: {plant or "none"}; controller overrides: '
-          f'{parse_overrides(ns.controller) or "none"}; sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
+          f'{parse_overrides(ns.controller) or "none"}; '
+          f'sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
     print(f'{"mode":12s} {"rms whole":>10s} {"rms steady":>11s} {"max steady":>11s} '
           f'{"wall s":>7s}')
     for mode, (whole, steady, wall) in results.items():

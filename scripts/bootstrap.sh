@@ -15,10 +15,31 @@ _sma_venv="${SMA_VENV:-$_sma_root/.venv}"
     "$py" -m venv "$_sma_venv"
   fi
   stamp="$_sma_venv/.sma_stamp_$_sma_set"
-  want="$(cat "$_sma_root/requirements/"*.txt "$_sma_root/setup.py" | sha256sum | cut -c1-16)"
+  # ament_copyright (test/test_copyright.py) is on no reachable registry: vendored beside the clone
+  vendor_copyright="$_sma_root/../shared/vendor/ament-copyright-jazzy"
+  extra=()
+  if [ "$_sma_set" = test ]; then
+    if [ ! -f "$vendor_copyright/setup.py" ]; then
+      echo "bootstrap: $vendor_copyright is missing (ament_copyright for the lint tests;" \
+        "shared/ must sit beside the clone)" >&2
+      exit 1
+    fi
+    extra=("$vendor_copyright/setup.py" "$vendor_copyright/package.xml")
+  fi
+  want="$(cat "$_sma_root/requirements/"*.txt "$_sma_root/setup.py" "${extra[@]}" \
+    | sha256sum | cut -c1-16)"
   if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     "$_sma_venv/bin/python" -m pip install -q -r "$_sma_root/requirements/$_sma_set.txt" \
       -c "$_sma_root/requirements/constraints.txt"
+    if [ "$_sma_set" = test ]; then
+      # build from a copy: pip builds in tree and shared/ may be read-only
+      tmp_src="$(mktemp -d)"
+      cp -r "$vendor_copyright" "$tmp_src/ament_copyright"
+      rm -rf "$tmp_src/ament_copyright/build" "$tmp_src/ament_copyright/"*.egg-info
+      "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation \
+        "$tmp_src/ament_copyright"
+      rm -rf "$tmp_src"
+    fi
     "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$_sma_root"
     echo "$want" > "$stamp"
   fi

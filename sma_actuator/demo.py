@@ -1,4 +1,19 @@
-"""closed_loop_demo: the simulated closed loop end to end (the README's main command).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+closed_loop_demo: the simulated closed loop end to end (the README's main command).
 
 For each reference (step, ramp, sine: the paper's Figs. 15-17) and each mode (pi,
 pi_inverse) it runs plant_sim (accelerated, owning /clock), controller and setpoint as
@@ -18,8 +33,8 @@ when the response is still outside the band at the end of the run.
 import argparse
 import csv
 import json
-import time
 from pathlib import Path
+import time
 
 import rclpy
 
@@ -27,16 +42,22 @@ from .control.metrics import summarize
 
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
-    'step': (dict(profile='step', amplitude=0.5, offset=0.0, delay_s=1.0), 15.0),
-    'ramp': (dict(profile='ramp', amplitude=0.5, offset=0.0, period_s=10.0, delay_s=1.0), 20.0),
-    'sine': (dict(profile='sine', amplitude=0.5, offset=0.0, period_s=20.0, delay_s=1.0), 41.0),
+    'step': ({'profile': 'step', 'amplitude': 0.5, 'offset': 0.0, 'delay_s': 1.0}, 15.0),
+    'ramp': ({'profile': 'ramp', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 10.0,
+              'delay_s': 1.0}, 20.0),
+    'sine': ({'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0,
+              'delay_s': 1.0}, 41.0),
 }
 MODES = ('pi', 'pi_inverse')
 
 
 def recorder_factory(bag_dir):
-    """Hook for MCAP recording: a factory(context) -> RecorderNode writing to bag_dir, or
-    None when the recorder (sma_actuator.nodes.recorder) is not importable."""
+    """
+    Return the hook for MCAP recording.
+
+    a factory(context) -> RecorderNode writing to bag_dir, or None when the recorder
+    (sma_actuator.nodes.recorder) is not importable.
+    """
     try:
         from .nodes.recorder import RecorderNode
     except ImportError:
@@ -113,7 +134,7 @@ def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance
 
 
 def main(args=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--name', default=time.strftime('demo_%Y%m%d_%H%M%S'),
                     help='run name: output goes to <out-dir>/<name>/')
     ap.add_argument('--out-dir', default='runs')

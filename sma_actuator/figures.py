@@ -1,4 +1,19 @@
-"""Paper figures rendered from the core code (`model_figures --out DIR`).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Paper figures rendered from the core code (`model_figures --out DIR`).
 
 Fig. 2 main loop (cosine eqs. 1-2 and Ikuta), Fig. 5 Preisach (231 relays), Figs. 8-9
 classical Prandtl-Ishlinskii (8 backlash elements, total h = 1, K = 1), Fig. 11 modified
@@ -18,13 +33,14 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from .core import identification as idn  # noqa: E402
-from .core.hysteresis import (ModifiedPrandtlIshlinskii, PreisachModel,  # noqa: E402
-                              PrandtlIshlinskii)
+from .core.hysteresis import (ModifiedPrandtlIshlinskii, PrandtlIshlinskii,  # noqa: E402
+                              PreisachModel)
 from .core.mainloop import MainLoopHysteresis  # noqa: E402
 from .core.thermal import thermal_step  # noqa: E402
 
 # the measured loops ship in the workspace's shared/ folder beside the repository
-REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR', Path(__file__).resolve().parents[2] / 'shared'))
+REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR',
+                                    Path(__file__).resolve().parents[2] / 'shared'))
                 / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 N_PI = 8
 
@@ -42,8 +58,12 @@ def paper_pi():
 
 
 def paper_modified_pi(u_m=2.5, k1_ratio=0.1):
-    """Modified PI of Fig. 11: 8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all
-    saturating at u_m (M = u_m (K − K1) − K h from the paper's u_m formula)."""
+    """
+    Modify PI of Fig.
+
+    11: 8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all saturating at u_m (M = u_m (K
+    − K1) − K h from the paper's u_m formula).
+    """
     h = np.arange(1, N_PI + 1) / N_PI
     K = np.full(N_PI, 1.0 / N_PI)
     K1 = k1_ratio * K
@@ -97,7 +117,8 @@ def fig_modified_pi(ax):
 
 
 def thermal_response(dt=0.25, t_end=12.0, tau=2.0, tau_fast=0.3, theta_amb=22.0, gain=70.0):
-    """Step response of eq. (7) by the exact step (7d)/(7f) at dt and by solve_ivp (reference).
+    """
+    Step response of eq. (7) by the exact step (7d)/(7f) at dt and by solve_ivp (reference).
 
     Returns (t, exact_1lag, exact_2lag, t_ref, ref_1lag, ref_2lag).
     """
@@ -173,7 +194,8 @@ def render(out, data_path=REAL_DATA):
     """Render every figure into directory `out`; returns the figures.json content."""
     os.makedirs(out, exist_ok=True)
     files = []
-    for name, draw in (('fig02_main_loop.png', fig_main_loop), ('fig05_preisach.png', fig_preisach),
+    for name, draw in (('fig02_main_loop.png', fig_main_loop),
+                       ('fig05_preisach.png', fig_preisach),
                        ('fig11_modified_pi.png', fig_modified_pi),
                        ('thermal_step.png', fig_thermal)):
         fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -194,7 +216,7 @@ def render(out, data_path=REAL_DATA):
 
 def main(argv=None):
     """Console script `model_figures [--out DIR] [--data CSV]`."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='runs/figures', help='output directory')
     parser.add_argument('--data', default=REAL_DATA, help='morphing-wing loops CSV')
     args = parser.parse_args(argv)

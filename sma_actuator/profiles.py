@@ -1,4 +1,19 @@
-"""Setpoint profiles r(t) [rad] of the setpoint node (the paper's Figs. 15-17 and more).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Setpoint profiles r(t) [rad] of the setpoint node (the paper's Figs. 15-17 and more).
 
 With A = amplitude, r0 = offset, P = period_s and τ = t − delay_s (r = r0 for τ < 0):
 
@@ -10,8 +25,8 @@ With A = amplitude, r0 = offset, P = period_s and τ = t − delay_s (r = r0 for
   chirp     r = r0 + A sin(2π (f0 τ + (f1 − f0) τ² / (2 D))), f0 = 1/P, sweeping
             linearly to f1 = chirp_end_hz over D = chirp_duration_s, then staying at f1
 """
-import math
 from dataclasses import dataclass
+import math
 
 from .core.validate import finite_scalar
 
@@ -21,6 +36,7 @@ PROFILES = ('constant', 'step', 'ramp', 'sine', 'square', 'chirp')
 @dataclass(frozen=True)
 class Profile:
     """A setpoint profile; call it with the time since start [s] to get r(t) [rad]."""
+
     kind: str = 'step'
     amplitude: float = 0.5
     offset: float = 0.0

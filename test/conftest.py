@@ -1,12 +1,27 @@
-"""Shared pytest fixtures.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Shared pytest fixtures.
 
 ROS tests run in their own DDS domain (random ROS_DOMAIN_ID, localhost-only discovery)
 so that concurrently running test sessions on one machine never see each other's topics.
 """
 import os
+from pathlib import Path
 import random
 import time
-from pathlib import Path
 
 import pytest
 
@@ -14,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def real_data_path():
-    """The measured morphing-wing loops: $SMA_SHARED_DIR, else shared/ beside the clone."""
+    """Return the measured morphing-wing loops: $SMA_SHARED_DIR, else shared/ beside the clone."""
     base = os.environ.get('SMA_SHARED_DIR')
     candidates = ([Path(base)] if base else []) + [ROOT.parent / 'shared']
     for c in candidates:
@@ -23,11 +38,12 @@ def real_data_path():
             return str(path)
     return str(candidates[-1] / 'data' / 'real' / 'morphing_wing_sma_loops.csv')
 
+
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 
 def spin_until(executor, condition, timeout_s=8.0, step_s=0.01):
-    """Spin `executor` until `condition()` is true or `timeout_s` passes; returns whether it held."""
+    """Spin `executor` until `condition()` holds or `timeout_s` passes; return whether it held."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         executor.spin_once(timeout_sec=step_s)
@@ -38,7 +54,7 @@ def spin_until(executor, condition, timeout_s=8.0, step_s=0.01):
 
 @pytest.fixture
 def ros_domain_id():
-    """A DDS domain id private to this test (also exported for subprocess nodes)."""
+    """Return a DDS domain id private to this test (also exported for subprocess nodes)."""
     domain = random.SystemRandom().randint(1, 100)
     old = os.environ.get('ROS_DOMAIN_ID')
     os.environ['ROS_DOMAIN_ID'] = str(domain)
@@ -51,7 +67,7 @@ def ros_domain_id():
 
 @pytest.fixture
 def ros_context(ros_domain_id):
-    """An initialised rclpy Context on the private domain; shut down after the test."""
+    """Return an initialised rclpy Context on the private domain; shut down after the test."""
     rclpy = pytest.importorskip('rclpy')
     context = rclpy.context.Context()
     rclpy.init(context=context, domain_id=ros_domain_id)

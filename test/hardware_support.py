@@ -1,5 +1,20 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Helpers for the bridge/emulator tests: emulator processes and threads, a probe node."""
 import contextlib
+from pathlib import Path
 import select
 import shutil
 import signal
@@ -7,16 +22,14 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, UInt16
-
 from sma_actuator.hardware.emulator import Emulator, PtyTransport, TcpTransport
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.hardware_bridge import POTENTIOMETER_RAW
+from std_msgs.msg import Float64MultiArray, UInt16
 
 
 def wait_for(condition, timeout_s=3.0, period_s=0.005):
@@ -30,7 +43,7 @@ def wait_for(condition, timeout_s=3.0, period_s=0.005):
 
 
 def console_command(name, module):
-    """The installed console script `name`, else `python -m module`."""
+    """Return the installed console script `name`, else `python -m module`."""
     script = Path(sys.prefix) / 'lib' / 'sma_actuator' / name
     if script.exists():
         return [str(script)]
@@ -67,7 +80,7 @@ def stop_process(proc, sig=signal.SIGTERM, timeout_s=10.0):
 
 @contextlib.contextmanager
 def emulator_thread(tcp=False, **kwargs):
-    """An in-process Emulator serving a pty (or TCP); yields (emulator, port)."""
+    """Return an in-process Emulator serving a pty (or TCP); yields (emulator, port)."""
     emulator = Emulator(**kwargs)
     transport = TcpTransport() if tcp else PtyTransport()
     stop = threading.Event()
@@ -84,10 +97,12 @@ def emulator_thread(tcp=False, **kwargs):
 class Probe(Node):
     """Publishes /sma/duty; records joint states, raw counts and diagnostics with arrival times."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, duty=True, **kwargs):
         super().__init__('bridge_probe', **kwargs)
         self.joint_states, self.raw, self.diagnostics = [], [], []
-        self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        # duty=False beside a controller: a second duty publisher makes the bridge send zero
+        self.duty_pub = (self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+                         if duty else None)
 
         def keep(into, value=lambda m: m):
             return lambda m: into.append((time.monotonic(), value(m)))
@@ -110,8 +125,11 @@ class Probe(Node):
             time.sleep(1.0 / rate_hz)
 
     def status(self, name, since=0.0):
-        """Latest DiagnosticStatus `hardware_bridge: <name>` received after `since`, as
-        (level, message, values dict), or None."""
+        """
+        Latest DiagnosticStatus `hardware_bridge.
+
+        <name>` received after `since`, as (level, message, values dict), or None.
+        """
         for t, msg in reversed(self.diagnostics):
             if t < since:
                 break

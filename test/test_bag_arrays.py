@@ -1,9 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """load_run: aligned arrays with interpolation/ZOH as documented, named errors on bad input."""
 import numpy as np
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
-from rosbags.typesys import Stores, get_typestore
-
+from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.arrays import load_run, zero_order_hold
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, MissingTopicError, NotMcapError,
                                      TruncatedBagError, UnknownTypeError)

@@ -1,7 +1,20 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Message definitions and type hashes match rosbag2's layout and the installed interfaces."""
 import pytest
 from rosbags.typesys import get_types_from_msg, get_typestore, Stores
-
 from sma_actuator.bag.errors import UnknownTypeError
 from sma_actuator.bag.msgdefs import (DELIMITER, interface_file, message_definition,
                                       normalize_type_name, type_description_hash)
@@ -40,8 +53,12 @@ def test_dependencies_are_sorted_and_listed_once():
 
 @pytest.mark.parametrize('type_name', CONTRACT_TYPES)
 def test_definition_parses_and_hashes_to_the_installed_type_hash(type_name):
-    """An independent parser (rosbags) rebuilds the type from our text alone, and its RIHS01
-    hash of that type equals the hash rosidl installed: the text is complete and correct."""
+    """
+    Check the text is complete and correct with an independent parser (rosbags).
+
+    It rebuilds the type from our text alone, and its RIHS01 hash of that type equals the
+    hash rosidl installed.
+    """
     store = get_typestore(Stores.EMPTY)
     text = message_definition(type_name)
     types = {}

@@ -1,10 +1,28 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """QoS profiles are written in rosbag2 Jazzy's YAML form and read back from v8/v9 bags."""
 import pytest
 from rosbags.rosbag2.metadata import parse_qos
-
-from sma_actuator.bag.qos import (INFINITE_NS, adapt_offer_to_recorded_offers,
-                                  adapt_request_to_offers, dump_offered_qos_profiles,
-                                  load_offered_qos_profiles, profile_to_dict)
+from sma_actuator.bag.qos import (
+    adapt_offer_to_recorded_offers,
+    adapt_request_to_offers,
+    dump_offered_qos_profiles,
+    INFINITE_NS,
+    load_offered_qos_profiles,
+    profile_to_dict,
+)
 from sma_actuator.bag.synthetic import offered_profile
 
 # What rosbag2 Jazzy (qos.cpp, YAML::Dump) writes for a Fast DDS publisher discovered with

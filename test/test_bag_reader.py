@@ -1,15 +1,28 @@
-"""BagReader: bad input gives named errors; unfinished files are recovered, the loss reported."""
-import pytest
-import yaml
-from mcap.reader import make_reader
-from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
-from rosbags.typesys import Stores, get_typestore
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
+"""BagReader: bad input gives named errors; unfinished files are recovered, the loss reported."""
+from mcap.reader import make_reader
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
+from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, NotMcapError,
                                      TruncatedBagError)
 from sma_actuator.bag.reader import BagReader
 from sma_actuator.bag.synthetic import cdr_encoder
 from sma_actuator.bag.writer import BagWriter
+import yaml
 
 T0 = 1_600_000_000_000_000_000
 ENCODE = cdr_encoder('std_msgs/msg/Float64MultiArray')
@@ -159,7 +172,8 @@ def test_broken_metadata_yaml_is_reported(mcap_file):
         BagReader(path.parent)
 
 
-def test_directory_without_metadata_reads_files_in_split_order(tmp_path):
+def test_directory_without_metadata_reads_files_in_split_order(tmp_path, monkeypatch):
+    monkeypatch.setattr('sma_actuator.bag.writer.MIN_FILE_SIZE_BYTES', 1000)  # small files
     payloads = _write(tmp_path / 'b', count=200, max_file_size_bytes=3000)
     (tmp_path / 'b' / 'metadata.yaml').unlink()  # as after a crash
     reader = BagReader(tmp_path / 'b')
@@ -168,7 +182,7 @@ def test_directory_without_metadata_reads_files_in_split_order(tmp_path):
 
 
 def test_reads_a_rosbag2_bag_written_by_an_independent_writer(tmp_path):
-    """rosbags' rosbag2 writer (version 9 metadata, its own MCAP writer) stands in for rosbag2."""
+    """The rosbags rosbag2 writer (version 9 metadata, own MCAP writer) stands in for rosbag2."""
     store = get_typestore(Stores.ROS2_JAZZY)
     Float64 = store.types['std_msgs/msg/Float64']
     path = tmp_path / 'rosbag2_bag'

@@ -1,25 +1,38 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """BagWriter output follows rosbag2_storage_mcap conventions and reads back independently."""
-import shutil
 from pathlib import Path
+import shutil
 
-import pytest
-import yaml
 from mcap.reader import make_reader
+import pytest
 from rosbags.highlevel import AnyReader
-
 from sma_actuator.bag import writer as writer_module
 from sma_actuator.bag.errors import BagExistsError, BagWriteError
 from sma_actuator.bag.msgdefs import DELIMITER, message_definition, type_description_hash
 from sma_actuator.bag.qos import load_offered_qos_profiles
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.synthetic import SMA_TOPICS, cdr_encoder, offered_profile, stamp
+from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, SMA_TOPICS, stamp
 from sma_actuator.bag.writer import BagWriter
+import yaml
 
 T0 = 1_700_000_000_123_456_789
 
 
 def _message(topic, i):
-    """A distinct, known message dict for message number i on a topic."""
+    """Return a distinct, known message dict for message number i on a topic."""
     type_name = SMA_TOPICS[topic][0]
     t = T0 + i * 1_000_000
     if type_name.endswith('Float64'):
@@ -196,7 +209,8 @@ def test_empty_existing_directory_is_used(tmp_path):
 
 @pytest.mark.parametrize('options', [{'max_file_size_bytes': 6000},
                                      {'max_file_duration_s': 0.01}])
-def test_split_files_each_complete_and_together_the_whole_bag(tmp_path, options):
+def test_split_files_each_complete_and_together_the_whole_bag(tmp_path, options, monkeypatch):
+    monkeypatch.setattr(writer_module, 'MIN_FILE_SIZE_BYTES', 1000)   # small files, fast test
     path = tmp_path / 'split'
     written = _write_bag(path, count=60, chunk_size_bytes=1024, **options)
     files = sorted(path.glob('*.mcap'))
@@ -229,8 +243,12 @@ def test_bad_writes_name_the_problem(tmp_path):
 
 
 def test_old_chunks_reach_the_file_before_close(tmp_path, monkeypatch):
-    """Crash safety: after chunk_max_age_s a chunk is on disk, so a copy of the unfinished file
-    (what a SIGKILL leaves) is recovered with all messages written before that point."""
+    """
+    Crash safety.
+
+    After chunk_max_age_s a chunk is on disk, so a copy of the unfinished file (what a SIGKILL
+    leaves) is recovered with all messages written before that point.
+    """
     clock = [100.0]
     monkeypatch.setattr(writer_module.time, 'monotonic', lambda: clock[0])
     bag = BagWriter(tmp_path / 'live', chunk_max_age_s=0.5)
@@ -250,3 +268,35 @@ def test_old_chunks_reach_the_file_before_close(tmp_path, monkeypatch):
     assert reader.recoveries and reader.recoveries[0].lost_bytes == 0
     bag.close()
     assert Path(tmp_path / 'live' / 'metadata.yaml').is_file()
+
+
+def test_max_file_size_below_the_minimum_is_a_one_line_error(tmp_path):
+    with pytest.raises(ValueError, match=r'max_file_size_bytes=100 is below the minimum 65536'):
+        BagWriter(tmp_path / 'b', max_file_size_bytes=100)
+    BagWriter(tmp_path / 'c', max_file_size_bytes=writer_module.MIN_FILE_SIZE_BYTES).close()
+
+
+def test_a_split_costs_the_same_however_many_files_came_before(tmp_path, monkeypatch):
+    # issue 13 item 9: each split used to serialise the metadata of every file so far
+    dumps, yamls = [], []
+    dump, write_yaml = writer_module.dump_serialized_metadata, writer_module.write_metadata_yaml
+    monkeypatch.setattr(writer_module, 'dump_serialized_metadata',
+                        lambda bag: dumps.append(len(bag.files)) or dump(bag))
+    monkeypatch.setattr(writer_module, 'write_metadata_yaml',
+                        lambda path, bag: yamls.append(len(bag.files)) or write_yaml(path, bag))
+    path = tmp_path / 'many'
+    payload = bytes(range(256)) * 40   # 10 KiB, incompressible enough
+    with BagWriter(path, compression='none', chunk_size_bytes=1024,
+                   max_file_size_bytes=writer_module.MIN_FILE_SIZE_BYTES) as bag:
+        bag.add_topic('/sma/blob', 'std_msgs/msg/UInt8MultiArray', definition='uint8[] data',
+                      type_hash='RIHS01_' + '0' * 64)
+        for i in range(400):
+            bag.write('/sma/blob', payload, T0 + i * 1000)
+    files = sorted(path.glob('*.mcap'))
+    assert len(files) >= 40
+    assert len(dumps) == len(files)           # one embedded record per file ...
+    assert set(dumps) == {1}                  # ... describing that file only
+    assert yamls == [len(files)]              # metadata.yaml once, at close, with all files
+    info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert sum(f['message_count'] for f in info['files']) == 400
+    assert [m.data for m in BagReader(path).messages()] == [payload] * 400

@@ -1,14 +1,27 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The hardware_bridge console script with config/hardware_bridge.yaml, stopped by SIGINT."""
+from pathlib import Path
 import signal
 import subprocess
 import threading
 import time
-from pathlib import Path
 
+from hardware_support import console_command, emulator_thread, Probe, stop_process, wait_for
 import pytest
 from rclpy.executors import SingleThreadedExecutor
-
-from hardware_support import Probe, console_command, emulator_thread, stop_process, wait_for
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts
 

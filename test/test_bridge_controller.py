@@ -1,4 +1,19 @@
-"""controller -> /sma/duty -> hardware_bridge -> "MCU" emulator -> /sma/joint_states -> controller.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+controller -> /sma/duty -> hardware_bridge -> "MCU" emulator -> /sma/joint_states -> controller.
 
 The whole loop of issue 4 without hardware, in real time: the controller node (issue 3)
 closes the loop through the bridge and the emulated MCU + plant.
@@ -6,16 +21,15 @@ closes the loop through the bridge and the emulated MCU + plant.
 import threading
 import time
 
+from hardware_support import emulator_thread, Probe, wait_for
 import numpy as np
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from std_msgs.msg import Float64
-
-from hardware_support import Probe, emulator_thread, wait_for
 from sma_actuator.hardware import protocol as p
 from sma_actuator.nodes import common as c
 from sma_actuator.nodes.controller import Controller
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
+from std_msgs.msg import Float64
 
 SETPOINT_RAD = 0.3
 
@@ -25,7 +39,7 @@ def test_controller_closes_the_loop_through_bridge_and_emulator(ros_context):
         bridge = HardwareBridge(context=ros_context, parameter_overrides=[
             Parameter('port', value=port), Parameter('diagnostics_rate_hz', value=10.0)])
         controller = Controller(context=ros_context)
-        probe = Probe(context=ros_context)
+        probe = Probe(duty=False, context=ros_context)
         setpoint_pub = probe.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
         executor = SingleThreadedExecutor(context=ros_context)
         for node in (bridge, controller, probe):

@@ -1,4 +1,19 @@
-"""The bridge's ROS-free logic against the real MCU logic, on simulated time.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The bridge's ROS-free logic against the real MCU logic, on simulated time.
 
 BridgeCore and McuCore exchange their bytes directly (no port, no plant): the safety
 rules of issue 4 are checked at the MCU's outputs, where they matter.
@@ -6,7 +21,6 @@ rules of issue 4 are checked at the MCU's outputs, where they matter.
 import math
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import (BridgeConfig, BridgeCore, LinkState, sanitize_duty,
                                                to_counts)
@@ -93,46 +107,101 @@ def test_mcu_watchdog_trips_when_the_host_goes_silent():
     assert step + 1 == 100 and rig.mcu.faults & p.FAULT_WATCHDOG
 
 
-@pytest.mark.parametrize('command, expected', [
-    ((0.6, 0.5), (0.6, 0.3)), ((0.4, 0.9), (0.3, 0.9)), ((0.5, 0.5), (0.5, 0.3)),
-    ((0.3, 0.3), (0.3, 0.3))])
-def test_never_both_wires_above_the_interlock(command, expected):
-    rig = Rig(BridgeConfig(interlock_threshold=0.3))
+@pytest.mark.parametrize('command', [(0.6, 0.5), (0.4, 0.9), (0.3, 0.3), (0.01, 0.01)])
+def test_both_wires_requested_at_once_heat_neither(command):
+    rig = Rig()
     rig.run(0.2, command=command)
-    thr = rig.bridge.interlock_counts
-    assert not any(a > thr and b > thr for _, a, b in rig.pwm_trace)
-    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == tuple(to_counts(x) for x in expected)
+    assert all((a, b) == (0, 0) for _, a, b in rig.pwm_trace)
+    assert rig.bridge.counters['interlock_held'] > 0
     assert not rig.mcu.faults & p.FAULT_INTERLOCK      # the firmware never had to refuse a frame
 
 
-def test_duty_clamped_to_range_and_max_duty():
+def test_alternating_commands_never_heat_a_wire_within_the_dead_time_of_the_other():
+    # two controllers at 40 Hz, [0.62, 0] / [0, 0.62] (issue 13 item 1), as the MCU applies it
+    rig = Rig(BridgeConfig(interlock_dead_time_s=0.1))
+    for k in range(80):
+        rig.command(*((0.62, 0.0) if k % 2 else (0.0, 0.62)))
+        rig.run(rig.t + 0.025)
+    off_at, before = [None, None], (0, 0)
+    for t, *pair in rig.pwm_trace:
+        for wire in (0, 1):
+            if before[wire] and not pair[wire]:
+                off_at[wire] = t
+            if pair[wire] and off_at[1 - wire] is not None:
+                assert t - off_at[1 - wire] >= 0.1 - 1e-9
+        before = pair
+    assert not any(a and b for _, a, b in rig.pwm_trace)
+    assert not rig.mcu.faults_latched & p.FAULT_INTERLOCK
+
+
+def test_a_reversal_waits_the_dead_time_then_heats():
+    rig = Rig(BridgeConfig(interlock_dead_time_s=0.1))
+    rig.run(0.2, command=(0.5, 0.0))
+    t_off = rig.t
+    rig.run(0.5, command=(0.0, 0.4))
+    on_b = [t for t, a, b in rig.pwm_trace if b]
+    assert on_b and 0.1 <= on_b[0] - t_off <= 0.1 + 0.03    # dead time + one refresh + 1 ms
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, to_counts(0.4))
+
+
+def test_duty_above_max_duty_is_limited():
     rig = Rig(BridgeConfig(max_duty=0.7))
-    rig.run(0.1, command=(1.5, -0.2))
+    rig.run(0.1, command=(0.9, 0.0))
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (to_counts(0.7), 0)
     assert rig.bridge.counters['clamped'] > 0
-    assert any('duty_a=1.5 outside [0, 1]' in text for _, text in rig.logs)
+    assert any('duty_a=0.9 above max_duty 0.7' in text for _, text in rig.logs), rig.logs
 
 
 @pytest.mark.parametrize('values, message', [
-    ([0.5], 'expected 2 values'), ([0.1, 0.2, 0.3], 'expected 2 values'),
-    ([math.nan, 0.0], 'duty_a is nan'), ([0.0, math.inf], 'duty_b is inf')])
-def test_bad_command_zeroes_both_wires_with_a_clear_error(values, message):
+    ([0.5], 'must have 2 entries'), ([0.1, 0.2, 0.3], 'must have 2 entries'),
+    ([math.nan, 0.0], 'duty_a nan is not finite'), ([0.0, math.inf], 'duty_b inf'),
+    ([1e308, 0.0], 'outside [0, 1]'), ([2.0, 0.0], 'outside [0, 1]'),
+    ([-0.1, 0.0], 'outside [0, 1]'), ([0.0, -math.inf], 'not finite')])
+def test_bad_command_is_rejected_and_the_last_valid_one_kept(values, message):
+    # issue 13 item 3: [1e308, 0] and [2.0, 0] used to become PWM 65535
     rig = Rig()
     rig.run(0.1, command=(0.5, 0.0))
-    rig._to_mcu += rig.bridge.on_duty_command(values, rig.t)
-    rig.run(0.102)
-    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+    for _ in range(3):
+        rig._to_mcu += rig.bridge.on_duty_command(values, rig.t)
+        rig.run(rig.t + 0.01, command=None)
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (to_counts(0.5), 0)
+    assert max(max(a, b) for _, a, b in rig.pwm_trace) == to_counts(0.5)
     level, text, = rig.diag('duty')[1:3]
     assert level == 'error' and message in text
     assert any(level == 'error' and message in text for level, text in rig.logs)
+    rig.run(rig.t + 0.25)     # bad commands do not feed the host watchdog
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+
+
+def test_stale_command_is_dropped_and_does_not_feed_the_watchdog():
+    rig = Rig()
+    rig.run(0.1, command=(0.5, 0.0))
+    rig.run(0.4)                                    # watchdog: zero
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+    rig._to_mcu += rig.bridge.on_duty_command([0.5, 0.0], rig.t, age_s=0.25)
+    rig.run(0.5)
+    assert all((a, b) == (0, 0) for t, a, b in rig.pwm_trace if t > 0.4)
+    assert rig.bridge.counters['stale_commands'] == 1
+
+
+def test_more_than_one_duty_publisher_zeroes_the_duty_with_an_error():
+    rig = Rig()
+    rig.run(0.1, command=(0.5, 0.0))
+    rig._to_mcu += rig.bridge.on_publisher_count(2, rig.t)
+    rig.run(0.2, command=(0.5, 0.0))
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+    assert rig.diag('duty')[1] == 'error' and '2 publishers' in rig.diag('duty')[2]
+    rig._to_mcu += rig.bridge.on_publisher_count(1, rig.t)
+    rig.run(0.25, command=(0.5, 0.0))
+    assert rig.mcu.pwm_a == to_counts(0.5)
 
 
 def test_mcu_limits_tighter_than_config_are_adopted():
     rig = Rig(BridgeConfig(interlock_threshold=0.9), limits=FirmwareLimits(max_duty=40000))
-    rig.run(0.2, command=(0.8, 0.8))
+    rig.run(0.2, command=(0.8, 0.0))
     assert rig.bridge.interlock_counts == FirmwareLimits().interlock_ceiling
-    assert max(a for _, a, _ in rig.pwm_trace) <= 40000
-    assert not rig.mcu.faults & (p.FAULT_INTERLOCK | p.FAULT_CLAMPED)
+    assert max(a for _, a, _ in rig.pwm_trace) == 40000
+    assert not rig.mcu.faults & (p.FAULT_INTERLOCK | p.FAULT_REJECTED)
 
 
 def test_link_closed_zero_duty_error_and_clean_reconnect():
@@ -186,10 +255,17 @@ def test_protocol_version_mismatch_is_an_error_and_never_connects():
 
 
 def test_sanitize_duty_notes_and_errors():
-    a, b, notes = sanitize_duty([0.2, 0.1], 65535, 19660)
+    a, b, notes = sanitize_duty([0.2, 0.1], 65535)
     assert (a, b, notes) == (to_counts(0.2), to_counts(0.1), [])
-    with pytest.raises(ValueError, match=r'expected 2 values \[duty_a, duty_b\], got 0'):
-        sanitize_duty([], 65535, 19660)
+    with pytest.raises(ValueError, match=r'2 entries \[duty_a, duty_b\], got 0'):
+        sanitize_duty([], 65535)
+
+
+@pytest.mark.parametrize('duty', [math.nan, math.inf, 1e308, 2.0, -0.1, 'x', None])
+def test_protocol_duty_to_counts_never_clamps_garbage(duty):
+    with pytest.raises(p.ProtocolError):
+        p.duty_to_counts(duty)
+    assert p.duty_to_counts(1.0) == 65535 and p.duty_to_counts(0.0) == 0
 
 
 @pytest.mark.parametrize('field, value', [

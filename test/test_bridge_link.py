@@ -1,9 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """SerialLink (pyserial thread, reconnect with backoff) and the ADC calibration."""
 import socket
 import time
 
 import pytest
-
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 from sma_actuator.hardware.link import SerialLink
 

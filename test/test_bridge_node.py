@@ -1,4 +1,19 @@
-"""hardware_bridge node <-> MCU emulator (shared plant core) through the real topics.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+hardware_bridge node <-> MCU emulator (shared plant core) through the real topics.
 
 The emulator runs in this process (a thread on a pty) so the tests can look at the
 "MCU" outputs directly: the safety rules are checked at the PWM pins, not in the bridge.
@@ -7,16 +22,18 @@ import math
 import threading
 import time
 
-import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
+from hardware_support import emulator_thread, Probe, start_emulator_process, stop_process, wait_for
+import pytest
+import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-
-from hardware_support import Probe, emulator_thread, start_emulator_process, stop_process, wait_for
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.bridge_core import to_counts
+from sma_actuator.nodes import common as c
 from sma_actuator.nodes.hardware_bridge import HardwareBridge
+from std_msgs.msg import Float64MultiArray
 
 # DiagnosticStatus levels are bytes constants; the probe reports them as ints
 OK, WARN, ERROR = (ord(x) for x in (DiagnosticStatus.OK, DiagnosticStatus.WARN,
@@ -95,30 +112,48 @@ def test_host_watchdog_zeroes_duty_200_ms_after_the_last_command(emulated):
     assert loop.level('link') == OK                      # zero duty keeps flowing, link is fine
 
 
-def test_never_both_wires_above_the_interlock_at_the_mcu(emulated):
+def test_never_both_wires_heated_at_the_mcu(emulated):
     emulator, loop = emulated
-    thr = to_counts(0.3)
     seen = []
     end = time.monotonic() + 0.6
-    loop.probe.duty(0.6, 0.5)
     while time.monotonic() < end:
         loop.probe.duty(0.6, 0.5)
         seen.append((emulator.mcu.pwm_a, emulator.mcu.pwm_b))
         time.sleep(0.002)
-    assert (to_counts(0.6), thr) in seen
-    assert not any(a > thr and b > thr for a, b in seen)
+    assert all(pair == (0, 0) for pair in seen)
     assert not emulator.mcu.faults_latched & p.FAULT_INTERLOCK
-    assert wait_for(lambda: int(loop.probe.status('duty')[2]['interlock_limited']) > 0, 1.0)
+    assert wait_for(lambda: int(loop.probe.status('duty')[2]['interlock_held']) > 0, 1.0)
 
 
-def test_bad_duty_message_zeroes_both_wires_and_reports_an_error(emulated):
+def test_bad_duty_message_is_rejected_and_the_last_valid_one_kept(emulated):
     emulator, loop = emulated
     loop.probe.hold(0.4, 0.0, 0.2)
     assert emulator.mcu.pwm_a == to_counts(0.4)
-    loop.probe.duty(math.nan, 0.0)
-    assert wait_for(lambda: emulator.mcu.pwm_a == 0, 0.5)
+    for bad in ((math.nan, 0.0), (1e308, 0.0), (2.0, 0.0)):
+        loop.probe.duty(*bad)
     assert wait_for(lambda: loop.level('duty') == ERROR, 1.0)
-    assert 'duty_a is nan' in loop.probe.status('duty')[1]
+    assert 'outside [0, 1]' in loop.probe.status('duty')[1]
+    assert emulator.mcu.pwm_a == to_counts(0.4)          # never full power
+    loop.probe.hold(0.4, 0.0, 0.1)
+    assert emulator.mcu.pwm_a == to_counts(0.4)
+
+
+def test_a_second_duty_publisher_zeroes_the_duty_with_an_error(emulated, ros_context):
+    emulator, loop = emulated
+    loop.probe.hold(0.4, 0.0, 0.3)
+    assert emulator.mcu.pwm_a == to_counts(0.4)
+    other = rclpy.create_node('second_controller', context=ros_context)
+    try:
+        other.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
+        assert wait_for(lambda: emulator.mcu.pwm_a == 0 and loop.level('duty') == ERROR, 5.0)
+        assert '2 publishers' in loop.probe.status('duty')[1]
+        loop.probe.hold(0.4, 0.0, 0.3)
+        assert emulator.mcu.pwm_a == 0
+    finally:
+        other.destroy_node()
+    assert wait_for(lambda: loop.level('duty') != ERROR, 5.0)
+    loop.probe.hold(0.4, 0.0, 0.3)
+    assert emulator.mcu.pwm_a == to_counts(0.4)
 
 
 def test_line_noise_is_counted_and_the_stream_resynchronises(ros_context):

@@ -1,7 +1,20 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """ControllerCore (modes pi, pi_inverse, on_off) in closed loop with the core plant, no ROS."""
 import numpy as np
 import pytest
-
 from sma_actuator.control.core import ControllerCore, ControllerSettings
 from sma_actuator.control.metrics import summarize
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator
@@ -93,6 +106,6 @@ def test_runtime_reconfiguration_validates_and_resets_on_mode_change():
 
 def test_on_off_relay_ignores_a_setpoint_dithering_inside_its_band():
     ctrl = ControllerCore(ActuatorParams(), ControllerSettings(mode='on_off', on_off_band_rad=0.1,
-                                                              max_temp_c=200))
+                                                               max_temp_c=200))
     seq = [ctrl.step(r, 0.0, DT) for r in (0.3, 0.05, -0.05, 0.0, -0.3)]
     assert [(s.duty_a, s.duty_b) for s in seq] == [(1, 0), (1, 0), (1, 0), (1, 0), (0, 1)]

@@ -1,11 +1,24 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Excitation sequences (control.excitation) and model files (control.model_file)."""
 import numpy as np
 import pytest
-import yaml
-
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.control.model_file import load_model, save_model
 from sma_actuator.core.actuator import ActuatorParams
+import yaml
 
 
 def test_multilevel_excites_both_wires_one_at_a_time_with_held_levels():

@@ -1,11 +1,25 @@
-"""Inverse feed-forward of mode pi_inverse (sma_actuator.control.feedforward).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Inverse feed-forward of mode pi_inverse (sma_actuator.control.feedforward).
 
 With the model equal to the plant and no feedback at all, the feed-forward alone must
 bring the shaft to the desired angle, from either side of the hysteresis loop.
 """
 import numpy as np
 import pytest
-
 from sma_actuator.control.estimator import WireEstimator
 from sma_actuator.control.feedforward import InverseFeedforward
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator

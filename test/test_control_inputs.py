@@ -1,9 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Validation of setpoints and duties (sma_actuator.control.inputs)."""
 import math
 
 import pytest
-
-from sma_actuator.control.inputs import LastValid, duty_problem, setpoint_problem
+from sma_actuator.control.inputs import duty_problem, LastValid, setpoint_problem
 
 
 @pytest.mark.parametrize('value', [math.nan, math.inf, -math.inf, 1.5, -1.01, 'x', None])

@@ -1,6 +1,19 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Discrete PI with anti-windup (sma_actuator.control.pi)."""
 import pytest
-
 from sma_actuator.control.pi import DiscretePI
 
 
@@ -21,7 +34,7 @@ def test_output_is_clamped_to_the_limits_of_each_step():
 
 
 def test_anti_windup_recovers_as_soon_as_the_error_reverses():
-    """A long saturation must not leave a wound-up integrator that holds the output on the limit."""
+    """A long saturation must not leave a wound-up integrator holding the output on the limit."""
     pi = DiscretePI(kp=0.5, ki=2.0)
     for _ in range(2000):                      # 50 s pinned on the upper limit
         pi.step(1.0, 0.025, -1.0, 1.0)

@@ -1,11 +1,28 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Bad input to the core raises ValueError naming the offending parameter (never a silent NaN)."""
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
-from sma_actuator.core.hysteresis import (ModifiedPrandtlIshlinskii, PlayHysteresis,
-                                          PreisachModel, PrandtlIshlinskii)
+from sma_actuator.core.hysteresis import (
+    ModifiedPrandtlIshlinskii,
+    PlayHysteresis,
+    PrandtlIshlinskii,
+    PreisachModel,
+)
 from sma_actuator.core.mainloop import MainLoopHysteresis
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a
@@ -15,9 +32,9 @@ PI = PrandtlIshlinskii([0.5, 1.0], [0.5, 0.5])
 
 
 def data(**over):
-    """DynamicData keyword arguments for a valid 20-sample run, with overrides."""
+    """Return DynamicData keyword arguments for a valid 20-sample run, with overrides."""
     t = np.arange(20) * 0.1
-    kw = dict(time=t, duty_a=np.full(20, 0.3), duty_b=np.zeros(20), position=np.sin(t))
+    kw = {'time': t, 'duty_a': np.full(20, 0.3), 'duty_b': np.zeros(20), 'position': np.sin(t)}
     kw.update(over)
     return kw
 
@@ -68,7 +85,8 @@ CASES = {
     # dt <= 0 and other positives
     'simulate_dt': (lambda: act.simulate(act.ActuatorParams(), [0.1], [0.0], 0.0),
                     r'^dt must be positive'),
-    'step_dt': (lambda: act.AntagonisticActuator().step(0.1, 0.0, -0.025), r'^dt must be positive'),
+    'step_dt': (lambda: act.AntagonisticActuator().step(0.1, 0.0, -0.025),
+                r'^dt must be positive'),
     'supply_v': (lambda: on_current_a(0.0, 13.75, 0.35), r'^supply_v must be positive'),
     'tau_fast': (lambda: act.ActuatorParams(tau_fast_s=-1.0), r'^tau_fast_s'),
     'pot_bits': (lambda: Potentiometer(bits=0), r'^bits'),

@@ -1,10 +1,27 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Properties of the hysteresis operators of the paper (eqs. 1-6) as implemented in core."""
 import numpy as np
 import pytest
-
-from sma_actuator.core.hysteresis import (ModifiedPrandtlIshlinskii, PlayHysteresis,
-                                          PreisachModel, PrandtlIshlinskii,
-                                          backlash_saturation_reference)
+from sma_actuator.core.hysteresis import (
+    backlash_saturation_reference,
+    ModifiedPrandtlIshlinskii,
+    PlayHysteresis,
+    PrandtlIshlinskii,
+    PreisachModel,
+)
 from sma_actuator.core.mainloop import MainLoopHysteresis
 
 TIGHT = 1e-9   # float round-off on O(1) outputs; the laws themselves are exact

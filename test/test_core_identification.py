@@ -1,13 +1,26 @@
-"""Identification (the paper's least-squares tuning): static PI on real loops, Preisach, dynamic."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Identification (the paper's least-squares tuning): static PI on real data, Preisach, dynamic."""
 import os
 
+from conftest import real_data_path
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PreisachModel
-from conftest import real_data_path
 
 REAL = real_data_path()
 
@@ -90,8 +103,12 @@ def test_scores_on_hand_checkable_example():
 
 
 def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_system():
-    """`_nnls_with_offset` never builds [X, −x_last]; its minimiser must be that of scipy's
-    NNLS on the explicit system (weights >= 0, last coefficient of either sign)."""
+    """
+    `_nnls_with_offset` never builds [X, −x_last].
+
+    Its minimiser must be that of scipy's NNLS on the explicit system (weights >= 0, last
+    coefficient of either sign).
+    """
     from scipy.optimize import nnls
     rng = np.random.default_rng(3)
     X = np.column_stack([np.abs(rng.normal(size=(400, 6))), np.ones(400)])

@@ -1,9 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Thermal dynamics of eq. (7), the antagonistic actuator's effects, and the potentiometer."""
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a, thermal_step
@@ -13,14 +26,18 @@ AGREE_K = 1e-7   # kelvin: an exact discretisation agrees with a 1e-11 ODE solve
 
 
 def ode_one(theta0, amb, q_inf, dt, tau):
-    """Reference of T dθ/dt = −(θ − θa) + G d over one held sample."""
+    """Return the reference solution of T dθ/dt = −(θ − θa) + G d over one held sample."""
     sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + q_inf) / tau], (0, dt), [theta0],
                     method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
     return sol.y[0, -1]
 
 
 def ode_two(theta0, q0, amb, q_inf, dt, tau, tau_f):
-    """Reference of the two-lag model: τ dq/dt = −q + G d, T dθ/dt = −(θ − θa) + q."""
+    """
+    Return the reference solution of the two-lag model over one held sample.
+
+    τ dq/dt = −q + G d, T dθ/dt = −(θ − θa) + q.
+    """
     sol = solve_ivp(lambda _, x: [(-(x[0] - amb) + x[1]) / tau, (q_inf - x[1]) / tau_f],
                     (0, dt), [theta0, q0], method='DOP853', rtol=ODE_TOL, atol=ODE_TOL)
     return sol.y[0, -1], sol.y[1, -1]
@@ -233,8 +250,8 @@ def test_sensor_polynomial_and_fatigue():
     np.testing.assert_allclose(drift.position_rad - p1, 0.2 * ga - 0.1 * gb, atol=1e-12)
     shrink = run(BASE.with_changes(fatigue_stroke=0.3, fatigue_cycles=4.0), da, da_b, dt)
     g, s_b = BASE.stroke_rad, BASE.stroke_ratio_b
-    np.testing.assert_allclose(shrink.position_rad - p1, -0.3 * g * (traj.y_a * ga
-                                                              - s_b * traj.y_b * gb), atol=1e-12)
+    np.testing.assert_allclose(shrink.position_rad - p1,
+                               -0.3 * g * (traj.y_a * ga - s_b * traj.y_b * gb), atol=1e-12)
 
 
 def test_potentiometer_round_trip_within_one_lsb():

@@ -1,18 +1,32 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The mcu_emulator console script: pty and TCP transports, real-time MCU watchdog, signals."""
 import os
 import signal
 import subprocess
 import time
 
+from hardware_support import console_command, start_emulator_process, stop_process
 import pytest
 import serial
-
-from hardware_support import console_command, start_emulator_process, stop_process
 from sma_actuator.hardware import protocol as p
 
 
 def exchange(port, frames, seconds, baud=115200):
-    """Open the port, write frames (each (time_s, bytes)), collect (t, msg) for `seconds`.
+    """
+    Open the port, write frames (each (time_s, bytes)), collect (t, msg) for `seconds`.
 
     Returns (received, write_times); times in s since the port was opened.
     """

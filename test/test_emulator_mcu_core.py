@@ -1,6 +1,19 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The emulated MCU's logic (McuCore): handshake, duty limits, interlock, 100 ms watchdog."""
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
 
@@ -48,10 +61,10 @@ def test_hello_ack_reports_applied_limits():
 def test_duty_is_applied_and_answered_with_an_adc_report():
     rig = Rig(adc=777)
     rig.hello()
-    report = rig.send(p.Duty(30000, 5), 100)[0]
-    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (30000, 5)
+    report = rig.send(p.Duty(30000, 0), 100)[0]
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (30000, 0)
     assert (report.counts, report.duty_seq, report.ticks_us) == (777, 1, 100)
-    assert (report.duty_a, report.duty_b) == (30000, 5)
+    assert (report.duty_a, report.duty_b) == (30000, 0)
 
 
 def test_watchdog_turns_outputs_off_after_100_ms_without_duty():
@@ -70,13 +83,18 @@ def test_watchdog_turns_outputs_off_after_100_ms_without_duty():
     assert rig.mcu.faults_latched & p.FAULT_WATCHDOG
 
 
-def test_interlock_switches_both_off_and_clamp_limits_each_channel():
+def test_interlock_switches_both_off_and_duty_above_max_is_rejected():
     rig = Rig()
     rig.hello(max_duty=40000, interlock=19661)
     rig.send(p.Duty(19662, 19662), 10)
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0) and rig.mcu.faults == p.FAULT_INTERLOCK
-    rig.send(p.Duty(65535, 19661), 20)
-    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (40000, 19661) and rig.mcu.faults == p.FAULT_CLAMPED
+    rig.send(p.Duty(30000, 0), 20)
+    rig.send(p.Duty(65535, 0), 30)        # above max_duty: rejected, last valid kept
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (30000, 0) and rig.mcu.faults == p.FAULT_REJECTED
+    rig.send(p.Duty(0, 100), 40)          # a just went off: b held for the dead time
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0) and rig.mcu.faults == p.FAULT_INTERLOCK
+    rig.send(p.Duty(0, 100), 25_040)
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 100) and rig.mcu.faults == 0
 
 
 def test_bad_protocol_version_leaves_mcu_unconfigured():

@@ -1,4 +1,19 @@
-"""The C++ firmware against the Python protocol, byte-for-byte.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The C++ firmware against the Python protocol, byte-for-byte.
 
 Compiles firmware/sma_mcu (framing, CRC, messages, MCU logic) and the real sketch with g++
 into a temporary directory, then checks: every vector in firmware/test_vectors.json is
@@ -7,13 +22,12 @@ agree on random and mutated streams; the sketch itself switches the outputs off 
 100 ms watchdog and on the interlock.
 """
 import json
+from pathlib import Path
 import random
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware import vectors
 
@@ -94,13 +108,27 @@ def test_vectors_show_the_firmware_watchdog_and_interlock():
     steps, outs = scenarios['watchdog_100ms']
     state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
     # last duty at 60 ms: still on at 159.999 ms
-    assert state['159999'] == ['40000', '100', '0']
+    assert state['159999'] == ['40000', '0', '0']
     assert state['160000'] == ['0', '0', str(p.FAULT_WATCHDOG)]   # 100 ms without duty: off
-    assert state['180000'] == ['0', '20000', '0']        # next duty frame re-enables
+    assert state['180000'] == ['20000', '0', '0']        # next duty frame re-enables
     steps, outs = scenarios['interlock_both_above']
     assert [o.split(',')[:3] for o in outs[2:]] == [
-        ['0', '0', str(p.FAULT_INTERLOCK)], ['19661', '60000', str(p.FAULT_CLAMPED)],
-        ['19662', '19661', '0']]
+        ['0', '0', str(p.FAULT_INTERLOCK)], ['0', '0', str(p.FAULT_REJECTED)],
+        ['0', '0', str(p.FAULT_INTERLOCK)]]
+    # dead time 25 ms: a off at 20 ms, so b is held until 45 ms (issue 13 item 1)
+    steps, outs = scenarios['dead_time_interlock']
+    state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
+    assert state['1000'] == ['30000', '0', '0']
+    assert state['20000'] == state['44999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['45000'] == ['0', '30000', '0']
+    assert state['79999'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    assert state['80000'] == ['30000', '0', '0']
+    assert state['90000'] == state['100000'] == ['0', '0', str(p.FAULT_INTERLOCK)]
+    # a duty above max_duty is rejected, the last valid one kept, the watchdog not fed
+    steps, outs = scenarios['reject_above_max']
+    state = {s.split(':')[1]: o.split(',')[:3] for s, o in zip(steps, outs)}
+    assert state['30'] == ['30000', '0', str(p.FAULT_REJECTED)]
+    assert state['100020'] == ['0', '0', str(p.FAULT_WATCHDOG | p.FAULT_REJECTED)]
 
 
 def test_differential_fuzz_cpp_and_python_decoders_agree(vector_driver):

@@ -1,7 +1,20 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """plant_sim + controller + setpoint through real topics (accelerated sim time, one executor)."""
 import numpy as np
 import pytest
-
 from sma_actuator.control.metrics import summarize
 
 harness = pytest.importorskip('sma_actuator.nodes.harness')
@@ -10,7 +23,7 @@ harness = pytest.importorskip('sma_actuator.nodes.harness')
 @pytest.mark.parametrize('mode', ['pi', 'pi_inverse'])
 def test_loop_settles_on_a_step(ros_context, mode):
     trace = harness.run_closed_loop(
-        ros_context, dict(profile='step', amplitude=0.4, offset=0.0, delay_s=1.0), 12.0,
+        ros_context, {'profile': 'step', 'amplitude': 0.4, 'offset': 0.0, 'delay_s': 1.0}, 12.0,
         mode=mode, real_time_factor=100.0)
     a = trace.arrays()
     t = a['time_s'] - a['time_s'][0]

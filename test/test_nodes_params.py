@@ -1,24 +1,41 @@
-"""Node parameters: the config YAMLs load with --params-file, runtime changes are validated,
-and the setpoint one-shot mode publishes one value and exits."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Node parameters.
+
+The config YAMLs load with --params-file, runtime changes are validated, and the setpoint one-shot
+mode publishes one value and exits.
+"""
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
-import yaml
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-
 from sma_actuator.core.actuator import ActuatorParams  # noqa: E402
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import EFFECTS, PlantSim  # noqa: E402
 from sma_actuator.nodes.setpoint import Setpoint  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+import yaml  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 NODES = {'plant_sim': PlantSim, 'controller': Controller, 'setpoint': Setpoint}
@@ -58,7 +75,7 @@ def test_every_plant_effect_range_lies_within_the_workbench_fit_bounds():
     bounds = {k: v[:2] for cls in BUILTIN.values() for k, v in cls.parameters.items()}
     for name, lo, hi, _ in EFFECTS:
         if name == 'duty_limit_sharpness':
-            continue    # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
+            continue  # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
         assert bounds[name][0] <= lo and hi <= bounds[name][1], (name, lo, hi, bounds[name])
 
 

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """SIGINT/SIGTERM handling shared by every console script (nodes.common)."""
 import os
 import signal
@@ -9,9 +23,8 @@ import time
 import pytest
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from std_msgs.msg import Float64MultiArray
-
 from sma_actuator.nodes import common as c
+from std_msgs.msg import Float64MultiArray
 
 
 @pytest.fixture
@@ -66,9 +79,13 @@ def test_spin_until_stopped_returns_when_done_or_the_context_is_shut_down(ros_do
 
 def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_traffic(
         ros_context, ros_domain_id):
-    """Regression: under load, rclpy's SIGINT handler could interrupt a `take_message` and
-    end the process with status 1 (bridge CI failure). Flood the controller with setpoints
-    and joint states, interrupt it mid-stream, and expect exit 0 and a final zero duty."""
+    """
+    Regression.
+
+    Under load, rclpy's SIGINT handler could interrupt a `take_message` and end the process with
+    status 1 (bridge CI failure). Flood the controller with setpoints and joint states, interrupt
+    it mid-stream, and expect exit 0 and a final zero duty.
+    """
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
     probe = rclpy.create_node('probe', context=ros_context)

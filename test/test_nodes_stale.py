@@ -1,4 +1,19 @@
-"""Stale streams through real topics.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Stale streams through real topics.
 
 * controller: joint states stop -> zero duty on /sma/duty and a diagnostics ERROR.
 * plant: the controller process is SIGKILLed mid-run -> the plant applies zero duty after
@@ -10,21 +25,19 @@ import subprocess
 import sys
 import time
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray, Header  # noqa: E402
-
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import PlantSim  # noqa: E402
-
-
+from std_msgs.msg import Float64, Float64MultiArray, Header  # noqa: E402
 
 
 def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ros_context):

@@ -1,13 +1,30 @@
-"""The ament_python layout, checked mechanically: a colcon build of this package installs
-every console script where `ros2 run sma_actuator <node>` looks, plus package.xml, the
-ament index marker and the config YAML files."""
-import configparser
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The ament_python layout, checked mechanically.
+
+a colcon build of this package installs every console script where `ros2 run sma_actuator <node>`
+looks, plus package.xml, the ament index marker and the config YAML files.
+"""
 import ast
+import configparser
+from pathlib import Path
 import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 
@@ -50,7 +67,8 @@ def test_every_entry_point_imports_a_main():
         assert callable(getattr(importlib.import_module(module), func)), name
 
 
-@pytest.mark.skipif(shutil.which('colcon') is None and not (Path(sys.prefix) / 'bin' / 'colcon').exists(),
+@pytest.mark.skipif(shutil.which('colcon') is None
+                    and not (Path(sys.prefix) / 'bin' / 'colcon').exists(),
                     reason='colcon not installed (pip install colcon-core colcon-ros)')
 def test_colcon_build_installs_ros2_run_layout(tmp_path):
     colcon = shutil.which('colcon') or str(Path(sys.prefix) / 'bin' / 'colcon')
@@ -59,14 +77,17 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path):
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
         '.git', '.venv', 'runs', 'build', 'install', 'log', '*.egg-info', '__pycache__'))
     result = subprocess.run(
-        [colcon, '--log-base', str(tmp_path / 'log'), 'build', '--base-paths', str(tmp_path / 'src'),
-         '--build-base', str(tmp_path / 'build'), '--install-base', str(tmp_path / 'install')],
+        [colcon, '--log-base', str(tmp_path / 'log'), 'build',
+         '--base-paths', str(tmp_path / 'src'), '--build-base', str(tmp_path / 'build'),
+         '--install-base', str(tmp_path / 'install')],
         cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     prefix = tmp_path / 'install' / 'sma_actuator'
     installed = sorted(p.name for p in (prefix / 'lib' / 'sma_actuator').iterdir())
     assert installed == _console_scripts()
     assert (prefix / 'share' / 'sma_actuator' / 'package.xml').is_file()
-    assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'sma_actuator').is_file()
+    index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    assert (index / 'sma_actuator').is_file()
     configs = {p.name for p in (ROOT / 'config').glob('*.yaml')}
-    assert configs and configs <= {p.name for p in (prefix / 'share' / 'sma_actuator' / 'config').iterdir()}
+    installed = {p.name for p in (prefix / 'share' / 'sma_actuator' / 'config').iterdir()}
+    assert configs and configs <= installed

@@ -1,10 +1,23 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Setpoint profiles (sma_actuator.profiles)."""
 import math
 
 import numpy as np
 import pytest
-
-from sma_actuator.profiles import PROFILES, Profile
+from sma_actuator.profiles import Profile, PROFILES
 
 
 def test_every_profile_holds_the_offset_before_its_delay():
@@ -61,9 +74,9 @@ def test_bounds_contain_every_value():
         assert lo - 1e-12 <= min(vals) and max(vals) <= hi + 1e-12
 
 
-@pytest.mark.parametrize('kwargs', [dict(kind='triangle'), dict(period_s=0.0),
-                                    dict(amplitude=math.nan), dict(delay_s=-1.0),
-                                    dict(chirp_end_hz=0.0)])
+@pytest.mark.parametrize('kwargs', [{'kind': 'triangle'}, {'period_s': 0.0},
+                                    {'amplitude': math.nan}, {'delay_s': -1.0},
+                                    {'chirp_end_hz': 0.0}])
 def test_invalid_profiles_are_rejected(kwargs):
     with pytest.raises(ValueError):
         Profile(**kwargs)

@@ -1,4 +1,19 @@
-"""Fuzz test of the frame decoder: 100,000 random and mutated inputs.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Fuzz test of the frame decoder: 100,000 random and mutated inputs.
 
 Checks, for every input: no exception escapes the decoder; no false frame is accepted
 (random bytes yield nothing, mutated streams yield only frames that were really sent);
@@ -44,7 +59,7 @@ def _mutate(rng, piece: bytes) -> bytes:
 
 
 def _mutated_case(rng, pool):
-    """A stream of sent frames, some mutated; returns (stream, sent, must_decode)."""
+    """Return a stream of sent frames, some mutated; returns (stream, sent, must_decode)."""
     picks = rng.sample(pool, rng.randint(1, 4))
     pieces = [wire for _, wire in picks]
     for _ in range(rng.randint(1, 3)):
@@ -65,7 +80,7 @@ def _is_subsequence(needle, haystack):
 
 
 def run_fuzz(seed, n_random, n_mutated):
-    """Runs the fuzz cases; returns a list of failure descriptions (empty = all passed)."""
+    """Run the fuzz cases; returns a list of failure descriptions (empty = all passed)."""
     rng = random.Random(seed)
     pool = []
     for _ in range(3000):

@@ -1,26 +1,40 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """RecorderNode in-process: records what was published, byte for byte, read back by rosbags."""
 
-import numpy as np
-import pytest
 from conftest import spin_until
 from mcap.reader import make_reader
-from rosbags.highlevel import AnyReader
+import numpy as np
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from builtin_interfaces.msg import Time  # noqa: E402
+# after the importorskip guard, hence out of the alphabetical order
+from builtin_interfaces.msg import Time  # noqa: E402, I100
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
-from rclpy.qos import QoSProfile, qos_profile_sensor_data  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data, QoSProfile  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
+from rosbags.highlevel import AnyReader  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-
 from sma_actuator.bag.arrays import load_run  # noqa: E402
 from sma_actuator.bag.errors import BagExistsError  # noqa: E402
 from sma_actuator.bag.qos import load_offered_qos_profiles  # noqa: E402
 from sma_actuator.nodes.recorder import RecorderNode  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
 N = 40
 RELIABLE = QoSProfile(depth=10)
@@ -170,8 +184,12 @@ def test_refuses_to_overwrite_and_rejects_unknown_parameters(ros_context, tmp_pa
 
 
 def test_sim_time_recording_logs_the_clock_time(graph, tmp_path):
-    """Like rosbag2 under use_sim_time: log time = /clock time at reception (the demo runs
-    the plant on accelerated sim time, so wall time would compress the run)."""
+    """
+    Like rosbag2 under use_sim_time.
+
+    Log time = /clock time at reception (the demo runs the plant on accelerated sim time, so wall
+    time would compress the run).
+    """
     talker, _, executor, nodes = graph
     clock_pub = talker.create_publisher(Clock, '/clock', 10)
     pub = talker.create_publisher(Float64, '/sma/setpoint', 10)

@@ -1,10 +1,23 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Recorder logic (ROS-free): topic selection and bag naming."""
 from datetime import datetime
 from pathlib import Path
 
 import pytest
-
-from sma_actuator.bag.recording import DEFAULT_TOPICS, TopicSelector, bag_directory
+from sma_actuator.bag.recording import bag_directory, DEFAULT_TOPICS, TopicSelector
 
 
 def test_default_selection_is_the_sma_namespace_and_diagnostics():

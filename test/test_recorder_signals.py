@@ -1,23 +1,40 @@
-"""The recorder console script under signals: SIGINT/SIGTERM finish the bag, SIGKILL leaves a
-file that BagReader recovers up to the last chunk and whose loss it reports."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The recorder console script under signals.
+
+SIGINT/SIGTERM finish the bag, SIGKILL leaves a file that BagReader recovers up to the last chunk
+and whose loss it reports.
+"""
 import os
+from pathlib import Path
 import shutil
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
-from rosbags.highlevel import AnyReader, AnyReaderError
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-
+from rosbags.highlevel import AnyReader, AnyReaderError  # noqa: E402
 from sma_actuator.bag.reader import BagReader  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 
 def _recorder_command():

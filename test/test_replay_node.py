@@ -1,27 +1,40 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """ReplayNode: stored bytes on (remapped) topics, filter, /clock, QoS, zero duty on stop."""
 import os
+from pathlib import Path
 import shutil
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
-import pytest
 from conftest import spin_until
+import pytest
 
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
-from rclpy.qos import QoSProfile, qos_profile_sensor_data  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data, QoSProfile  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
-
 from sma_actuator.bag.errors import BagError, BagNotFoundError  # noqa: E402
 from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, stamp  # noqa: E402
 from sma_actuator.bag.writer import BagWriter  # noqa: E402
 from sma_actuator.nodes.replay import ReplayNode  # noqa: E402
+from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 
 T0 = 1_650_000_000_000_000_000
 MS = 1_000_000
@@ -56,7 +69,7 @@ def _spin_until(executor, condition, timeout_s=10.0):
 
 @pytest.fixture
 def probe(ros_context):
-    """A node recording what arrives (raw) on the topics a replay may publish."""
+    """Return a node recording what arrives (raw) on the topics a replay may publish."""
     node = Node('probe', context=ros_context)
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)

@@ -1,9 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Behaviour of the rich, independent SMA simulator used to make hidden-effect test data."""
 import math
 
 import numpy as np
 import pytest
-
 from support import richsim
 from support.make_hidden_dataset import main as cli_main
 from support.richsim import EFFECTS, simulate, simulate_profile
@@ -23,8 +36,12 @@ def profile(*segments):
 
 
 def steady_rise_k(duty, p=richsim.DEFAULTS):
-    """Expected steady wire temperature rise [K] of the null model: dT = P / hA with
-    P = d R min(V/R, I_max)^2, hA = C / tau, C = rho pi d^2/4 L c (re-derived independently)."""
+    """
+    Expect steady wire temperature rise [K] of the null model.
+
+    dT = P / hA with P = d R min(V/R, I_max)^2, hA = C / tau, C = rho pi d^2/4 L c (re-derived
+    independently).
+    """
     r = p['resistance_ohm_per_m'] * p['wire_length_m']
     power = duty * r * min(p['supply_v'] / r, p['i_max_a']) ** 2
     cap = (p['density_kg_m3'] * math.pi * p['wire_diameter_m'] ** 2 / 4 * p['wire_length_m']
@@ -84,7 +101,10 @@ def test_major_loop_has_the_documented_transformation_temperatures():
 def test_preisach_minor_loops_nest_and_have_return_point_memory():
     tab, lo, step = everett_table()
     state = new_state(1, 22.0)
-    walk = lambda seq: [preisach_step(state, 0, tab, lo, step, u) for u in seq]
+
+    def walk(seq):
+        return [preisach_step(state, 0, tab, lo, step, u) for u in seq]
+
     heat1 = walk(np.linspace(22, 73, 200))           # partial heating: a ~ 0.5
     cool = walk(np.linspace(73, 47, 200))            # partial cooling, stays above Mf
     heat2 = walk(np.linspace(47, 73, 200))           # back to the same maximum
@@ -216,7 +236,7 @@ def test_saturation_drives_both_ends_of_travel_more_often(excitation):
 
 
 def turning_points(aus, lo=0.1, hi=0.9, eps=0.02):
-    """Number of direction reversals of the austenite fraction strictly inside (lo, hi)."""
+    """Return the number of direction reversals of the austenite fraction inside (lo, hi)."""
     count, ref, direction = 0, aus[0], 0
     for a in aus:
         step = a - ref
@@ -324,8 +344,12 @@ def test_cli_writes_a_dataset_and_rejects_bad_magnitude(tmp_path, capsys):
 
 
 def test_logged_closed_loop_duty_replays_the_recorded_response():
-    """Duty is logged as the command over the following sample: at the 40 Hz command rate,
-    replaying it open loop through the same plant reproduces the closed-loop angle."""
+    """
+    Duty is logged as the command over the following sample.
+
+    At the 40 Hz command rate, replaying it open loop through the same plant reproduces the
+    closed-loop angle.
+    """
     d = simulate('none', 1.0, 'closed', duration_s=60, rate_hz=40, seed=5)
     replay = simulate_profile(d['duty_a'], d['duty_b'], rate_hz=40, noise_rad=0.0)
     np.testing.assert_allclose(replay['true_position'], d['true_position'], atol=1e-9)

@@ -1,24 +1,40 @@
-"""`sma-model` end to end: subprocess runs on small generated records and the real
-morphing-wing loops; bad input gives exit code 2 and one error line; plug-ins.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`sma-model` end to end.
+
+Subprocess runs on small generated records and the real morphing-wing loops; bad input gives exit
+code 2 and one error line; plug-ins.
 
 Records are made with the package's own simulator (the hidden-effect tests with the
 independent rich simulator live elsewhere); they are short (30-40 s at 20 Hz) so the
 whole file stays well under a minute.
 """
 import json
+from pathlib import Path
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
+from conftest import real_data_path
 import numpy as np
 import pytest
-import yaml
-
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins
 from sma_actuator.workbench.effects import CATALOG
-from conftest import real_data_path
+import yaml
 
 REAL = real_data_path()
 DT = 0.05

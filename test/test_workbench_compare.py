@@ -1,11 +1,25 @@
-"""Error breakdown by regime, residual correlation tests and the HTML report.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Error breakdown by regime, residual correlation tests and the HTML report.
 
 Predictions are made by hand (measured minus a known error), so each test knows where the
 error is and checks that the breakdown and the tests find it there.
 """
 import numpy as np
 import pytest
-
 from sma_actuator.core.identification import DynamicData, scores
 from sma_actuator.workbench.compare import (compare, cross_correlation, loop_masks,
                                             residual_tests, reversals)

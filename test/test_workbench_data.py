@@ -1,11 +1,23 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
+from conftest import real_data_path
 import numpy as np
 import pytest
-
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import (DataError, check_excitation, describe, is_static,
-                                         load_data)
-from conftest import real_data_path
+from sma_actuator.workbench.data import check_excitation, DataError, describe, is_static, load_data
 
 REAL = real_data_path()
 

@@ -1,8 +1,25 @@
-"""Workbench engine internals: the adaptive hysteresis grid, per-wire fatigue
-identification, the drive-dependent sign of phase resistance and the ablation check."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Workbench engine internals.
+
+The adaptive hysteresis grid, per-wire fatigue identification, the drive-dependent sign of phase
+resistance and the ablation check.
+"""
 import numpy as np
 import pytest
-
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
@@ -40,7 +57,8 @@ def test_adaptive_grid_tiles_the_range_for_every_width():
         rows = grid.r == r
         edges_lo, edges_hi = grid.lo[rows] + r, grid.hi[rows] + r   # where the element rises
         order = np.argsort(edges_lo)
-        assert edges_lo[order][0] == pytest.approx(20.0) and edges_hi[order][-1] == pytest.approx(100.0)
+        assert edges_lo[order][0] == pytest.approx(20.0)
+        assert edges_hi[order][-1] == pytest.approx(100.0)
         np.testing.assert_allclose(edges_lo[order][1:], edges_hi[order][:-1])   # no gaps
     # finer where the coarse weight is (both elements rise at 58 degC, cells 6 K wide)
     cells = grid.hi[grid.r == 0] - grid.lo[grid.r == 0]
@@ -123,6 +141,7 @@ def test_ablation_removes_the_gain_of_a_real_effect():
 
 class DeadTime(Effect):
     """PWM dead time d0: d' = max(d - d0, 0) / (1 - d0) (a plug-in with its own parameter)."""
+
     name = 'test_dead_time'
     parameters = {'dead_duty': (0.0, 0.4, 0.05)}
     neutral = {'dead_duty': 0.0}
@@ -191,6 +210,7 @@ def test_regressors_at_the_rows_equal_the_full_rate_columns(delay_s):
 
 class OwnGrid(Effect):
     """Test plug-in: a constant offset of the ambient that needs its own grid."""
+
     name = 'test_own_grid'
     parameters = {'ambient_shift': (-5.0, 5.0, 0.0)}
     own_grid = True

@@ -1,6 +1,22 @@
-"""Hidden-effect tests of `diagnose`: data from the independent rich simulator
-(test/support/richsim.py: Preisach hysteresis, RK4 thermal model, its own formulation of
-every effect) with one hidden effect at a time, plus a null case.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Hidden-effect tests of `diagnose`.
+
+Data from the independent rich simulator (test/support/richsim.py: Preisach hysteresis, RK4 thermal
+model, its own formulation of every effect) with one hidden effect at a time, plus a null case.
 
 Every catalog effect has a case: diagnose names the hidden effect first and adding it
 cuts the held-out NRMSE by at least 40 %; on the null cases nothing is significant. Cases
@@ -8,7 +24,6 @@ vary magnitude, excitation (open/closed loop), noise and sample rate (20-100 Hz)
 `benchmarks/bench_hidden_effects.py` prints the detection rate over magnitudes.
 """
 import pytest
-
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.engine import diagnose
 from support.parallel import imap_on_cores
@@ -50,8 +65,11 @@ def _diagnose_case(case):
 
 @pytest.fixture(scope='module')
 def diagnosed(request):
-    """Diagnoses of the cases selected in this run, computed up front on every core (each
-    is independent and CPU-bound: about 30 s on one core)."""
+    """
+    Return the diagnoses of the cases selected in this run, computed up front on every core.
+
+    Each is independent and CPU-bound: about 30 s on one core.
+    """
     cases = [tuple(item.callspec.params[k] for k in ARGS.split(','))
              for item in request.session.items
              if item.module.__name__ == __name__ and hasattr(item, 'callspec')]

@@ -1,3 +1,17 @@
+// Copyright 2026 sma_actuator developers
+//
+// Licensed under the Apache License, Version 2.0 (the "License");
+// you may not use this file except in compliance with the License.
+// You may obtain a copy of the License at
+//
+//     http://www.apache.org/licenses/LICENSE-2.0
+//
+// Unless required by applicable law or agreed to in writing, software
+// distributed under the License is distributed on an "AS IS" BASIS,
+// WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+// See the License for the specific language governing permissions and
+// limitations under the License.
+
 // Protocol and safety logic of the SMA actuator MCU; see sma_mcu_core.h.
 #include "sma_mcu_core.h"
 
@@ -8,9 +22,38 @@ namespace {
 uint32_t elapsed(uint32_t now_us, uint32_t then_us) { return now_us - then_us; }
 }  // namespace
 
+bool DeadTimeInterlock::apply(uint16_t a, uint16_t b, uint32_t now_us) {
+  const uint16_t requested[2] = {a, b};
+  const bool both = a > 0 && b > 0;
+  for (int wire = 0; wire < 2; ++wire) {  // a heated wire that is not to heat any more goes off now
+    if (applied_[wire] > 0 && (both || requested[wire] == 0)) {
+      off_recent_[wire] = true;
+      off_since_[wire] = now_us;
+    }
+  }
+  expire(now_us);
+  bool held = both;
+  for (int wire = 0; wire < 2; ++wire) {
+    applied_[wire] = 0;
+    if (both || requested[wire] == 0) continue;
+    if (off_recent_[1 - wire]) {
+      held = true;
+    } else {
+      applied_[wire] = requested[wire];
+    }
+  }
+  return held;
+}
+
+void DeadTimeInterlock::expire(uint32_t now_us) {
+  for (int wire = 0; wire < 2; ++wire) {
+    if (off_recent_[wire] && elapsed(now_us, off_since_[wire]) >= dead_time_us_) off_recent_[wire] = false;
+  }
+}
+
 McuCore::McuCore(ReadAdc read_adc, Transmit transmit, void* ctx, const FirmwareLimits& limits)
     : read_adc_(read_adc), transmit_(transmit), ctx_(ctx), limits_(limits),
-      adc_period_us_(limits.adc_period_max_us) {}
+      adc_period_us_(limits.adc_period_max_us), interlock_(limits.dead_time_us) {}
 
 void McuCore::start(uint32_t now_us) {
   last_duty_us_ = last_report_us_ = now_us;
@@ -38,8 +81,9 @@ void McuCore::receive(uint8_t byte, uint32_t now_us) {
 }
 
 void McuCore::poll(uint32_t now_us) {
+  interlock_.expire(now_us);
   if (configured_ && !(faults_ & kFaultWatchdog) && elapsed(now_us, last_duty_us_) >= limits_.watchdog_us) {
-    pwm_a_ = pwm_b_ = 0;
+    outputs_off(now_us);
     set_faults(faults_ | kFaultWatchdog);
   }
   if (configured_ && elapsed(now_us, last_report_us_) >= adc_period_us_) send_report(now_us);
@@ -67,7 +111,7 @@ void McuCore::handle_frame(uint32_t now_us) {
 }
 
 void McuCore::on_hello(const Hello& msg, uint32_t now_us) {
-  pwm_a_ = pwm_b_ = 0;
+  outputs_off(now_us);
   if (msg.protocol_version != kProtocolVersion) {
     configured_ = false;
     set_faults(kFaultNotConfigured | kFaultBadVersion);
@@ -91,20 +135,25 @@ void McuCore::on_hello(const Hello& msg, uint32_t now_us) {
 void McuCore::on_duty(const Duty& msg, uint8_t seq, uint32_t now_us) {
   duty_seq_ = seq;
   if (configured_) {
-    uint16_t a = msg.duty_a < max_duty_ ? msg.duty_a : max_duty_;
-    uint16_t b = msg.duty_b < max_duty_ ? msg.duty_b : max_duty_;
-    uint16_t faults = faults_ & ~(kFaultWatchdog | kFaultInterlock | kFaultClamped);
-    if (a != msg.duty_a || b != msg.duty_b) faults |= kFaultClamped;
-    if (a > interlock_duty_ && b > interlock_duty_) {
-      a = b = 0;
-      faults |= kFaultInterlock;
+    uint16_t faults = faults_ & ~(kFaultInterlock | kFaultRejected);
+    if (msg.duty_a > max_duty_ || msg.duty_b > max_duty_) {
+      set_faults(faults | kFaultRejected);  // keep the outputs as they are
+      send_report(now_us);
+      return;
     }
-    pwm_a_ = a;
-    pwm_b_ = b;
+    faults &= ~kFaultWatchdog;
+    if (interlock_.apply(msg.duty_a, msg.duty_b, now_us)) faults |= kFaultInterlock;
+    pwm_a_ = interlock_.a();
+    pwm_b_ = interlock_.b();
     set_faults(faults);
     last_duty_us_ = now_us;
   }
   send_report(now_us);
+}
+
+void McuCore::outputs_off(uint32_t now_us) {
+  interlock_.reset(now_us);
+  pwm_a_ = pwm_b_ = 0;
 }
 
 void McuCore::set_faults(uint16_t faults) {

@@ -1,11 +1,28 @@
+// Copyright 2026 sma_actuator developers
+//
+// Licensed under the Apache License, Version 2.0 (the "License");
+// you may not use this file except in compliance with the License.
+// You may obtain a copy of the License at
+//
+//     http://www.apache.org/licenses/LICENSE-2.0
+//
+// Unless required by applicable law or agreed to in writing, software
+// distributed under the License is distributed on an "AS IS" BASIS,
+// WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+// See the License for the specific language governing permissions and
+// limitations under the License.
+
 // Protocol and safety logic of the SMA actuator MCU, free of any hardware API.
 //
 // C++ twin of sma_actuator/hardware/mcu_core.py (the emulator runs the Python one); both
 // replay the "mcu" scenarios of firmware/test_vectors.json to the same bytes.
 // Safety rules:
 //   - Duty frames are ignored until a valid Hello has configured the limits.
-//   - Each channel is clamped to max_duty; both channels above interlock_duty at once
-//     switches both outputs off (kFaultInterlock).
+//   - A Duty frame with a channel above max_duty is rejected (kFaultRejected): the outputs
+//     keep the last valid duty and the frame does not feed the watchdog.
+//   - Dead-time interlock (DeadTimeInterlock, twin of sma_actuator/control/interlock.py):
+//     a channel may drive only after the other has been off for dead_time_us; both
+//     requested at once switches both off (kFaultInterlock).
 //   - No valid Duty frame for kWatchdogUs (100 ms): both outputs off (kFaultWatchdog).
 #ifndef SMA_MCU_CORE_H
 #define SMA_MCU_CORE_H
@@ -29,6 +46,27 @@ struct FirmwareLimits {
   uint32_t adc_period_min_us = 1000;
   uint32_t adc_period_max_us = 1000000;
   uint8_t adc_bits = 12;
+  uint32_t dead_time_us = 25000;  // interlock dead time, half the bridge's default 0.05 s
+};
+
+// "A wire may heat only when the other has had zero duty for the dead time"; requests for
+// both at once apply zero to both. Times are wrapping microsecond ticks.
+class DeadTimeInterlock {
+ public:
+  explicit DeadTimeInterlock(uint32_t dead_time_us) : dead_time_us_(dead_time_us) {}
+  // Gate the requested pair; the applied pair is in a()/b(). Returns true if a requested
+  // channel was held at zero.
+  bool apply(uint16_t a, uint16_t b, uint32_t now_us);
+  void expire(uint32_t now_us);  // forget turn-offs older than the dead time
+  void reset(uint32_t now_us) { apply(0, 0, now_us); }
+  uint16_t a() const { return applied_[0]; }
+  uint16_t b() const { return applied_[1]; }
+
+ private:
+  uint32_t dead_time_us_;
+  uint16_t applied_[2] = {0, 0};
+  bool off_recent_[2] = {false, false};  // went off less than the dead time ago
+  uint32_t off_since_[2] = {0, 0};
 };
 
 class McuCore {
@@ -50,6 +88,7 @@ class McuCore {
   void handle_frame(uint32_t now_us);
   void on_hello(const Hello& msg, uint32_t now_us);
   void on_duty(const Duty& msg, uint8_t seq, uint32_t now_us);
+  void outputs_off(uint32_t now_us);
   void set_faults(uint16_t faults);
   void send_report(uint32_t now_us);
   void send_status(uint32_t now_us);
@@ -66,6 +105,7 @@ class McuCore {
   uint16_t max_duty_ = 0, interlock_duty_ = 0;
   uint32_t adc_period_us_;
   uint16_t pwm_a_ = 0, pwm_b_ = 0;
+  DeadTimeInterlock interlock_;
   uint16_t faults_ = kFaultNotConfigured, faults_latched_ = kFaultNotConfigured;
   int32_t status_faults_ = -1;  // faults as of the last Status sent; -1 forces one
   uint8_t duty_seq_ = 0;

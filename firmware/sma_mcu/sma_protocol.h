@@ -1,3 +1,17 @@
+// Copyright 2026 sma_actuator developers
+//
+// Licensed under the Apache License, Version 2.0 (the "License");
+// you may not use this file except in compliance with the License.
+// You may obtain a copy of the License at
+//
+//     http://www.apache.org/licenses/LICENSE-2.0
+//
+// Unless required by applicable law or agreed to in writing, software
+// distributed under the License is distributed on an "AS IS" BASIS,
+// WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+// See the License for the specific language governing permissions and
+// limitations under the License.
+
 // Serial protocol of the SMA actuator MCU: COBS framing, CRC-32 and messages.
 //
 // C++ twin of sma_actuator/hardware/protocol.py; both are checked byte-for-byte against
@@ -32,8 +46,8 @@ enum MsgType : uint8_t {
 
 enum Fault : uint16_t {
   kFaultWatchdog = 1u << 0,       // no valid Duty frame for the watchdog time: outputs off
-  kFaultInterlock = 1u << 1,      // last Duty had both channels above the interlock: outputs off
-  kFaultClamped = 1u << 2,        // last Duty exceeded max_duty and was clamped
+  kFaultInterlock = 1u << 1,      // last Duty asked for heat the dead-time interlock holds off
+  kFaultRejected = 1u << 2,       // last Duty exceeded max_duty: ignored, outputs unchanged
   kFaultNotConfigured = 1u << 3,  // no valid Hello since reset: Duty ignored
   kFaultBadVersion = 1u << 4,     // last Hello asked for an unsupported protocol version
 };

@@ -1,4 +1,19 @@
-"""Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
 
 All signals are put on one uniform time grid built on the recorder's log time (receive time,
 the one clock every topic shares), starting at the first ``/sma/joint_states`` message:
@@ -17,9 +32,9 @@ without ROS installed and on bags recorded by rosbag2.
 from pathlib import Path
 from typing import Dict, Optional, Union
 
-import numpy as np
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
+import numpy as np
 
 from .errors import BagError, MissingTopicError, TruncatedBagError, UnknownTypeError
 from .reader import BagReader
@@ -92,7 +107,7 @@ def _read_series(reader: BagReader, path: Path, topic_of: Dict[str, str]):
         if info.schema_encoding != 'ros2msg' or info.serialization_format != 'cdr':
             raise UnknownTypeError(
                 path, f"topic '{topic}' is stored as {info.schema_encoding or 'no schema'}/"
-                      f"{info.serialization_format}; only ros2msg/cdr can be decoded")
+                      f'{info.serialization_format}; only ros2msg/cdr can be decoded')
         # DecoderFactory caches decoders by schema id, so each needs its own id.
         schema = Schema(id=schema_id, name=info.type, encoding='ros2msg',
                         data=info.definition.encode())
@@ -118,7 +133,8 @@ def _sorted(times, values):
 
 
 def zero_order_hold(times_ns, values, grid_ns, before=np.nan):
-    """Sample a piecewise-constant signal on a grid.
+    """
+    Sample a piecewise-constant signal on a grid.
 
     :param times_ns: Sample times [ns], ascending.
     :param values: Values at those times (1-D or 2-D with samples along axis 0).
@@ -143,7 +159,8 @@ def default_rate_hz(times_ns) -> float:
 
 def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
              topics: Optional[Dict[str, str]] = None) -> Dict[str, np.ndarray]:
-    """Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
+    """
+    Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
 
     :param path: Bag directory or ``.mcap`` file (ours or rosbag2's).
     :param rate_hz: Grid rate [Hz]; default: the joint-state rate (1 / median interval).

@@ -1,4 +1,19 @@
-"""Errors raised by the bag library.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Errors raised by the bag library.
 
 Every error is a ValueError subclass whose message starts with the file (or directory) it is
 about, so a caller can catch ``BagError`` (or plain ``ValueError``) and show the message as is.
@@ -8,7 +23,8 @@ from typing import Optional, Union
 
 
 class BagError(ValueError):
-    """A bag (or a file in it) cannot be written or read as asked.
+    """
+    A bag (or a file in it) cannot be written or read as asked.
 
     :param path: The bag directory or file the problem is about.
     :param problem: What is wrong, in words a user can act on.

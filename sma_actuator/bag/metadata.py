@@ -1,4 +1,19 @@
-"""rosbag2 bag metadata (``metadata.yaml``, version 9 = Jazzy) from plain Python values.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+rosbag2 bag metadata (``metadata.yaml``, version 9 = Jazzy) from plain Python values.
 
 The same mapping (without the ``rosbag2_bagfile_information`` wrapper) is what rosbag2_storage_mcap
 embeds in each MCAP file as a Metadata record named ``rosbag2`` with key ``serialized_metadata``;
@@ -7,8 +22,8 @@ its presence tells rosbag2 that the channel QoS YAML uses version-9 names.
 Layout follows ``rosbag2_storage/yaml.hpp``; sequences are indented under their key like
 yaml-cpp emits them, and null is written ``~``.
 """
-import os
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 from typing import Any, Dict, List
 
@@ -28,7 +43,7 @@ class TopicRecord:
     """One topic as rosbag2 describes it (``TopicMetadata`` plus its message count)."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 (rosbag2's TopicMetadata field name)
     offered_qos_profiles: str = '[]'  # channel-metadata YAML text, see qos.py
     type_description_hash: str = ''
     serialization_format: str = 'cdr'
@@ -129,7 +144,8 @@ def write_metadata_yaml(directory: Path, bag: BagRecord) -> Path:
 
 
 def read_metadata_yaml(path: Path) -> Dict[str, Any]:
-    """Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
+    """
+    Read a rosbag2 ``metadata.yaml`` and return the inner ``BagMetadata`` mapping.
 
     :raises BagError: The file is not valid rosbag2 metadata.
     """
@@ -142,5 +158,5 @@ def read_metadata_yaml(path: Path) -> Dict[str, Any]:
     info = data[_ROOT_KEY]
     if info.get('storage_identifier') not in (None, 'mcap'):
         raise BagError(path, f"storage '{info.get('storage_identifier')}' is not supported "
-                             "(only mcap bags can be read)")
+                             '(only mcap bags can be read)')
     return info

@@ -1,4 +1,19 @@
-"""Message definitions and type hashes of installed ROS 2 message types, as rosbag2 stores them.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Message definitions and type hashes of installed ROS 2 message types, as rosbag2 stores them.
 
 rosbag2 (``rosbag2_cpp::LocalMessageDefinitionSource``, Jazzy) stores one schema per type with
 encoding ``ros2msg``: the text of the type's .msg file, then for every dependency not yet
@@ -16,9 +31,9 @@ install) and then in ``<sys.prefix>/share`` (the pip-installed Jazzy wheels).
 import functools
 import json
 import os
+from pathlib import Path
 import re
 import sys
-from pathlib import Path
 from typing import List, Set, Tuple
 
 from .errors import UnknownTypeError
@@ -38,7 +53,8 @@ _MAX_DEPTH = 50
 
 
 def split_type_name(type_name: str) -> Tuple[str, str, str]:
-    """Split ``pkg/msg/Type`` or ``pkg/Type`` into ``(pkg, 'msg', 'Type')``.
+    """
+    Split ``pkg/msg/Type`` or ``pkg/Type`` into ``(pkg, 'msg', 'Type')``.
 
     :raises UnknownTypeError: The name is not a ROS interface type name.
     """
@@ -68,7 +84,8 @@ def share_directories() -> List[Path]:
 
 
 def interface_file(type_name: str, suffix: str) -> Path:
-    """Return the installed interface file of a type, e.g. suffix ``.msg`` or ``.json``.
+    """
+    Return the installed interface file of a type, e.g. suffix ``.msg`` or ``.json``.
 
     :raises UnknownTypeError: No installed package provides the file; the message lists
         the directories searched.
@@ -103,7 +120,8 @@ def _msg_text(type_name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def message_definition(type_name: str) -> str:
-    """Return the full ``ros2msg`` definition of an installed message type, as rosbag2 writes it.
+    """
+    Return the full ``ros2msg`` definition of an installed message type, as rosbag2 writes it.
 
     :param type_name: ``pkg/msg/Type`` (or ``pkg/Type``).
     :raises UnknownTypeError: The type or one of its dependencies is not installed.
@@ -126,7 +144,8 @@ def message_definition(type_name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def type_description_hash(type_name: str) -> str:
-    """Return the ``RIHS01_<sha256 hex>`` type hash of an installed message type.
+    """
+    Return the ``RIHS01_<sha256 hex>`` type hash of an installed message type.
 
     :raises UnknownTypeError: The type's type-description JSON is not installed or has no hash.
     """

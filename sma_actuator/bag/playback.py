@@ -1,4 +1,19 @@
-"""Replay timing without ROS: when each stored message is due, at a rate, from an offset, looped.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Replay timing without ROS: when each stored message is due, at a rate, from an offset, looped.
 
 A message logged at bag time ``t`` is due at wall time
 ``wall_start + (t - (bag_start + start_offset)) / rate``; with ``loop`` the timeline restarts
@@ -6,10 +21,10 @@ after the last message. Optional clock ticks report the bag time every ``clock_p
 time (for ``/clock``). Time is read and waited on through injected functions, so the schedule is
 tested with a fake clock and the node uses the monotonic clock.
 """
+from dataclasses import dataclass, field
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import Callable, Dict, Iterable, Iterator, List, Optional
 
 from .reader import BagMessage
@@ -18,7 +33,8 @@ _NS = 1_000_000_000
 
 
 def parse_remappings(entries: Iterable[str]) -> Dict[str, str]:
-    """Parse ``'/from:=/to'`` entries into ``{'/from': '/to'}``.
+    """
+    Parse ``'/from:=/to'`` entries into ``{'/from': '/to'}``.
 
     :raises ValueError: An entry without ``:=``, a relative name, or a topic mapped twice.
     """
@@ -37,7 +53,8 @@ def parse_remappings(entries: Iterable[str]) -> Dict[str, str]:
 
 def read_ahead(messages: Iterable[BagMessage], stop: threading.Event,
                max_items: int = 5000) -> Iterator[BagMessage]:
-    """Iterate ``messages`` through a background thread that reads up to ``max_items`` ahead.
+    """
+    Iterate ``messages`` through a background thread that reads up to ``max_items`` ahead.
 
     Reading a bag goes chunk by chunk (decompress, parse thousands of records at once); done
     inline it would hold up every message due meanwhile. The reader thread stops when the
@@ -105,7 +122,8 @@ class PlaybackStats:
 
 
 class Player:
-    """Publish a bag's messages on schedule.
+    """
+    Publish a bag's messages on schedule.
 
     :param messages: ``messages(start_time_ns)`` returns the messages to play from that bag
         time on, in log-time order (e.g. ``BagReader.messages`` with a topic filter).

@@ -1,4 +1,19 @@
-"""QoS profiles in rosbag2's Jazzy (metadata version 9) YAML form, without importing ROS.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+QoS profiles in rosbag2's Jazzy (metadata version 9) YAML form, without importing ROS.
 
 rosbag2 Jazzy stores the QoS profiles offered by a topic's publishers in the MCAP channel
 metadata key ``offered_qos_profiles`` as a YAML sequence (``YAML::Dump`` of
@@ -54,7 +69,7 @@ def _policy_name(table: Dict[int, str], value: Any) -> str:
         name = value.lower()
         if name not in table.values():
             raise ValueError(f"unknown QoS policy value '{value}' (expected one of "
-                             f"{sorted(table.values())})")
+                             f'{sorted(table.values())})')
         return name
     return table.get(int(getattr(value, 'value', value)), 'unknown')
 
@@ -67,7 +82,8 @@ def _nanoseconds(value: Any) -> int:
 
 
 def profile_to_dict(profile: Any) -> QosDict:
-    """Convert a QoS profile to the rosbag2 v9 mapping (keys in rosbag2's order).
+    """
+    Convert a QoS profile to the rosbag2 v9 mapping (keys in rosbag2's order).
 
     :param profile: An ``rclpy.qos.QoSProfile`` (or any object/dict with the same fields).
     """
@@ -90,7 +106,8 @@ def profile_to_dict(profile: Any) -> QosDict:
 
 
 def dump_offered_qos_profiles(profiles: List[Any]) -> str:
-    """Serialise profiles to the exact YAML text rosbag2 Jazzy puts in channel metadata.
+    """
+    Serialise profiles to the exact YAML text rosbag2 Jazzy puts in channel metadata.
 
     :param profiles: QoS profiles (see :func:`profile_to_dict`); empty gives ``[]``.
     """
@@ -101,7 +118,8 @@ def dump_offered_qos_profiles(profiles: List[Any]) -> str:
 
 
 def load_offered_qos_profiles(text: Optional[str]) -> List[QosDict]:
-    """Parse ``offered_qos_profiles`` YAML (rosbag2 v9 names or <= v8 integers) to v9 dicts.
+    """
+    Parse ``offered_qos_profiles`` YAML (rosbag2 v9 names or <= v8 integers) to v9 dicts.
 
     :raises ValueError: The text is not a YAML sequence of QoS mappings.
     """
@@ -119,7 +137,8 @@ def load_offered_qos_profiles(text: Optional[str]) -> List[QosDict]:
 
 
 def adapt_request_to_offers(offers: List[QosDict]) -> Dict[str, str]:
-    """Choose subscription reliability/durability that connects to every publisher (as rosbag2).
+    """
+    Choose subscription reliability/durability that connects to every publisher (as rosbag2).
 
     Reliable only if every offer is reliable, transient_local only if every offer is; with no
     offers known: reliable/volatile (rosbag2's default).
@@ -135,7 +154,8 @@ def adapt_request_to_offers(offers: List[QosDict]) -> Dict[str, str]:
 
 
 def adapt_offer_to_recorded_offers(offers: List[QosDict]) -> Dict[str, str]:
-    """Choose publisher reliability/durability for replay from the recorded offers (as rosbag2).
+    """
+    Choose publisher reliability/durability for replay from the recorded offers (as rosbag2).
 
     If all recorded publishers offered the same reliability and durability, offer those;
     otherwise (or with none recorded) offer reliable/volatile, which every subscriber accepts

@@ -1,4 +1,19 @@
-"""BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+BagReader: messages and topic information of an MCAP bag (ours or rosbag2's), ROS-free.
 
 Accepts a bag directory (with or without ``metadata.yaml``) or a single ``.mcap`` file. Files
 with a valid summary are read through mcap's indexed reader; files without one (the recorder was
@@ -15,7 +30,7 @@ from mcap.reader import make_reader
 from .errors import (BagError, BagNotFoundError, NotMcapError, TruncatedBagError,
                      UnknownTypeError)
 from .metadata import METADATA_FILE, read_metadata_yaml
-from .recovery import RecoveryReport, iter_span_messages, scan
+from .recovery import iter_span_messages, RecoveryReport, scan
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_AND_MAGIC = 9 + 20 + 8  # footer record (opcode, length, 20-byte body) + magic
@@ -26,7 +41,7 @@ class TopicInfo:
     """A topic of the bag: type, encodings, recorded QoS and type hash, message count."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 (rosbag2's TopicMetadata field name)
     serialization_format: str
     schema_encoding: str
     definition: str
@@ -142,7 +157,8 @@ def _bag_files(path: Path) -> List[Path]:
 
 
 class BagReader:
-    """Read an MCAP bag directory or file.
+    """
+    Read an MCAP bag directory or file.
 
     :param path: Bag directory (rosbag2 layout) or a single ``.mcap`` file.
     :raises BagNotFoundError: The path does not exist or holds no .mcap file.
@@ -199,7 +215,8 @@ class BagReader:
 
     def messages(self, topics: Optional[Iterable[str]] = None,
                  start_time_ns: Optional[int] = None) -> Iterator[BagMessage]:
-        """Yield messages in log-time order (per file; files in sequence).
+        """
+        Yield messages in log-time order (per file; files in sequence).
 
         :param topics: Only these topics (default: all).
         :param start_time_ns: Skip messages logged before this time [ns].

@@ -1,8 +1,22 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Recorder logic without ROS: which topics to record and where the bag goes."""
-import fnmatch
-import re
 from datetime import datetime
+import fnmatch
 from pathlib import Path
+import re
 from typing import Iterable, Optional, Union
 
 #: Topics recorded by default: the whole /sma namespace and the diagnostics.
@@ -13,13 +27,19 @@ _SAFE_NAME = re.compile(r'^[A-Za-z0-9._-]+$')
 
 
 class TopicSelector:
-    """Decide which topics to record from names and glob patterns (``/sma/*``).
+    """
+    Decide which topics to record from names and glob patterns (``/sma/*``).
 
     :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``.
     :raises ValueError: No pattern, or a pattern that is not an absolute topic name.
     """
 
     def __init__(self, patterns: Iterable[str]):
+        if patterns is None or isinstance(patterns, (str, bytes)) or not all(
+                isinstance(p, str) for p in patterns):
+            # `topics:=[]` on the command line arrives untyped (None): an empty selection
+            raise ValueError(f'topics must be a list of topic names or patterns, got '
+                             f'{patterns!r}: give at least one (default {list(DEFAULT_TOPICS)})')
         self.patterns = [p.strip() for p in patterns if p and p.strip()]
         if not self.patterns:
             raise ValueError('no topics to record: give at least one topic name or pattern')
@@ -35,7 +55,8 @@ class TopicSelector:
 def bag_directory(output_dir: Union[str, Path], run_name: str,
                   name_template: str = DEFAULT_NAME_TEMPLATE,
                   now: Optional[datetime] = None) -> Path:
-    """Return the bag directory ``output_dir/<name>`` with the name made from a template.
+    """
+    Return the bag directory ``output_dir/<name>`` with the name made from a template.
 
     :param name_template: ``str.format`` template with fields ``run_name`` and ``date`` (a
         datetime, so ``{date:%Y%m%d}`` works).

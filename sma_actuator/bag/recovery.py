@@ -1,4 +1,19 @@
-"""Recover an MCAP file that has no summary/footer (recorder killed, disk full, cut copy).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Recover an MCAP file that has no summary/footer (recorder killed, disk full, cut copy).
 
 The file is scanned record by record from the start. Every complete record is kept; a chunk
 counts only if it decompresses and its CRC matches. Scanning stops at the first incomplete or
@@ -6,10 +21,10 @@ damaged record; everything from there on is reported as lost. The cut-off record
 as its bytes go to count the messages it held, a lower bound of what was lost: messages the
 writer still held in memory when it died never reached the file and cannot be counted.
 """
-import io
-import struct
 from dataclasses import dataclass, field
+import io
 from pathlib import Path
+import struct
 from typing import Dict, Iterator, List, Optional, Tuple
 
 from mcap.data_stream import ReadDataStream
@@ -24,7 +39,8 @@ _MAGIC_SIZE = 8
 
 @dataclass
 class RecoveryReport:
-    """What a recovery scan kept and lost in one file.
+    """
+    What a recovery scan kept and lost in one file.
 
     :ivar file_size: Bytes in the file.
     :ivar recovered_bytes: Bytes up to the end of the last complete, valid record (the whole
@@ -134,7 +150,8 @@ def _note_messages(result: ScanResult, records) -> int:
 
 
 def scan(path: Path) -> ScanResult:
-    """Scan an MCAP file without relying on its summary (the magic is assumed checked).
+    """
+    Scan an MCAP file without relying on its summary (the magic is assumed checked).
 
     :return: What was found; ``result.report`` says what was kept and lost.
     """

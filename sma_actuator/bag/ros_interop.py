@@ -1,4 +1,19 @@
-"""The rclpy side of recording and replay (the only module of sma_actuator.bag importing ROS).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The rclpy side of recording and replay (the only module of sma_actuator.bag importing ROS).
 
 Small helpers shared by the recorder and replay nodes: message classes by type name, QoS
 profiles from rosbag2 policy names, parameter declaration with descriptors, diagnostics.
@@ -28,7 +43,8 @@ ParamSpec = Tuple[Any, str, Any]
 
 
 def message_class(type_name: str):
-    """Import and return the Python class of ``pkg/msg/Type``.
+    """
+    Import and return the Python class of ``pkg/msg/Type``.
 
     :raises UnknownTypeError: The message package or type is not installed.
     """
@@ -56,7 +72,8 @@ def publisher_offers(node: Node, topic: str):
 
 
 def take_pending(subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
-    """Yield ``(message, info)`` for every message already queued on a subscription.
+    """
+    Yield ``(message, info)`` for every message already queued on a subscription.
 
     rclpy's executors take one message per subscription per wait cycle, which caps a node at
     roughly ten thousand messages per second and lets bursts overflow the queue. Called from
@@ -98,7 +115,8 @@ NODE_PARAMETERS = ('use_sim_time',)
 
 
 def parameter_overrides(specs: Dict[str, ParamSpec], params: Dict[str, Any]):
-    """Turn ``name=value`` keyword arguments into rclpy parameter overrides.
+    """
+    Turn ``name=value`` keyword arguments into rclpy parameter overrides.
 
     :raises ValueError: A name that is not one of the node's parameters.
     """

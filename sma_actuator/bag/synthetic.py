@@ -1,4 +1,19 @@
-"""ROS-free CDR encoding and made-up runs, for tests, examples and benchmarks.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+ROS-free CDR encoding and made-up runs, for tests, examples and benchmarks.
 
 :func:`cdr_encoder` serialises plain dicts to CDR with mcap-ros2-support's dynamic encoder (the
 one its MCAP writer uses), from the installed message definitions; the bytes equal what rclpy
@@ -27,7 +42,8 @@ SMA_TOPICS = {
 
 @functools.lru_cache(maxsize=None)
 def cdr_encoder(type_name: str) -> Callable[[Dict[str, Any]], bytes]:
-    """Return a function serialising a dict (field name -> value) of ``type_name`` to CDR.
+    """
+    Return a function serialising a dict (field name -> value) of ``type_name`` to CDR.
 
     Missing fields take their default (0, '', empty).
     """
@@ -36,8 +52,11 @@ def cdr_encoder(type_name: str) -> Callable[[Dict[str, Any]], bytes]:
 
 
 def offered_profile(reliability: str, depth: int = 10) -> Dict[str, Any]:
-    """Return a rosbag2 QoS dict as a publisher with this reliability offers it (infinite
-    deadline/lifespan/lease, like Fast DDS reports for default profiles)."""
+    """
+    Return a rosbag2 QoS dict as a publisher with this reliability offers it.
+
+    Deadline, lifespan and lease are infinite, as Fast DDS reports them for default profiles.
+    """
     infinite = {'sec': 9223372036, 'nsec': 854775807}
     return {'history': 'keep_last', 'depth': depth, 'reliability': reliability,
             'durability': 'volatile', 'deadline': infinite, 'lifespan': infinite,
@@ -53,7 +72,8 @@ def stamp(time_ns: int) -> Dict[str, int]:
 def write_demo_run(path: Union[str, Path], *, duration_s: float = 2.0,
                    joint_state_rate_hz: float = 100.0, duty_rate_hz: float = 50.0,
                    start_ns: int = 1_700_000_000_000_000_000, overwrite: bool = False) -> Path:
-    """Write a bag of a made-up step response on the contract topics.
+    """
+    Write a bag of a made-up step response on the contract topics.
 
     Setpoint steps to 0.2 rad at 10 % of the run; duty_a follows a proportional law, duty_b is 0;
     the shaft angle is a first-order lag (tau 0.2 s) of 2 rad x duty_a; ambient is 22 degC.

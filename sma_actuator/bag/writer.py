@@ -1,4 +1,19 @@
-"""BagWriter: serialized ROS 2 messages into a rosbag2-compatible MCAP bag directory.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+BagWriter: serialized ROS 2 messages into a rosbag2-compatible MCAP bag directory.
 
 A bag is a directory ``<dir>/`` holding ``<dir name>_0.mcap`` (``_1``, ``_2``... after a split)
 and, once closed, ``metadata.yaml`` (rosbag2 Jazzy format), so ``ros2 bag info/play <dir>``,
@@ -13,16 +28,24 @@ a SIGKILL the file is readable (``BagReader``) up to the last closed chunk.
 
 The writer is thread-safe (one lock) and ROS-free: callers pass bytes already in CDR.
 """
+import contextlib
+import copy
+from pathlib import Path
 import threading
 import time
-from pathlib import Path
 from typing import Dict, List, Optional, Union
 
 from mcap.writer import CompressionType, Writer
 
 from .errors import BagExistsError, BagWriteError
-from .metadata import (BagRecord, FileRecord, METADATA_FILE, TopicRecord,
-                       dump_serialized_metadata, write_metadata_yaml)
+from .metadata import (
+    BagRecord,
+    dump_serialized_metadata,
+    FileRecord,
+    METADATA_FILE,
+    TopicRecord,
+    write_metadata_yaml,
+)
 from .msgdefs import message_definition, normalize_type_name, type_description_hash
 from .qos import dump_offered_qos_profiles
 from .. import __version__
@@ -33,6 +56,10 @@ LIBRARY = f'sma_actuator-bag/{__version__}'
 # mcap's own size trigger is disabled; this class decides when a chunk ends (see flush()).
 _NEVER = 1 << 62
 _RECORD_OVERHEAD_BYTES = 31  # opcode + length + Message fields around the payload
+#: Smallest max_file_size_bytes (0 = no size split): below it a file's fixed part (header,
+#: schemas with full definitions, summary, metadata: a few KiB) dominates and a recorder
+#: would split on nearly every message.
+MIN_FILE_SIZE_BYTES = 64 * 1024
 
 
 def storage_file_name(bag_dir: Union[str, Path], index: int) -> str:
@@ -121,7 +148,8 @@ class _StorageFile:
 
 
 class BagWriter:
-    """Write a rosbag2 bag directory of MCAP files from serialized (CDR) messages.
+    """
+    Write a rosbag2 bag directory of MCAP files from serialized (CDR) messages.
 
     Usage::
 
@@ -153,8 +181,15 @@ class BagWriter:
             raise ValueError('chunk_size_bytes must be > 0 and chunk_max_age_s >= 0')
         if max_file_size_bytes < 0 or max_file_duration_s < 0:
             raise ValueError('max_file_size_bytes and max_file_duration_s must be >= 0')
+        if 0 < max_file_size_bytes < MIN_FILE_SIZE_BYTES:
+            raise ValueError(f'max_file_size_bytes={max_file_size_bytes} is below the minimum '
+                             f'{MIN_FILE_SIZE_BYTES} bytes (64 KiB); 0 means no size split')
         self.path = Path(path)
-        self._prepare_directory(overwrite)
+        self._failed = None   # the OSError that stopped writing, if any
+        try:
+            self._prepare_directory(overwrite)
+        except OSError as err:
+            raise BagWriteError(self.path, f'cannot create the bag: {_reason(err)}') from err
         self._compression = COMPRESSIONS[compression]
         self._chunk_size = int(chunk_size_bytes)
         self._chunk_max_age_s = float(chunk_max_age_s)
@@ -166,7 +201,10 @@ class BagWriter:
         self._topics: Dict[str, _TopicSpec] = {}
         self._lock = threading.Lock()
         self._closed = False
-        self._file = self._open_file(0)
+        try:
+            self._file = self._open_file(0)
+        except OSError as err:
+            raise BagWriteError(self.path, f'cannot create the bag: {_reason(err)}') from err
 
     def _prepare_directory(self, overwrite: bool):
         if self.path.exists() and not self.path.is_dir():
@@ -213,7 +251,8 @@ class BagWriter:
     def add_topic(self, name: str, type_name: str, offered_qos_profiles=None, *,
                   type_hash: Optional[str] = None, definition: Optional[str] = None,
                   serialization_format: str = 'cdr'):
-        """Declare a topic before writing to it.
+        """
+        Declare a topic before writing to it.
 
         :param name: Topic name, e.g. ``/sma/duty``.
         :param type_name: ``pkg/msg/Type``.
@@ -247,7 +286,8 @@ class BagWriter:
 
     def write(self, topic: str, data: bytes, log_time_ns: int,
               publish_time_ns: Optional[int] = None):
-        """Write one serialized message.
+        """
+        Write one serialized message.
 
         :param topic: A topic declared with :meth:`add_topic`.
         :param data: The CDR bytes, stored unchanged.
@@ -262,36 +302,51 @@ class BagWriter:
                 raise BagWriteError(self.path, f"topic '{topic}' was not added before writing")
             if log_time_ns < 0:
                 raise BagWriteError(self.path, f"negative log time {log_time_ns} on '{topic}'")
-            if self._split_due(log_time_ns):
-                self._split()
-            publish = log_time_ns if publish_time_ns is None else publish_time_ns
-            self._file.write(topic, data, int(log_time_ns), int(publish))
-            spec.record.message_count += 1
-            self._flush_if_due_locked()
+            with self._io():
+                if self._split_due(log_time_ns):
+                    self._split()
+                publish = log_time_ns if publish_time_ns is None else publish_time_ns
+                self._file.write(topic, data, int(log_time_ns), int(publish))
+                spec.record.message_count += 1
+                self._flush_if_due_locked()
 
     def flush(self):
         """Close the open chunk and hand all data to the OS (it survives a crash after this)."""
         with self._lock:
             if not self._closed:
-                self._file.flush()
+                self._check_open()
+                with self._io():
+                    self._file.flush()
 
     def flush_if_due(self):
         """Close the open chunk if it is older than ``chunk_max_age_s`` (call periodically)."""
         with self._lock:
             if not self._closed:
-                self._flush_if_due_locked()
+                self._check_open()
+                with self._io():
+                    self._flush_if_due_locked()
 
     def close(self) -> BagRecord:
-        """Finish the open file (summary, index) and write ``metadata.yaml``; idempotent.
+        """
+        Finish the open file (summary, index) and write ``metadata.yaml``; idempotent.
 
         :return: The bag's metadata (files, topics and counts).
         """
         with self._lock:
             if not self._closed:
                 self._closed = True
-                self._file.close(dump_serialized_metadata(self._bag))
-                write_metadata_yaml(self.path, self._bag)
+                if self._failed is not None:
+                    self._close_after_failure()
+                else:
+                    with self._io():
+                        self._file.close(self._file_metadata())
+                        write_metadata_yaml(self.path, self._bag)
             return self._bag
+
+    @property
+    def failed(self) -> Optional[BagWriteError]:
+        """Return the error that stopped writing (full disk, file size limit...), or None."""
+        return self._failed
 
     def __enter__(self):
         return self
@@ -302,8 +357,41 @@ class BagWriter:
     # -- internals ----------------------------------------------------------------------------
 
     def _check_open(self):
+        if self._failed is not None:
+            raise self._failed
         if self._closed:
             raise BagWriteError(self.path, 'bag writer is already closed')
+
+    @contextlib.contextmanager
+    def _io(self):
+        """Turn an OSError (no space, file too large, I/O error) into a lasting BagWriteError."""
+        try:
+            yield
+        except OSError as err:
+            self._failed = BagWriteError(self.path, f'cannot write: {_reason(err)}')
+            raise self._failed from err
+
+    def _close_after_failure(self):
+        """Close what can be closed after a write failure; what was flushed stays readable."""
+        try:
+            self._file.stream.close()
+        except OSError:
+            pass   # the unflushed tail is lost; the reader recovers the closed chunks
+        try:
+            write_metadata_yaml(self.path, self._bag)
+        except OSError:
+            pass   # no space even for metadata.yaml: the reader works without it
+
+    def _file_metadata(self) -> str:
+        """
+        Return the rosbag2 metadata embedded in the open file: this file only.
+
+        One file's record, not the whole bag's, so a split costs the same however many
+        files came before (metadata.yaml, written at close, lists them all).
+        """
+        record = copy.copy(self._bag)
+        record.files = [self._file.record]
+        return dump_serialized_metadata(record)
 
     def _flush_if_due_locked(self):
         f = self._file
@@ -325,5 +413,10 @@ class BagWriter:
             log_time_ns - f.record.starting_time_ns >= self._max_file_duration_ns)
 
     def _split(self):
-        self._file.close(dump_serialized_metadata(self._bag))
+        self._file.close(self._file_metadata())
         self._file = self._open_file(len(self._bag.files))
+
+
+def _reason(err: OSError) -> str:
+    """Return the one-line reason of an OSError ('No space left on device')."""
+    return err.strerror or str(err)

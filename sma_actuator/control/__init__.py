@@ -1,4 +1,19 @@
-"""ROS-free control logic of the actuator (unit-tested without ROS; the nodes are thin wrappers).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+ROS-free control logic of the actuator (unit-tested without ROS; the nodes are thin wrappers).
 
 * `pi`: discrete PI with anti-windup (the paper's 25 ms PI).
 * `split`: antagonistic split of a signed command into two wire duties.

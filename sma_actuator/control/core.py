@@ -1,4 +1,19 @@
-"""`ControllerCore`: one control step of modes pi, pi_inverse and on_off (no ROS).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`ControllerCore`: one control step of modes pi, pi_inverse and on_off (no ROS).
 
 Per sample k (period dt, nominally the paper's 25 ms):
 
@@ -14,13 +29,13 @@ Per sample k (period dt, nominally the paper's 25 ms):
 """
 from dataclasses import dataclass, replace
 
-from ..core.validate import finite_scalar
 from .estimator import WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
+from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
 
@@ -28,6 +43,7 @@ MODES = ('pi', 'pi_inverse', 'on_off')
 @dataclass
 class ControllerSettings:
     """Tunable settings (the controller node's parameters of the same names)."""
+
     mode: str = 'pi'
     kp: float = 3.0                 # [duty / rad]
     ki: float = 4.0                 # [duty / (rad s)]
@@ -54,6 +70,7 @@ class ControllerSettings:
 @dataclass
 class ControlStep:
     """Result of one step: duties and the internals reported in diagnostics."""
+
     duty_a: float
     duty_b: float
     error: float = 0.0

@@ -1,4 +1,19 @@
-"""Wire state estimate: the core actuator model driven by the commanded duties.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Wire state estimate: the core actuator model driven by the commanded duties.
 
 Real wires have no temperature sensor, so the controller runs the identified model
 (`core.AntagonisticActuator`) open loop on what it commanded. The thermal guard reads
@@ -37,7 +52,7 @@ class WireEstimator:
         return self.model.contraction
 
     def hysteresis_inputs(self):
-        """Inputs of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
+        """Input of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
         th, y = self.temperature_c, self.contraction
         sigma = self.params.stress_k
         return np.array([th[0] - sigma * y[1], th[1] - sigma * y[0]])

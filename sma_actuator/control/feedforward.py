@@ -1,4 +1,19 @@
-"""Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Inverse compensation of mode `pi_inverse`: desired angle -> feed-forward duties.
 
 Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
 
@@ -76,7 +91,7 @@ class InverseFeedforward:
             self._y[j] = self._plays[j].step(self._u[j])
 
     def target_contractions(self, angle_rad):
-        """Steps 1-2: (y_a*, y_b*); the idle wire's target is None."""
+        """Step 1-2: (y_a*, y_b*); the idle wire's target is None."""
         p = self.params
         dy = (finite_scalar('angle_rad', angle_rad) - p.offset_rad) / p.stroke_rad
         y_max = self._y_max
@@ -94,7 +109,7 @@ class InverseFeedforward:
         return self._gains[j]
 
     def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None):
-        """Steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+        """Step 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         h = p.hysteresis

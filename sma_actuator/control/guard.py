@@ -1,4 +1,19 @@
-"""Thermal guard: duty limits that keep the estimated wire temperature under a maximum.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Thermal guard: duty limits that keep the estimated wire temperature under a maximum.
 
 For each wire the core's exact thermal step (eq. 7d/7f, `core.thermal.thermal_step`)
 is affine in the held duty d over a horizon H:

@@ -1,4 +1,19 @@
-"""Tracking metrics of a closed-loop run (the demo's summary.json figures).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Tracking metrics of a closed-loop run (the demo's summary.json figures).
 
 e(t) = r(t) − φ(t) on the feedback samples, over the evaluation window [t_start, t_end]:
   rms_error     sqrt(mean e²) [rad]
@@ -12,7 +27,7 @@ from ..core.validate import finite_array
 
 
 def tracking_errors(setpoint, position):
-    """e = r − φ [rad] as an array."""
+    """E = r − φ [rad] as an array."""
     r, y = finite_array('setpoint', setpoint), finite_array('position', position)
     if r.shape != y.shape:
         raise ValueError(f'setpoint and position differ in length ({r.size} vs {y.size})')

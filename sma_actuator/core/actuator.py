@@ -1,4 +1,19 @@
-"""The antagonistic SMA actuator of the paper's Fig. 14, with switchable physical effects.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The antagonistic SMA actuator of the paper's Fig. 14, with switchable physical effects.
 
 Signal chain per wire j in {a, b} (one sample, duty held over dt):
 
@@ -32,10 +47,10 @@ module, so there is one implementation of the physics.
 """
 from dataclasses import asdict, dataclass, field, fields, replace
 
-import numpy as np
 from numba import njit
+import numpy as np
 
-from .hysteresis import ModifiedPrandtlIshlinskii, PlayHysteresis
+from .hysteresis import PlayHysteresis
 from .thermal import on_current_a, thermal_step, time_constant_s
 from .validate import finite_array, finite_scalar
 
@@ -54,7 +69,8 @@ from .validate import finite_array, finite_scalar
 
 
 def flexinol_hysteresis(n_widths=4, n_centres=4):
-    """Default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
+    """
+    Return the default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
 
     Built from the datasheet transformation temperatures: play half-widths spread around
     half the loop width ((As + Af)/2 − (Ms + Mf)/2)/2 = 13 K and saturated elements centred
@@ -78,11 +94,13 @@ def flexinol_hysteresis(n_widths=4, n_centres=4):
 
 @dataclass
 class ActuatorParams:
-    """Physical parameters of the antagonistic actuator and its switchable effects.
+    """
+    Physical parameters of the antagonistic actuator and its switchable effects.
 
     Every effect parameter's default is its neutral value (effect off), except
     ambient_gain = 1: a simulated wire feels the ambient it is given.
     """
+
     # wire and amplifier (Flexinol 150 um LT, 250 mm; see module comment for sources)
     length_m: float = 0.25
     resistance_ohm_per_m: float = 55.0
@@ -98,8 +116,9 @@ class ActuatorParams:
     tau_fast_s: float = 0.0          # fast_dynamics: lag on the heat input [s]
     delay_s: float = 0.0             # delay: transport delay of the measured position [s]
     convection_exponent: float = 0.0  # convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n
-    ambient_gain: float = 1.0        # ambient_drift: weight of measured ambient deviations
-                                     # (1 = physical; the workbench base model uses 0)
+    # ambient_drift: weight of measured ambient deviations (1 = physical; the workbench base
+    # model uses 0)
+    ambient_gain: float = 1.0
     phase_kappa: float = 0.0         # phase_resistance: power factor 1 + κ (1 − y)
     stress_k: float = 0.0            # stress_coupling: shift [K] per unit antagonist contraction
     gain_ratio_b: float = 1.0        # asymmetric_wires: heating gain of wire b relative to a
@@ -140,7 +159,7 @@ class ActuatorParams:
 
     @property
     def tau_s(self):
-        """Basic thermal time constant T = C / hA [s] (Fig. 13)."""
+        """Return the basic thermal time constant T = C / hA [s] (Fig. 13)."""
         return time_constant_s(self.heat_capacity_j_per_k, self.conductance_w_per_k)
 
     @property
@@ -157,7 +176,7 @@ class ActuatorParams:
                          self.duty_limit_sharpness])
 
     def with_changes(self, **changes):
-        """A copy with some fields changed (validated)."""
+        """Return a copy with some fields changed (validated)."""
         return replace(self, **changes)
 
     def to_dict(self):
@@ -189,7 +208,8 @@ KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_expon
 @njit(cache=True)
 def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state,
                    feat_a, feat_b, u_a, u_b, feat_start, feat_step):
-    """Steps 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
+    """
+    Step 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
     duty_*, ambient [°C], disturbance [K]: length-n inputs, sample k held over
     [t_k, t_k + dt). Outputs follow the sampled-data convention: sample k is the state at
@@ -273,8 +293,12 @@ def initial_state(params, theta_c=None):
 
 
 def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
-    """Step 4: φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad],
-    g_j = g(N_j) the fatigue shakedown of wire j after N_j cycles (none if cycles are None)."""
+    """
+    Step 4.
+
+    φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad], g_j = g(N_j)
+    the fatigue shakedown of wire j after N_j cycles (none if cycles are None).
+    """
     y_a, y_b = np.asarray(y_a, float), np.asarray(y_b, float)
     if cycles_a is None:
         return params.offset_rad + params.stroke_rad * (y_a - params.stroke_ratio_b * y_b)
@@ -286,8 +310,11 @@ def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
 
 
 def transformation_cycles(y, n0=0.0):
-    """Accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample
-    (a full contraction and release counts 1)."""
+    """
+    Return the accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample.
+
+    A full contraction and release counts 1.
+    """
     y = np.asarray(y, float)
     return n0 + 0.5 * np.cumsum(np.abs(np.diff(y, prepend=y[0])))
 
@@ -298,14 +325,18 @@ def fatigue_progress(params, cycles):
 
 
 def sensor_polynomial(params, phi):
-    """Step 5 without the delay, the potentiometer reading
-    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad]."""
+    """
+    Return the potentiometer reading, step 5 without the delay.
+
+    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad].
+    """
     return phi + phi * phi * (params.sensor_c2_rad + phi * (params.sensor_c3_rad + phi * (
         params.sensor_c4_rad + phi * params.sensor_c5_rad)))
 
 
 def sensor_inverse(params, reading, n_grid=8193):
-    """Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
+    """
+    Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
 
     p is evaluated on a dense grid over the readings' span widened by that span each
     side, and inverted by interpolation on its rising branch through the middle of the
@@ -340,6 +371,7 @@ def delay_signal(x, dt, delay_s):
 @dataclass
 class Trajectory:
     """Batch simulation result (arrays of length n)."""
+
     position_rad: np.ndarray
     theta_a_c: np.ndarray
     theta_b_c: np.ndarray
@@ -348,7 +380,8 @@ class Trajectory:
 
 
 def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, state=None):
-    """Free-run simulation of the whole actuator (steps 1-5) for duty sequences at step dt [s].
+    """
+    Free-run simulation of the whole actuator (steps 1-5) for duty sequences at step dt [s].
 
     ambient_c: measured ambient [°C] per sample (defaults to params.ambient_c);
     disturbance_k: temperature disturbance x of Fig. 13 [K]. Returns a `Trajectory`.
@@ -377,7 +410,8 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
 
 
 class AntagonisticActuator:
-    """Streaming form of `simulate` for nodes: `step(duty_a, duty_b, dt)` -> shaft angle [rad].
+    """
+    Streaming form of `simulate` for nodes: `step(duty_a, duty_b, dt)` -> shaft angle [rad].
 
     Long steps are split into sub-steps of at most `max_substep_s` so the feedback effects
     (phase resistance, stress coupling, convection) stay accurate at any call rate.
@@ -424,9 +458,9 @@ class AntagonisticActuator:
         h = self.params.hysteresis
         y_before = self._state[4:6].copy()
         simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
-                                      np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
-                                      self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
-                                      h.y0, self._state, *NO_FEATURES)
+                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
+                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
+                       h.y0, self._state, *NO_FEATURES)
         self._cycles += 0.5 * np.abs(self._state[4:6] - y_before)
         self._time += dt
         self._history.append((self._time, self._measured(self._state[4], self._state[5])))

@@ -1,4 +1,19 @@
-"""Operator hysteresis models of the paper, section 2: Preisach relays and Prandtl-Ishlinskii.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Operator hysteresis models of the paper, section 2: Preisach relays and Prandtl-Ishlinskii.
 
 * `PreisachModel`: y = y0 + sum_i mu_i gamma_{alpha_i beta_i}[u], relays of eq. (4), the
   discrete form of eq. (3). `PreisachModel.grid(21)` is the paper's Fig. 5 set of 231 relays.
@@ -22,7 +37,8 @@ from .validate import finite_array, finite_scalar, non_negative_array, same_leng
 
 
 class PlayHysteresis:
-    """y = y0 + k1 u + sum_i w_i s_i with saturated plays s_i (kernels eq. K1-K2).
+    """
+    y = y0 + k1 u + sum_i w_i s_i with saturated plays s_i (kernels eq. K1-K2).
 
     r: play half-widths [input units] (>= 0); lo, hi: saturation bands (use -inf/+inf for
     none); w: weights [output/input units]; k1: linear slope; y0: offset.
@@ -48,11 +64,12 @@ class PlayHysteresis:
 
     @property
     def n_operators(self):
-        """Number of play operators."""
+        """Return the number of play operators."""
         return self.r.shape[0]
 
     def initial_state(self, u0):
-        """Reset state at input u0.
+        """
+        Reset state at input u0.
 
         Saturated elements start on the lower branch, s = clip(u0 - r, lo, hi) (cold, fully
         martensitic wire). Unsaturated (classical, eq. 5) elements start from the virgin
@@ -91,7 +108,7 @@ class PlayHysteresis:
         return out
 
     def simulate(self, u, s0=None):
-        """Outputs for an input sequence, from the reset state at u[0] (or state s0)."""
+        """Output for an input sequence, from the reset state at u[0] (or state s0)."""
         u = finite_array('u', u)
         s0 = self.initial_state(u[0]) if s0 is None else finite_array('s0', s0)
         y, _ = kernels.play_output(u, self.r, self.lo, self.hi, self.w, self.k1, self.y0, s0)
@@ -107,7 +124,7 @@ class PlayHysteresis:
                 self.y0 + self.k1 * u_hi + float(self.w @ hi))
 
     def inverse(self, u_min=-1e9, u_max=1e9):
-        """The inverse operator H^-1: output targets -> inputs (see `InversePlayHysteresis`)."""
+        """Return the inverse operator H^-1: output targets -> inputs (`InversePlayHysteresis`)."""
         return InversePlayHysteresis(self, u_min, u_max)
 
     def to_dict(self):
@@ -122,7 +139,8 @@ class PlayHysteresis:
 
 
 class PrandtlIshlinskii(PlayHysteresis):
-    """Classical Prandtl-Ishlinskii operator, eq. (5): y = y0 + sum_i K_i * backlash_{h_i}[u].
+    """
+    Classical Prandtl-Ishlinskii operator, eq. (5): y = y0 + sum_i K_i * backlash_{h_i}[u].
 
     h: backlash half-widths (the paper's h) [input units]; K: slopes (the paper's K),
     non-negative for a well-posed, invertible operator.
@@ -136,7 +154,8 @@ class PrandtlIshlinskii(PlayHysteresis):
 
 
 class ModifiedPrandtlIshlinskii(PlayHysteresis):
-    """Modified PI of backlash-with-saturation elements, eq. (6) (the paper's Fig. 10-11).
+    """
+    Modified PI of backlash-with-saturation elements, eq. (6) (the paper's Fig. 10-11).
 
     Construct from the paper's per-element parameters with `from_paper(M, K, K1, h, c)`,
     or directly in normalised form (r, lo, hi, w, k1, y0) as `PlayHysteresis`.
@@ -144,8 +163,12 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
 
     @classmethod
     def from_paper(cls, M, K, K1, h, c=0.0, y0=0.0):
-        """Elements of eq. (6): saturation M, backlash slope K, saturated slope K1 < K,
-        half-width h, centred at input c (the paper uses c = 0)."""
+        """
+        Elements of eq.
+
+        (6): saturation M, backlash slope K, saturated slope K1 < K, half-width h, centred at input
+        c (the paper uses c = 0).
+        """
         M = non_negative_array('M (saturation levels)', M)
         K = finite_array('K (backlash slopes)', K)
         K1 = finite_array('K1 (saturated slopes)', K1)
@@ -154,7 +177,8 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
         same_length(M=M, K=K, K1=K1, h=h)
         a = K - K1
         if (a <= 0).any():
-            raise ValueError('K (backlash slope) must exceed K1 (saturated slope) in every element')
+            raise ValueError(
+                'K (backlash slope) must exceed K1 (saturated slope) in every element')
         r = K * h / a
         lo, hi = c - M / a, c + M / a
         # element output K1 (u - c) + a (s - c): collect the constant and linear parts
@@ -163,7 +187,8 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
 
 
 def backlash_saturation_reference(u, M, K, K1, h):
-    """One element of eq. (6) stepped literally as printed in the paper (pure Python).
+    """
+    One element of eq. (6) stepped literally as printed in the paper (pure Python).
 
     Kept as an executable transcription of eq. (6) to check the compiled kernel against.
     Starts on the lower saturation line at u[0].
@@ -192,7 +217,8 @@ def backlash_saturation_reference(u, M, K, K1, h):
 
 
 class InversePlayHysteresis:
-    """Exact inverse of a `PlayHysteresis` with non-negative weights: y targets -> inputs u.
+    """
+    Exact inverse of a `PlayHysteresis` with non-negative weights: y targets -> inputs u.
 
     Keeps the forward operator's state, so H[H^-1[y]] = y for every reachable target,
     across major and minor loops. Unreachable targets are clipped to the reachable range
@@ -215,7 +241,7 @@ class InversePlayHysteresis:
         self._u = float(u0)
 
     def step(self, y):
-        """The input that drives the operator to output y from the current state."""
+        """Return the input that drives the operator to output y from the current state."""
         if self._s is None:
             self.reset(self.u_min if np.isfinite(self.u_min) and self.u_min > -1e8 else 0.0)
         u, self._s = kernels.play_inverse(np.array([finite_scalar('y', y)]), *self._args(),
@@ -224,7 +250,7 @@ class InversePlayHysteresis:
         return self._u
 
     def simulate(self, y, u0=0.0):
-        """Inputs for a target sequence y, from the lower-branch state at u0."""
+        """Input for a target sequence y, from the lower-branch state at u0."""
         y = finite_array('y', y)
         self.reset(u0)
         u, self._s = kernels.play_inverse(y, *self._args(), self._s, self._u,
@@ -238,7 +264,8 @@ class InversePlayHysteresis:
 
 
 class PreisachModel:
-    """Preisach operator, eqs. (3)-(4): y = y0 + sum_i mu_i gamma_i[u], relays alpha_i >= beta_i.
+    """
+    Preisach operator, eqs. (3)-(4): y = y0 + sum_i mu_i gamma_i[u], relays alpha_i >= beta_i.
 
     gamma switches to +1 for u > alpha, to -1 for u < beta, otherwise keeps its value.
     The reset state is all relays at -1 (input from far below).
@@ -256,7 +283,7 @@ class PreisachModel:
 
     @classmethod
     def grid(cls, n_levels=21, lo=-1.0, hi=1.0, mu=1.0, y0=0.0):
-        """Relays on an even grid alpha >= beta in [lo, hi]: n(n+1)/2 relays (21 -> 231, Fig. 5)."""
+        """Build relays on an even grid alpha >= beta in [lo, hi]: n(n+1)/2 (21 -> 231, Fig. 5)."""
         if int(n_levels) < 1:
             raise ValueError(f'n_levels must be >= 1, got {n_levels}')
         levels = np.linspace(lo, hi, int(n_levels))
@@ -276,7 +303,7 @@ class PreisachModel:
         return out
 
     def simulate(self, u):
-        """Outputs for an input sequence from the reset state."""
+        """Output for an input sequence from the reset state."""
         return self.y0 + self.features(u) @ self.mu
 
     def step(self, u):

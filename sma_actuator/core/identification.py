@@ -1,4 +1,19 @@
-"""Identification of the hysteresis and thermal parameters (the paper's section 2.2-2.3 tuning).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Identification of the hysteresis and thermal parameters (the paper's section 2.2-2.3 tuning).
 
 * Scores (`scores`): free-run simulation error, RMSE, NRMSE = RMSE / range(y),
   fit % = 100 (1 − ‖e‖ / ‖y − ȳ‖), max |e|.
@@ -70,7 +85,8 @@ def scores(y, y_hat, span=None):
 
 
 def play_grid(u_min, u_max, kind='modified', n_widths=6, n_centres=8):
-    """Threshold grid of play operators covering inputs in [u_min, u_max].
+    """
+    Threshold grid of play operators covering inputs in [u_min, u_max].
 
     classical: widths r_j = j/(n−1) · span/2 (unsaturated, eq. 5); modified: every width
     combined with n_centres saturation bands of half-width span/(2 n_centres) whose
@@ -98,7 +114,8 @@ def play_grid(u_min, u_max, kind='modified', n_widths=6, n_centres=8):
 
 
 def _nnls_with_offset(X, y, free_cols=0):
-    """min ‖X b − y‖ with b >= 0 except the last `free_cols` columns (sign-free, split ±).
+    """
+    Min ‖X b − y‖ with b >= 0 except the last `free_cols` columns (sign-free, split ±).
 
     Solved on the Cholesky factor R of the (scaled) Gram matrix, ‖R b − R^-T X^T y‖ having
     the same minimiser as ‖X b − y‖, so the active-set NNLS works on an m x m system
@@ -113,9 +130,12 @@ def _nnls_with_offset(X, y, free_cols=0):
 
 
 def _reduced(X, y, negated=0):
-    """(R, z, scale): Cholesky factor R of the column-scaled Gram matrix (plus the ridge;
-    it also keeps ± column pairs apart) and z = R^-T Xs^T y, so that ‖R c − z‖ has the
-    minimiser of ‖X b − y‖ with b = c / scale, on an m x m instead of an n x m system.
+    """
+    (R, z, scale).
+
+    Cholesky factor R of the column-scaled Gram matrix (plus the ridge; it also keeps ± column
+    pairs apart) and z = R^-T Xs^T y, so that ‖R c − z‖ has the minimiser of ‖X b − y‖ with b = c /
+    scale, on an m x m instead of an n x m system.
 
     negated: the last `negated` columns are also appended with the opposite sign, [X, −X_l]
     (a sign-free coefficient as the difference of two non-negative ones). Their Gram
@@ -135,8 +155,11 @@ def _reduced(X, y, negated=0):
 
 
 def _box_ls(X, y, lower, upper):
-    """min ‖X b − y‖ subject to lower <= b <= upper, on the same Cholesky-reduced system as
-    `_nnls_with_offset` (bounded-variable least squares, scipy's BVLS)."""
+    """
+    Solve min ‖X b − y‖ subject to lower <= b <= upper (scipy's bounded-variable LS).
+
+    On the same Cholesky-reduced system as `_nnls_with_offset`.
+    """
     R, z, scale = _reduced(X, y)
     sol = lsq_linear(R, z, bounds=(lower * scale, upper * scale), method='bvls')
     return sol.x / scale
@@ -145,6 +168,7 @@ def _box_ls(X, y, lower, upper):
 @dataclass
 class StaticFit:
     """Result of `fit_static`: the fitted operator and its scores (train/validation)."""
+
     model: PlayHysteresis
     train: dict
     validation: dict
@@ -163,7 +187,8 @@ def _curve_list(u, y, curve):
 
 def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8, n_centres=10,
                nonneg=True):
-    """Fit a (classical or modified) PI operator to quasi-static input/output curves.
+    """
+    Fit a (classical or modified) PI operator to quasi-static input/output curves.
 
     Each curve is simulated from the reset state (cold, lower branch at its first input),
     as measured first-order reversal curves are. With validate_odd, even-numbered curves
@@ -195,7 +220,7 @@ def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8,
 
 
 def fit_preisach(u, y, n_levels=21, u_range=None):
-    """Preisach model with relays on an even grid over the input range; weights by NNLS (mu >= 0)."""
+    """Fit a Preisach model, relays on an even grid over the input range, by NNLS (mu >= 0)."""
     u = finite_array('input', u)
     y = finite_array('output', y)
     same_length(input=u, output=y)
@@ -210,6 +235,7 @@ def fit_preisach(u, y, n_levels=21, u_range=None):
 @dataclass
 class DynamicData:
     """A uniformly sampled run: time [s], duties [0, 1], position [rad], optional ambient [°C]."""
+
     time: np.ndarray
     duty_a: np.ndarray
     duty_b: np.ndarray
@@ -260,6 +286,7 @@ class DynamicData:
 @dataclass
 class DynamicFit:
     """Result of `fit_dynamic`: fitted parameters, scores and the free-run prediction."""
+
     params: act.ActuatorParams
     free: dict              # fitted values of the free nonlinear parameters
     train: dict
@@ -276,8 +303,11 @@ _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
 
 
 def set_values(params, values):
-    """ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
-    Names that are not ActuatorParams fields (plug-in parameters) are ignored here."""
+    """
+    Return ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
+
+    Names that are not ActuatorParams fields (plug-in parameters) are ignored here.
+    """
     changes = {k: v for k, v in values.items() if k in _FIELDS}
     if 'tau_s' in changes:
         changes['heat_capacity_j_per_k'] = changes.pop('tau_s') * params.conductance_w_per_k
@@ -303,9 +333,12 @@ class _Problem:
         self.keep = None if data.scored is None else np.asarray(data.scored, bool)
 
     def regressors(self, params, n, rows=slice(None)):
-        """Linear-part columns over the first n samples, at `rows` of them:
+        """
+        Return the linear-part columns over the first n samples, at `rows` of them.
+
         [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1] (element states scaled by each wire's
-        fatigue stroke loss; g_j its fatigue drift)."""
+        fatigue stroke loss; g_j its fatigue drift).
+        """
         d, g, ref = self.data, self.grid, self.ref
         m = g.n_operators
         # the kernel records the (large) element arrays at the regression rows only; a
@@ -355,8 +388,12 @@ class _Problem:
         return X
 
     def free_run_error(self, params, values, step=1):
-        """Free-run simulation minus measurement on the training window (every step-th
-        sample) of the full model `params` with nonlinear `values` (plug-in inputs)."""
+        """
+        Return the free-run simulation minus measurement on the training window.
+
+        Every step-th sample, of the full model `params` with nonlinear `values` (plug-in
+        inputs).
+        """
         n = self.n_train
         da, db, amb = self.inputs(values)
         pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
@@ -365,7 +402,7 @@ class _Problem:
         return err if self.keep is None else err[self.keep[sl]]
 
     def fatigued(self, params):
-        """True when the regressors carry functional fatigue (see `regressors`)."""
+        """Return True when the regressors carry functional fatigue (see `regressors`)."""
         return any(k in self.names for k in LINEAR_PARAMS) or params.fatigue_stroke != 0.0
 
     def inputs(self, values):
@@ -400,7 +437,7 @@ class _Problem:
         return b, act.sensor_polynomial(params, X @ b) - y
 
     def with_linear(self, params, b):
-        """ActuatorParams carrying the NNLS solution as a normalised hysteresis + shaft gain."""
+        """Return ActuatorParams with the NNLS solution as normalised hysteresis + shaft gain."""
         g, m = self.grid, self.grid.n_operators
         w, k1 = b[:m], b[m]
         if not np.all(np.isfinite(b)):
@@ -452,8 +489,11 @@ class _Problem:
 
 
 def narrow_bands(params, duty_a, duty_b, ambient, dt):
-    """`params` with each hysteresis element's saturation band [lo, hi] narrowed to the
-    states it takes (either wire) when `params` is simulated on these (training) inputs.
+    """
+    Return `params` with each element's saturation band [lo, hi] narrowed to its states.
+
+    The states are those it takes (either wire) when `params` is simulated on these
+    (training) inputs.
 
     The simulation on these inputs is unchanged (every state visited lies in the narrowed
     band, so the clip never acts there), but beyond them an element stops where the data
@@ -479,8 +519,11 @@ def _state_range(fa, fb):
 
 
 def _mass_points(x, mass, cell, lo, hi, n):
-    """n sorted points in [lo, hi]: a third spread evenly, the rest at quantiles of `mass`
-    located at x, each mass smeared uniformly over ±cell/2 (a piecewise-linear CDF).
+    """
+    N sorted points in [lo, hi].
+
+    a third spread evenly, the rest at quantiles of `mass` located at x, each mass smeared
+    uniformly over ±cell/2 (a piecewise-linear CDF).
 
     The fine grid's resolution then follows where the coarse fit put its weight (where the
     wire transforms), while the even third keeps elements everywhere else in the range.
@@ -504,7 +547,8 @@ def _mass_points(x, mass, cell, lo, hi, n):
 
 
 def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
-    """Fine saturated-play grid refined where the coarse fit `h` carries its weight.
+    """
+    Fine saturated-play grid refined where the coarse fit `h` carries its weight.
 
     Rising edges (centre + half-width) and half-widths are placed by `_mass_points` from
     each coarse element's share of the output in the training window, w · span (span: the
@@ -534,7 +578,8 @@ def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
                 start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
                 rounds=3, input_hook=None, ref=None, refine=2):
-    """Fit the actuator model to a dynamic run by free-run simulation error.
+    """
+    Fit the actuator model to a dynamic run by free-run simulation error.
 
     data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
     of nonlinear parameters to fit besides the hysteresis weights (by default only the
@@ -688,11 +733,14 @@ def close_major_loop(grid, u_rest):
 
 
 def _settle(prob, base, values, steps=FIXED_POINT_STEPS):
-    """Iterate the feedback fixed point at fixed nonlinear `values`: the regression sees
-    the hysteresis output (phase, stress, fatigue) through `prob.ref`, so the weights it
-    returns are consistent only when they reproduce that reference. Each step is one
+    """
+    Iterate the feedback fixed point at fixed nonlinear `values`.
+
+    The regression sees the hysteresis output (phase, stress, fatigue) through `prob.ref`, so the
+    weights it returns are consistent only when they reproduce that reference. Each step is one
     simulation and one NNLS (far cheaper than a search round); sets `prob.ref` and returns
-    (training free-run MSE, params, values) of the step whose own simulation fits best."""
+    (training free-run MSE, params, values) of the step whose own simulation fits best.
+    """
     prob.values = values
     nonlinear = set_values(base, values)
     best = (np.inf,)
@@ -707,9 +755,12 @@ def _settle(prob, base, values, steps=FIXED_POINT_STEPS):
 
 
 def _scan_tau(prob, base, values, bounds, factors=(0.6, 0.75, 0.9, 1.0, 1.15, 1.35, 1.6)):
-    """Time constant with the lowest training error among `factors` x the current one
-    (within bounds): the error surface in τ has several basins on closed-loop data, and
-    the coarse grid's optimum can sit in the wrong one."""
+    """
+    Time constant with the lowest training error among `factors` x the current one (within bounds).
+
+    The error surface in τ has several basins on closed-loop data, and the coarse grid's optimum
+    can sit in the wrong one.
+    """
     best = (np.inf, values['tau_s'])
     for f in factors:
         tau = float(np.clip(f * values['tau_s'], bounds[0], bounds[1]))
@@ -719,8 +770,11 @@ def _scan_tau(prob, base, values, bounds, factors=(0.6, 0.75, 0.9, 1.0, 1.15, 1.
 
 
 def _prune(grid, w, shape, centre_steps=3):
-    """Elements with non-zero weight, dilated by one step in width and `centre_steps` in
-    centre: room for effects that shift where (in model temperature) the wire transforms."""
+    """
+    Elements with non-zero weight, dilated by one step in width and `centre_steps` in centre.
+
+    Room for effects that shift where (in model temperature) the wire transforms.
+    """
     used = w > 0
     if shape is not None:
         used = used.reshape(shape)
@@ -734,4 +788,3 @@ def _prune(grid, w, shape, centre_steps=3):
     if not used.any():
         return grid
     return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
-

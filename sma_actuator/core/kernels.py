@@ -1,4 +1,19 @@
-"""Compiled hot loops of the hysteresis operators (numba, cached on disk).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Compiled hot loops of the hysteresis operators (numba, cached on disk).
 
 All play-type operators of the package (the classical Prandtl-Ishlinskii backlash of
 eq. (5) and the backlash with saturation of eq. (6)) reduce to one normalised element
@@ -14,8 +29,8 @@ r_i is the half-width of the play (input units), [lo_i, hi_i] its saturation ban
 See `hysteresis.ModifiedPrandtlIshlinskii` for the mapping from the paper's
 (M, K, K1, h) parameters to (r, lo, hi, w, k1).
 """
-import numpy as np
 from numba import njit
+import numpy as np
 
 
 @njit(cache=True, fastmath=False)
@@ -46,7 +61,8 @@ def play_features(u, r, lo, hi, s0):
 
 @njit(cache=True, fastmath=True)
 def play_output(u, r, lo, hi, w, k1, y0, s0):
-    """Operator output y(k), eq. (K2), without storing the element states; returns (y, s_last).
+    """
+    Operator output y(k), eq. (K2), without storing the element states; returns (y, s_last).
 
     This is the benchmarked kernel (operator updates per second). The inner loop is
     branch-free min/max so LLVM can vectorise it across elements.
@@ -83,7 +99,8 @@ def _branch_value(u, s, r, lo, hi, w, k1, y0, up):
 
 @njit(cache=True)
 def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
-    """Right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), and the final state.
+    """
+    Right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), and the final state.
 
     From the current state, the output reached by a monotone input move is a
     non-decreasing piecewise-linear function of the end point (every element is a
@@ -145,7 +162,7 @@ def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
 
 @njit(cache=True)
 def relay_states(u, alpha, beta, x0):
-    """Preisach relay states, eq. (4): +1 above alpha, -1 below beta, else unchanged. (n, N) int8."""
+    """Return Preisach relay states (n, N) int8, eq. (4): +1 above alpha, -1 below beta."""
     n = u.shape[0]
     m = alpha.shape[0]
     out = np.empty((n, m), dtype=np.int8)
@@ -163,8 +180,11 @@ def relay_states(u, alpha, beta, x0):
 
 @njit(cache=True)
 def column_range(a, b):
-    """(lowest, highest) value of each column over the rows of both (n, m) arrays, in one
-    pass (the regression needs each element's visited state range at every solve)."""
+    """
+    Return (lowest, highest) value of each column over the rows of both (n, m) arrays.
+
+    One pass: the regression needs each element's visited state range at every solve.
+    """
     m = a.shape[1]
     lo = np.full(m, np.inf)
     hi = np.full(m, -np.inf)

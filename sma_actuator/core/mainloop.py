@@ -1,4 +1,19 @@
-"""Main-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Main-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
 
 Two laws for the martensite fraction xi on the major-loop branches:
 
@@ -17,8 +32,8 @@ through the reversal point (Liang-Rogers / Ikuta minor-loop rule):
       cooling  1 - xi = (1 - xi_r) * (1 - f_c(u)) / (1 - f_c(u_r))
 which is continuous, monotone on each branch and reduces to eqs. (1)-(2) from a full state.
 """
-import numpy as np
 from numba import njit
+import numpy as np
 
 from .validate import finite_array, finite_scalar
 
@@ -72,7 +87,8 @@ def _simulate(kind, u, a_s, a_f, m_s, m_f, state):
 
 
 class MainLoopHysteresis:
-    """Main-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
+    """
+    Main-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
 
     Parameters: As, Af, Ms, Mf [°C] with As < Af and Mf < Ms; y0 output when cold (length
     or strain units of your choice). Streaming `step(u)`, batch `simulate(u)`, `reset()`.
@@ -84,9 +100,11 @@ class MainLoopHysteresis:
         self.Ms, self.Mf = finite_scalar('Ms', Ms), finite_scalar('Mf', Mf)
         self.y0 = finite_scalar('y0', y0)
         if self.As >= self.Af:
-            raise ValueError(f'As must be below Af (austenite start < finish), got As={As}, Af={Af}')
+            raise ValueError(
+                f'As must be below Af (austenite start < finish), got As={As}, Af={Af}')
         if self.Mf >= self.Ms:
-            raise ValueError(f'Mf must be below Ms (martensite finish < start), got Mf={Mf}, Ms={Ms}')
+            raise ValueError(
+                f'Mf must be below Ms (martensite finish < start), got Mf={Mf}, Ms={Ms}')
         if kind not in ('cosine', 'ikuta'):
             raise ValueError(f"kind must be 'cosine' or 'ikuta', got {kind!r}")
         self.kind = kind
@@ -100,7 +118,7 @@ class MainLoopHysteresis:
 
     @property
     def martensite_fraction(self):
-        """Current martensite fraction xi in [0, 1]."""
+        """Return the current martensite fraction xi in [0, 1]."""
         return float(self._state[1])
 
     def step(self, u):

@@ -1,3 +1,17 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Potentiometer on the output shaft read by an ADC (the feedback sensor of Fig. 14)."""
 import numpy as np
 
@@ -5,7 +19,8 @@ from .validate import finite_scalar
 
 
 class Potentiometer:
-    """Linear potentiometer + `bits`-bit ADC spanning [angle_min_rad, angle_max_rad].
+    """
+    Linear potentiometer + `bits`-bit ADC spanning [angle_min_rad, angle_max_rad].
 
     counts = round((φ − φ_min) / (φ_max − φ_min) · (2^bits − 1)), clipped to the ADC range,
     with optional Gaussian noise of `noise_rad` added to φ before conversion.

@@ -1,4 +1,19 @@
-"""Thermal dynamics of one wire, eq. (7): C dθ/dt = R i² − hA (θ − θa), and Fig. 13.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Thermal dynamics of one wire, eq. (7): C dθ/dt = R i² − hA (θ − θa), and Fig. 13.
 
 The PWM amplifier switches the supply V across the wire (resistance R) through a current
 limiter I_max, so the on-current is i_on = min(V/R, I_max) and the mean Joule power at
@@ -43,7 +58,7 @@ def heating_power_w(duty, supply_v, resistance_ohm, current_limit_a):
 
 
 def time_constant_s(heat_capacity_j_per_k, conductance_w_per_k):
-    """Basic time constant T = C / hA [s] of eq. (7)."""
+    """Return the basic time constant T = C / hA [s] of eq. (7)."""
     return positive('heat_capacity_j_per_k', heat_capacity_j_per_k) / positive(
         'conductance_w_per_k', conductance_w_per_k)
 

@@ -1,11 +1,31 @@
-"""Host side of the hardware bridge, free of ROS and of the serial port.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Host side of the hardware bridge, free of ROS and of the serial port.
 
 `BridgeCore` turns duty commands into Duty frames and received frames into joint
 samples, and owns the host's safety rules:
 
-- duty commands are validated; invalid ones (wrong length, NaN/inf) zero both wires;
-  values outside [0, 1] or above max_duty are clamped;
-- never both wires above the interlock threshold: the weaker command is limited to it;
+- duty commands are validated (`control.inputs.duty_problem`, the plant's rule); invalid
+  ones (wrong length, NaN/inf, outside [0, 1]) are rejected and the last valid command
+  is kept; values above max_duty are limited to it;
+- a command older than duty_timeout_s when it is taken (a frozen or overloaded bridge,
+  see docs/safety.md) is dropped and does not feed the watchdog;
+- dead-time interlock (`control.interlock`) on the duty sent to the MCU: a wire heats
+  only after the other has had zero duty for interlock_dead_time_s;
+- more than one publisher on the duty topic (reported by the node): zero duty, ERROR;
 - host watchdog: no duty command for duty_timeout_s -> zero duty, WARN;
 - a link that closes, goes silent for link_timeout_s or restarts the MCU drops to zero
   duty and re-handshakes; duty frames are only sent after a HelloAck.
@@ -16,13 +36,14 @@ write to the port. The caller serialises calls (one lock) and writes in call ord
 from __future__ import annotations
 
 import collections
+from dataclasses import dataclass
 import enum
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-
+from sma_actuator.control.inputs import duty_problem
+from sma_actuator.control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 
@@ -47,6 +68,8 @@ class BridgeConfig:
     hello_retry_s: float = 0.25
     heartbeat_period_s: float = 0.2
     adc_period_s: float = 0.005
+    # two command periods; twice the firmware's 25 ms, so the MCU never holds off a frame
+    interlock_dead_time_s: float = 0.05
 
     def __post_init__(self):
         for name in ('max_duty', 'interlock_threshold'):
@@ -58,6 +81,10 @@ class BridgeConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f'{name} must be a positive number of seconds, got {value}')
+        if not (math.isfinite(self.interlock_dead_time_s)
+                and 0.025 <= self.interlock_dead_time_s <= 10.0):
+            raise ValueError(f'interlock_dead_time_s={self.interlock_dead_time_s} must be in '
+                             '[0.025, 10] s (not below the firmware dead time of 0.025 s)')
         if self.duty_refresh_s >= 0.1:
             raise ValueError(
                 f'duty_refresh_s={self.duty_refresh_s} must stay below the 0.1 s MCU watchdog')
@@ -74,43 +101,29 @@ class JointSample:
     duty_seq: int
 
 
-def to_counts(duty: float) -> int:
-    """Duty fraction 0..1 -> protocol counts 0..65535 (nearest)."""
-    return int(round(duty * p.DUTY_FULL_SCALE))
+to_counts = p.duty_to_counts
 
 
-def sanitize_duty(values, max_counts: int, interlock_counts: int) -> tuple[int, int, list[str]]:
-    """Validate and limit a [duty_a, duty_b] command; returns (a, b) in counts and notes.
+def sanitize_duty(values, max_counts: int) -> tuple[int, int, list[str]]:
+    """
+    Validate and limit a [duty_a, duty_b] command; return (a, b) in counts and notes.
 
-    Raises ValueError naming the problem for input that cannot be a duty command.
-    Notes describe every change made (clamping, interlock). If both exceed the interlock,
-    the weaker is limited to it (wire a keeps its command on a tie).
+    Raises ValueError naming the problem for input that is not a valid duty pair (the
+    plant's rule, `duty_problem`). Notes describe every change made (max_duty limit).
     """
     values = list(values)
-    if len(values) != 2:
-        raise ValueError(f'expected 2 values [duty_a, duty_b], got {len(values)}: {values}')
+    problem = duty_problem(values)
+    if problem:
+        raise ValueError(problem)
     notes, counts = [], []
     for name, value in zip(('duty_a', 'duty_b'), values):
-        if not math.isfinite(value):
-            raise ValueError(f'{name} is {value}')
-        if not 0.0 <= value <= 1.0:
-            notes.append(f'{name}={value:g} outside [0, 1], clamped')
-        c = to_counts(min(max(value, 0.0), 1.0))
+        c = to_counts(value)
         if c > max_counts:
             notes.append(
-                f'{name}={value:g} above max_duty {max_counts / p.DUTY_FULL_SCALE:g}, clamped')
+                f'{name}={value:g} above max_duty {max_counts / p.DUTY_FULL_SCALE:.4g}, limited')
             c = max_counts
         counts.append(c)
-    a, b = counts
-    if a > interlock_counts and b > interlock_counts:
-        full = p.DUTY_FULL_SCALE
-        notes.append(f'both wires above the interlock {interlock_counts / full:g} '
-                     f'(a={a / full:g}, b={b / full:g}): weaker one limited')
-        if a >= b:
-            b = interlock_counts
-        if b >= a:
-            a = interlock_counts
-    return a, b, notes
+    return counts[0], counts[1], notes
 
 
 class BridgeCore:
@@ -129,6 +142,9 @@ class BridgeCore:
         self.mcu_status = None          # last Status
         self.mcu_faults = 0
         self.duty = (0, 0)              # counts currently commanded to the MCU
+        self.requested = (0, 0)         # counts of the last valid command (before interlock)
+        self.interlock = DeadTimeInterlock(config.interlock_dead_time_s)
+        self.publishers = 1             # publishers on the duty topic (set by the node)
         self.max_counts = to_counts(config.max_duty)
         self.interlock_counts = to_counts(config.interlock_threshold)
         self.duty_timed_out = False
@@ -161,7 +177,7 @@ class BridgeCore:
         self._enter(LinkState.DISCONNECTED, now_s)
 
     def on_open_failed(self, reason: str, now_s: float):
-        """Opening the port failed (retried with backoff by the link)."""
+        """Open the port failed (retried with backoff by the link)."""
         self.link_error = reason
         self.counters['open_failures'] += 1
         self._log_throttled('open', 'error', f'{reason} (retrying with backoff)', now_s)
@@ -190,31 +206,71 @@ class BridgeCore:
 
     # --- duty commands ------------------------------------------------------------------
 
-    def on_duty_command(self, values, now_s: float) -> bytes:
-        """A /sma/duty command [duty_a, duty_b]; returns the Duty frame to send (if connected)."""
+    def on_duty_command(self, values, now_s: float, age_s: float = 0.0) -> bytes:
+        """
+        Take a /sma/duty command [duty_a, duty_b]; return the Duty frame to send.
+
+        `age_s` is how long ago the command was sent (its source timestamp); a command older
+        than duty_timeout_s is dropped: its sender may be dead for that long already.
+        """
         self.counters['commands'] += 1
+        if not age_s <= self.config.duty_timeout_s:
+            self.counters['stale_commands'] += 1
+            self._log_throttled('stale', 'warn', f'dropped a /sma/duty command {age_s:.3f} s '
+                                f'old (older than duty_timeout_s '
+                                f'{self.config.duty_timeout_s:g} s)', now_s)
+            return b''
+        try:
+            a, b, notes = sanitize_duty(values, self.max_counts)
+        except (ValueError, TypeError) as exc:
+            self.counters['bad_commands'] += 1
+            self.last_command_bad = str(exc)
+            self._log_throttled('bad', 'error', f'rejected /sma/duty command: {exc}; keeping '
+                                f'the last valid one', now_s)
+            return b''   # not a command: it does not feed the watchdog either
+        self.last_command_bad = ''
         self._last_command_s = now_s
         if self.duty_timed_out:
             self.duty_timed_out = False
             self._log('info', 'duty commands resumed')
-        try:
-            a, b, notes = sanitize_duty(values, self.max_counts, self.interlock_counts)
-        except (ValueError, TypeError) as exc:
-            self.counters['bad_commands'] += 1
-            self.last_command_bad = str(exc)
-            self._log_throttled('bad', 'error', f'rejected /sma/duty command: {exc}; '
-                                'both wires set to zero', now_s)
-            a, b, notes = 0, 0, []
-        else:
-            self.last_command_bad = ''
         for note in notes:
-            self.counters['interlock_limited' if 'interlock' in note else 'clamped'] += 1
+            self.counters['clamped'] += 1
             self._log_throttled(note.split('=')[0], 'warn', f'/sma/duty: {note}', now_s)
+        self.requested = (a, b)
         if self.state != LinkState.CONNECTED:
             self.counters['commands_dropped'] += 1   # zero-duty state until (re)connected
             return b''
-        self.duty = (a, b)
+        self._apply(now_s)
         return self._send_duty(now_s)
+
+    def on_publisher_count(self, count: int, now_s: float) -> bytes:
+        """
+        Take the number of publishers on the duty topic; return the frame to send.
+
+        More than one (two controllers alternating their commands): zero duty and ERROR
+        until only one is left.
+        """
+        before, self.publishers = self.publishers, count
+        if count > 1 and before <= 1:
+            self.counters['publisher_conflicts'] += 1
+            self._log('error', f'{count} publishers on the duty topic: zero duty until one '
+                               'is left')
+            self._apply(now_s)
+            return self._send_duty(now_s)
+        if count <= 1 < before:
+            self._log('info', 'one publisher on the duty topic again')
+        return b''
+
+    def _apply(self, now_s: float):
+        """Set the duty sent to the MCU from the last command, the gates and the interlock."""
+        allowed = self.state == LinkState.CONNECTED and not self.duty_timed_out
+        requested = self.requested if allowed and self.publishers <= 1 else (0, 0)
+        self.duty, held = self.interlock.apply(*requested, now_s)
+        if held:
+            self.counters['interlock_held'] += 1
+        if held == BOTH_REQUESTED:    # a reversal waiting out the dead time is normal
+            self._log_throttled('held', 'warn', f'interlock: {held}; sending '
+                                f'{self.duty[0]}/{self.duty[1]} counts', now_s)
 
     def tick(self, now_s: float) -> bytes:
         """Timers: host watchdog, duty refresh, heartbeat, Hello retry, link timeout."""
@@ -223,7 +279,8 @@ class BridgeCore:
         if not self.duty_timed_out and silent_s > cfg.duty_timeout_s:
             self.duty_timed_out = True
             self.counters['host_watchdog_trips'] += 1
-            self.duty = (0, 0)
+            self.requested = (0, 0)
+            self._apply(now_s)
             self._log('warn', f'no /sma/duty for {silent_s:.3f} s '
                               f'(timeout {cfg.duty_timeout_s} s): sending zero duty')
             tx += self._send_duty(now_s)
@@ -239,6 +296,7 @@ class BridgeCore:
                 tx += self._hello(now_s)
             return bytes(tx)
         if now_s - self._last_duty_s >= cfg.duty_refresh_s:
+            self._apply(now_s)       # a wire held by the interlock starts after the dead time
             tx += self._send_duty(now_s)
         if now_s - self._last_heartbeat_s >= cfg.heartbeat_period_s:
             self._last_heartbeat_s = now_s
@@ -251,6 +309,7 @@ class BridgeCore:
     def shutdown(self) -> bytes:
         """Zero-duty frame to send before closing the port (empty if not connected)."""
         self.duty = (0, 0)
+        self.requested = (0, 0)
         if self.state != LinkState.CONNECTED:
             return b''
         return self.sender.encode(p.Duty(0, 0))
@@ -259,7 +318,9 @@ class BridgeCore:
 
     def _enter(self, state: LinkState, now_s: float):
         if state != LinkState.CONNECTED:
-            self.duty = (0, 0)   # the MCU's watchdog switches off; never resume an old command
+            # the MCU's watchdog switches off; never resume an old command
+            self.duty = self.interlock.reset(now_s)
+            self.requested = (0, 0)
             self._duty_sent.clear()
         self.state = state
 
@@ -283,18 +344,16 @@ class BridgeCore:
         self.interlock_counts = min(to_counts(self.config.interlock_threshold), ack.interlock_duty)
         if self.state == LinkState.CONNECTED:
             # A second answer to a retried Hello: the MCU switched its outputs off for that
-            # Hello, so restore the current command (clamped to the limits just adopted).
-            a, b, _ = sanitize_duty([self.duty[0] / p.DUTY_FULL_SCALE,
-                                     self.duty[1] / p.DUTY_FULL_SCALE],
-                                    self.max_counts, self.interlock_counts)
-            self.duty = (a, b)
+            # Hello, so restore the current command (limited to the limits just adopted).
+            self.requested = tuple(min(x, self.max_counts) for x in self.requested)
+            self._apply(now_s)
             return self._send_duty(now_s)
         self._log('info', f'connected: MCU firmware {ack.fw_major}.{ack.fw_minor}.'
                           f'{ack.fw_patch}, {ack.adc_bits}-bit ADC, limits max '
                           f'{ack.max_duty} interlock {ack.interlock_duty}')
         self.state = LinkState.CONNECTED
         self.link_error = ''
-        self.duty = (0, 0)
+        self.duty = self.interlock.reset(now_s)
         self._last_heartbeat_s = now_s - self.config.heartbeat_period_s   # measure RTT at once
         return self._send_duty(now_s)
 
@@ -338,7 +397,8 @@ class BridgeCore:
     # --- diagnostics --------------------------------------------------------------------
 
     def diagnostics(self) -> list[tuple[str, str, str, dict]]:
-        """(name, level, message, values) for the link, the MCU and the duty path.
+        """
+        (name, level, message, values) for the link, the MCU and the duty path.
 
         level is 'ok', 'warn', 'error' or 'stale'.
         """
@@ -391,11 +451,15 @@ class BridgeCore:
         full = p.DUTY_FULL_SCALE
         values = {'duty_a': self.duty[0] / full, 'duty_b': self.duty[1] / full,
                   'commands': c['commands'], 'bad_commands': c['bad_commands'],
-                  'clamped': c['clamped'], 'interlock_limited': c['interlock_limited'],
+                  'clamped': c['clamped'], 'interlock_held': c['interlock_held'],
+                  'stale_commands': c['stale_commands'], 'duty_publishers': self.publishers,
                   'host_watchdog_trips': c['host_watchdog_trips'],
                   'max_duty': self.max_counts / p.DUTY_FULL_SCALE,
                   'interlock_threshold': self.interlock_counts / p.DUTY_FULL_SCALE}
         values['commands_dropped'] = c['commands_dropped']
+        if self.publishers > 1:
+            text = f'{self.publishers} publishers on the duty topic: zero duty'
+            return 'duty', 'error', text, values
         if self.last_command_bad:
             return 'duty', 'error', f'last command rejected: {self.last_command_bad}', values
         if self.state != LinkState.CONNECTED:

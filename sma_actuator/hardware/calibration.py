@@ -1,15 +1,29 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Potentiometer ADC counts to shaft angle and velocity, for the hardware bridge."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
-
 from sma_actuator.hardware.mcu_core import elapsed_us
 
 
 class AdcCalibration:
-    """ADC counts -> shaft angle [rad].
+    """
+    ADC counts -> shaft angle [rad].
 
     Linear: angle = offset_rad + scale_rad_per_count * counts. If `polynomial` is given
     (coefficients in rad, highest power of counts first, as numpy.polyval), it replaces
@@ -35,7 +49,8 @@ class AdcCalibration:
 
 
 class VelocityEstimator:
-    """Shaft velocity [rad/s]: finite differences over MCU tick times, low-passed.
+    """
+    Shaft velocity [rad/s]: finite differences over MCU tick times, low-passed.
 
     First-order filter with time constant tau_s (0: raw differences). Tick differences
     wrap like the MCU's uint32 microsecond counter.

@@ -1,4 +1,19 @@
-"""MCU emulator: the microcontroller's protocol logic in front of the simulated actuator.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+MCU emulator: the microcontroller's protocol logic in front of the simulated actuator.
 
 Runs `McuCore` (the Python twin of the firmware) in real time on a pseudo-terminal or a
 TCP socket, with the shared model core (`sma_actuator.core`) as the plant: the PWM duties
@@ -30,7 +45,6 @@ import time
 import tty
 
 import numpy as np
-
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import FirmwareLimits, McuCore
 
@@ -39,7 +53,8 @@ POLL_PERIOD_S = 0.001
 
 
 class UartLine:
-    """One direction of a UART at `baud` [bit/s]: written bytes arrive after their line time.
+    """
+    One direction of a UART at `baud` [bit/s]: written bytes arrive after their line time.
 
     baud 0 means an ideal line (bytes arrive at once).
     """
@@ -71,7 +86,8 @@ class UartLine:
 
 
 class PtyTransport:
-    """The MCU end of a pseudo-terminal; the bridge opens `port` (the slave device).
+    """
+    The MCU end of a pseudo-terminal; the bridge opens `port` (the slave device).
 
     The emulator keeps the slave open itself so the device survives bridge reconnects;
     what it writes while nobody listens is dropped like on a real unplugged UART.
@@ -119,7 +135,8 @@ class PtyTransport:
 
 
 class TcpTransport:
-    """A TCP server for one bridge at a time (pyserial URL ``socket://host:port``).
+    """
+    A TCP server for one bridge at a time (pyserial URL ``socket://host:port``).
 
     A new connection replaces the previous one; without a client, output is dropped.
     """
@@ -263,7 +280,8 @@ class Emulator:
 
 
 def _parse_args(argv):
-    parser = argparse.ArgumentParser(prog='mcu_emulator', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='mcu_emulator',
+                                     description=__doc__.strip().splitlines()[0])
     add = parser.add_argument
     add('--link', help='also make this path a symlink to the pty (stable port name)')
     add('--tcp', metavar='[HOST:]PORT', help='serve TCP instead of a pty (port 0: any free '

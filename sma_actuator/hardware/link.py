@@ -1,4 +1,19 @@
-"""The serial side of the bridge: one pyserial port, owned by a thread, reopened with backoff.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The serial side of the bridge: one pyserial port, owned by a thread, reopened with backoff.
 
 Any pyserial URL works as the port: a device (/dev/ttyACM0, a pty), ``socket://host:port``
 (the emulator's TCP mode) or ``loop://``. The thread blocks in read(), so received bytes
@@ -22,7 +37,8 @@ def _noop(*_):
 
 
 class SerialLink:
-    """A pyserial port in a background thread. Callbacks run in that thread.
+    """
+    A pyserial port in a background thread. Callbacks run in that thread.
 
     on_open() -> bytes: called after each successful open; its result is written first.
     on_data(data, t_s): received bytes and the monotonic time [s] they were read.
@@ -56,7 +72,7 @@ class SerialLink:
 
     @property
     def is_open(self) -> bool:
-        """True while the port is open and no write has failed."""
+        """Return True while the port is open and no write has failed."""
         return self._port is not None and self._broken is None
 
     def start(self):

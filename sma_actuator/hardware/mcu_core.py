@@ -1,4 +1,19 @@
-"""The microcontroller's protocol and safety logic, free of hardware and of ROS.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The microcontroller's protocol and safety logic, free of hardware and of ROS.
 
 Python twin of ``firmware/sma_mcu/sma_mcu_core.cpp``: both are driven with the same
 scenarios in ``firmware/test_vectors.json`` and must produce the same PWM values, fault
@@ -6,8 +21,13 @@ bits and transmitted bytes. The MCU emulator runs this class against the simulat
 
 Safety rules (see docs/protocol.md):
 - Duty frames are ignored until a valid Hello configured the limits.
-- Each channel is clamped to max_duty; both channels above interlock_duty at once
-  switches both outputs off (FAULT_INTERLOCK) instead of guessing which one was meant.
+- A Duty frame with a channel above max_duty is rejected (FAULT_REJECTED): the outputs
+  keep the last valid duty and the frame does not feed the watchdog.
+- Dead-time interlock (`control.interlock`, the rule shared with the plant and the
+  bridge): a channel may drive only after the other has been off for dead_time_us;
+  both requested at once switches both off (FAULT_INTERLOCK) instead of guessing which
+  one was meant. `interlock_duty` of the Hello is kept for the protocol; the dead-time
+  rule is stricter (any two non-zero duties are refused).
 - No valid Duty frame for watchdog_us (100 ms): both outputs off (FAULT_WATCHDOG).
 """
 from __future__ import annotations
@@ -15,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from sma_actuator.control.interlock import DeadTimeInterlock
 from sma_actuator.hardware import protocol as p
 
 FIRMWARE_VERSION = (1, 0, 0)
@@ -32,6 +53,9 @@ class FirmwareLimits:
     adc_period_min_us: int = 1_000
     adc_period_max_us: int = 1_000_000
     adc_bits: int = 12
+    # dead time of the interlock: half the bridge's default 0.05 s, so frames of a bridge
+    # that keeps its own dead time are never held off by the MCU's (25 ms jitter margin)
+    dead_time_us: int = 25_000
 
 
 def elapsed_us(now_us: int, then_us: int) -> int:
@@ -40,7 +64,8 @@ def elapsed_us(now_us: int, then_us: int) -> int:
 
 
 class McuCore:
-    """MCU logic: feed received bytes and poll regularly; both return the bytes to send.
+    """
+    MCU logic: feed received bytes and poll regularly; both return the bytes to send.
 
     `read_adc()` returns the potentiometer's ADC counts; it is called whenever an
     AdcReport is built. `pwm_a`/`pwm_b` are the duty counts the outputs must apply.
@@ -56,6 +81,7 @@ class McuCore:
         self.interlock_duty = 0
         self.adc_period_us = limits.adc_period_max_us
         self.pwm_a = self.pwm_b = 0
+        self.interlock = DeadTimeInterlock(limits.dead_time_us, elapsed_us)
         self.faults = self.faults_latched = p.FAULT_NOT_CONFIGURED
         self.duty_seq = 0
         self.rx_frames = self.rx_crc_errors = self.rx_framing_errors = self.rx_malformed = 0
@@ -91,9 +117,10 @@ class McuCore:
     def poll(self, now_us: int) -> bytes:
         """Run the watchdog and the periodic reports; call at least every millisecond."""
         tx = bytearray()
+        self.interlock.expire(now_us)
         if (self.configured and not self.faults & p.FAULT_WATCHDOG
                 and elapsed_us(now_us, self._last_duty_us) >= self.limits.watchdog_us):
-            self._outputs_off()
+            self._outputs_off(now_us)
             self._set_faults(self.faults | p.FAULT_WATCHDOG)
         if self.configured and elapsed_us(now_us, self._last_report_us) >= self.adc_period_us:
             tx += self._report(now_us)
@@ -112,7 +139,7 @@ class McuCore:
         return self.sender.encode(p.HeartbeatAck(msg.host_us, now_us))
 
     def _hello(self, msg: p.Hello, now_us: int) -> bytes:
-        self._outputs_off()
+        self._outputs_off(now_us)
         if msg.protocol_version != p.PROTOCOL_VERSION:
             self.configured = False
             self._set_faults(p.FAULT_NOT_CONFIGURED | p.FAULT_BAD_VERSION)
@@ -134,22 +161,23 @@ class McuCore:
     def _duty(self, msg: p.Duty, seq: int, now_us: int) -> bytes:
         self.duty_seq = seq
         if self.configured:
-            duty_a, duty_b = min(msg.duty_a, self.max_duty), min(msg.duty_b, self.max_duty)
-            faults = self.faults & ~(p.FAULT_WATCHDOG | p.FAULT_INTERLOCK | p.FAULT_CLAMPED)
-            if (duty_a, duty_b) != (msg.duty_a, msg.duty_b):
-                faults |= p.FAULT_CLAMPED
-            if duty_a > self.interlock_duty and duty_b > self.interlock_duty:
-                duty_a = duty_b = 0
+            faults = self.faults & ~(p.FAULT_INTERLOCK | p.FAULT_REJECTED)
+            if msg.duty_a > self.max_duty or msg.duty_b > self.max_duty:
+                self._set_faults(faults | p.FAULT_REJECTED)   # keep the outputs as they are
+                return self._report(now_us)
+            (self.pwm_a, self.pwm_b), held = self.interlock.apply(msg.duty_a, msg.duty_b,
+                                                                  now_us)
+            faults &= ~p.FAULT_WATCHDOG
+            if held:
                 faults |= p.FAULT_INTERLOCK
-            self.pwm_a, self.pwm_b = duty_a, duty_b
             self._set_faults(faults)
             self._last_duty_us = now_us
         return self._report(now_us)
 
     # --- helpers ------------------------------------------------------------------
 
-    def _outputs_off(self):
-        self.pwm_a = self.pwm_b = 0
+    def _outputs_off(self, now_us: int):
+        self.pwm_a, self.pwm_b = self.interlock.reset(now_us)
 
     def _set_faults(self, faults: int):
         self.faults = faults

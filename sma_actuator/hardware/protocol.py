@@ -1,4 +1,19 @@
-"""Binary serial protocol between the host bridge and the PWM/ADC microcontroller.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Binary serial protocol between the host bridge and the PWM/ADC microcontroller.
 
 This is the one Python implementation of the protocol; the bridge (host side) and the MCU
 emulator both use it, and ``firmware/sma_mcu/sma_protocol.cpp`` is its C++ twin, checked
@@ -15,11 +30,11 @@ All multi-byte integers are little-endian. ``seq`` counts the frames each sender
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
 import operator
 import struct
-import zlib
-from dataclasses import dataclass, fields
 from typing import ClassVar, Iterator, Union
+import zlib
 
 PROTOCOL_VERSION = 1
 DUTY_FULL_SCALE = 65535          # duty counts meaning duty 1.0
@@ -32,12 +47,12 @@ DELIMITER = 0
 
 # MCU fault bits, carried in AdcReport.faults and Status.faults/faults_latched.
 FAULT_WATCHDOG = 1 << 0        # no valid Duty frame for watchdog_ms: both outputs off
-FAULT_INTERLOCK = 1 << 1       # last Duty had both channels above the interlock: outputs off
-FAULT_CLAMPED = 1 << 2         # last Duty exceeded max_duty on a channel and was clamped
+FAULT_INTERLOCK = 1 << 1       # last Duty asked for heat the dead-time interlock holds off
+FAULT_REJECTED = 1 << 2        # last Duty exceeded max_duty on a channel: ignored, kept old
 FAULT_NOT_CONFIGURED = 1 << 3  # no valid Hello since reset: Duty frames ignored, outputs off
 FAULT_BAD_VERSION = 1 << 4     # last Hello asked for a protocol version the MCU lacks
 FAULT_NAMES = {
-    FAULT_WATCHDOG: 'watchdog', FAULT_INTERLOCK: 'interlock', FAULT_CLAMPED: 'clamped',
+    FAULT_WATCHDOG: 'watchdog', FAULT_INTERLOCK: 'interlock', FAULT_REJECTED: 'rejected',
     FAULT_NOT_CONFIGURED: 'not_configured', FAULT_BAD_VERSION: 'bad_version',
 }
 
@@ -46,13 +61,30 @@ class ProtocolError(ValueError):
     """A frame or message that is not valid under this protocol."""
 
 
+def duty_to_counts(duty) -> int:
+    """
+    Return the counts 0..65535 of a duty fraction 0..1 (nearest).
+
+    Raises ProtocolError for anything else (NaN, inf, 1e308, 2.0, -0.1): garbage is never
+    clamped to full power.
+    """
+    try:
+        value = float(duty)
+    except (TypeError, ValueError):
+        raise ProtocolError(f'duty {duty!r} is not a number') from None
+    if not 0.0 <= value <= 1.0:     # also false for NaN
+        raise ProtocolError(f'duty {value!r} is outside [0, 1]')
+    return int(round(value * DUTY_FULL_SCALE))
+
+
 def crc32(data: bytes) -> int:
     """CRC-32/ISO-HDLC (poly 0x04C11DB7 reflected, init and xorout 0xFFFFFFFF) of `data`."""
     return zlib.crc32(data) & 0xFFFFFFFF
 
 
 def cobs_encode(data: bytes) -> bytes:
-    """Consistent Overhead Byte Stuffing: `data` re-coded without any zero byte.
+    """
+    Consistent Overhead Byte Stuffing: `data` re-coded without any zero byte.
 
     A trailing 254-byte block gets no extra 0x01 code (the shortest encoding, as in
     most C implementations and in firmware/sma_mcu/sma_protocol.cpp).
@@ -95,7 +127,7 @@ def cobs_decode(encoded: bytes) -> bytes:
 class Frame:
     """One frame that passed COBS, length and CRC checks (its message is not yet parsed)."""
 
-    type: int
+    type: int  # noqa: A003 (the frame's type byte, docs/protocol.md)
     seq: int
     body: bytes
 
@@ -111,7 +143,7 @@ ERROR_KINDS = ('oversize', 'cobs', 'short', 'crc')
 
 
 def encode_frame(msg_type: int, seq: int, body: bytes) -> bytes:
-    """The wire bytes (COBS + trailing delimiter) of one frame."""
+    """Return the wire bytes (COBS + trailing delimiter) of one frame."""
     if not 0 <= msg_type <= 0xFF or not 0 <= seq <= 0xFF:
         raise ProtocolError(f'frame type {msg_type} and seq {seq} must both be in 0..255')
     payload = bytes((msg_type, seq)) + bytes(body)
@@ -138,7 +170,8 @@ def decode_chunk(chunk: bytes) -> Union[Frame, FrameError]:
 
 
 class FrameDecoder:
-    """Splits a byte stream at zero delimiters into frames, counting and skipping bad ones.
+    """
+    Splits a byte stream at zero delimiters into frames, counting and skipping bad ones.
 
     A bad chunk costs only itself: decoding restarts after the next delimiter. Empty
     chunks (repeated delimiters, used to flush a receiver) are ignored silently.
@@ -201,7 +234,7 @@ class Message:
     FORMAT: ClassVar[struct.Struct]
 
     def body(self) -> bytes:
-        """The packed body; raises ProtocolError naming any field out of its integer range."""
+        """Return the packed body; raise ProtocolError naming any field out of its int range."""
         values = []
         for f, code in zip(fields(self), self.FORMAT.format[1:]):
             value, (low, high) = getattr(self, f.name), _RANGES[code]
@@ -216,7 +249,7 @@ class Message:
         return self.FORMAT.pack(*values)
 
     def encode(self, seq: int) -> bytes:
-        """The complete wire frame of this message with sequence number `seq`."""
+        """Return the complete wire frame of this message with sequence number `seq`."""
         return encode_frame(self.TYPE, seq, self.body())
 
 
@@ -227,7 +260,7 @@ class Hello(Message):
     TYPE = 0x01
     FORMAT = struct.Struct('<BHHI')
     protocol_version: int
-    max_duty: int          # counts; each channel is clamped to this
+    max_duty: int          # counts; a Duty above this on a channel is rejected
     interlock_duty: int    # counts; both channels above this at once is refused
     adc_period_us: int     # longest gap between ADC reports
 
@@ -330,7 +363,8 @@ def fault_names(faults: int) -> list[str]:
 
 
 class MessageStream:
-    """FrameDecoder plus message parsing: feed bytes, get (seq, message) pairs.
+    """
+    FrameDecoder plus message parsing: feed bytes, get (seq, message) pairs.
 
     Frames whose type is not in `accept` or whose body has the wrong size are counted in
     `malformed`; `lost` counts frames missing according to the sender's seq numbers.

@@ -1,4 +1,19 @@
-"""Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
 
 ``python -m sma_actuator.hardware.vectors --write`` regenerates firmware/test_vectors.json
 from this package's protocol and MCU logic; ``--check`` verifies the file is up to date.
@@ -13,9 +28,9 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 import random
 import sys
-from pathlib import Path
 
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.mcu_core import McuCore
@@ -25,7 +40,7 @@ SEED = 20240604
 
 
 def scenario_adc():
-    """The ADC reading sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
+    """Return the ADC sequence both MCU implementations use in scenarios: 1000 + 37 n mod 4096."""
     state = {'n': 0}
 
     def read():
@@ -47,7 +62,8 @@ def stream_events(data: bytes) -> str:
 
 
 def run_scenario(steps: list[tuple]) -> str:
-    """Run McuCore through `steps` and return its canonical per-step output text.
+    """
+    Run McuCore through `steps` and return its canonical per-step output text.
 
     steps: ('S', t_us) start, ('P', t_us) poll, ('R', t_us, bytes) receive then poll.
     Output per step: 'pwm_a,pwm_b,faults,txhex' ('-' for nothing sent).
@@ -141,14 +157,21 @@ def _scenarios():
             ('S', 0), ('P', 1000), ('R', 2000, hello), ('R', 3000, duty(1, 30000, 0)),
             ('P', 7999), ('P', 8000), ('P', 13000)],
         'watchdog_100ms': [
-            ('S', 0), ('R', 10, hello), ('R', 1000, duty(1, 40000, 100)), ('P', 50000),
-            ('R', 60000, duty(2, 40000, 100)), ('P', 159999), ('P', 160000), ('P', 170000),
-            ('R', 180000, duty(3, 0, 20000))],
+            ('S', 0), ('R', 10, hello), ('R', 1000, duty(1, 40000, 0)), ('P', 50000),
+            ('R', 60000, duty(2, 40000, 0)), ('P', 159999), ('P', 160000), ('P', 170000),
+            ('R', 180000, duty(3, 20000, 0))],
         'interlock_both_above': [
             ('S', 0), ('R', 10, hello), ('R', 20, duty(1, 19662, 19662)),
             ('R', 30, duty(2, 19661, 65535)), ('R', 40, duty(3, 19662, 19661))],
-        'clamp_to_max': [
-            ('S', 0), ('R', 10, hello), ('R', 20, duty(1, 65535, 0)), ('R', 30, duty(2, 100, 0))],
+        'reject_above_max': [
+            ('S', 0), ('R', 10, hello), ('R', 20, duty(1, 30000, 0)), ('R', 30, duty(2, 65535, 0)),
+            ('P', 100019), ('P', 100020), ('R', 100030, duty(3, 100, 0))],
+        'dead_time_interlock': [
+            ('S', 0), ('R', 10, hello), ('R', 1000, duty(1, 30000, 0)),
+            ('R', 20000, duty(2, 0, 30000)), ('R', 44999, duty(3, 0, 30000)),
+            ('R', 45000, duty(4, 0, 30000)), ('R', 55000, duty(5, 30000, 0)),
+            ('R', 79999, duty(6, 30000, 0)), ('R', 80000, duty(7, 30000, 0)),
+            ('R', 90000, duty(8, 30000, 30000)), ('R', 100000, duty(9, 0, 30000))],
         'hello_cannot_raise_interlock': [
             ('S', 0), ('R', 10, p.Hello(1, 65535, 65535, 100).encode(0)),
             ('R', 20, duty(1, 40000, 40000)), ('R', 30, duty(2, 32768, 32768))],
@@ -190,7 +213,7 @@ def build_vectors() -> dict:
 
 
 def render(doc: dict) -> str:
-    """The exact file text: header keys, then one vector object per line."""
+    """Return the exact file text: header keys, then one vector object per line."""
     head = ', '.join(f'{json.dumps(k)}: {json.dumps(v)}' for k, v in doc.items() if k != 'vectors')
     lines = ',\n'.join(json.dumps(v) for v in doc['vectors'])
     return '{' + head + ', "vectors": [\n' + lines + '\n]}\n'
@@ -198,7 +221,7 @@ def render(doc: dict) -> str:
 
 def main(argv=None) -> int:
     """Write or check the vectors file; exit status 1 if --check finds it out of date."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--write', action='store_true', help='regenerate the file')
     parser.add_argument('--check', action='store_true',
                         help='fail if the file differs from the generator')

@@ -1,15 +1,34 @@
-"""Helpers shared by the nodes: topic names, QoS, parameter descriptors, diagnostics, config,
-and the signal-safe spin loop every console script runs."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Helpers shared by the nodes.
+
+Topic names, QoS, parameter descriptors, diagnostics, config, and the signal-safe spin loop every
+console script runs.
+"""
+from pathlib import Path
 import signal
 import threading
-from pathlib import Path
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
+import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
 # topic names (issue 3); kept in one place so nodes, tests and the demo agree
@@ -33,8 +52,20 @@ CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 
 
+def expiring_command_qos(lifespan_s):
+    """
+    Return COMMAND_QOS with a lifespan: samples older than `lifespan_s` are never taken.
+
+    For the duty subscriptions of the plant and the bridge (docs/safety.md): a sample
+    queued while the process was frozen expires instead of replaying old heat.
+    """
+    return QoSProfile(depth=COMMAND_QOS.depth, reliability=COMMAND_QOS.reliability,
+                      lifespan=Duration(seconds=lifespan_s))
+
+
 def install_stop_signals():
-    """SIGINT and SIGTERM set the returned Event and raise nothing.
+    """
+    SIGINT and SIGTERM set the returned Event and raise nothing.
 
     Why not rclpy's handler: it chains to Python's default SIGINT handler, and the
     KeyboardInterrupt it raises can land inside a pybind11 call of the executor
@@ -56,7 +87,8 @@ def init_with_stop_signals(args=None):
 
 
 def spin_until_stopped(node, stop, done=None, poll_s=0.05):
-    """Spin `node` until `stop` is set, `done()` is true or its context is shut down.
+    """
+    Spin `node` until `stop` is set, `done()` is true or its context is shut down.
 
     A signal is seen within poll_s (the wait returns at least that often). Returns the
     executor, so a caller can still drain queued messages after the stop.

@@ -1,4 +1,19 @@
-"""controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
 
 The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
 sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
@@ -8,24 +23,30 @@ with use_sim_time) is the watchdog: no valid joint state for `feedback_timeout_s
 zero duty on every tick + diagnostics ERROR until feedback returns.
 
 Setpoints that are NaN/inf/outside [setpoint_min_rad, setpoint_max_rad] are rejected
-(log + diagnostics WARN) and the last valid setpoint is kept. Mode, gains and limits are
+(log + diagnostics WARN, each at most once per second) and the last valid setpoint is kept.
+The setpoint subscription keeps only the newest sample (depth 1) and its callback only
+stores it, so a setpoint flood of any rate costs the executor one cheap callback per
+turn and the control step keeps its cadence (docs/safety.md). Mode, gains and limits are
 parameters that can be changed at runtime (validated; an invalid set is refused).
 """
-import time
 from collections import deque
 from dataclasses import fields
+import time
 
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
-from ..control.core import MODES, ControllerCore, ControllerSettings
+from . import common as c
+from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
 from ..control.model_file import load_model
-from . import common as c
+
+SETPOINT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
 # runtime-tunable settings: (name, range or None, description)
 TUNABLE = (
@@ -82,6 +103,7 @@ class Controller(Node):
         self.stale = False
         self.rejected_feedback = 0
         self._last_reject_diag = 0.0
+        self._last_setpoint_diag = -1.0
         # timing health, reported in diagnostics (and read by bench_controller_latency):
         # joint-state arrival (rmw reception time) -> duty published, and watchdog intervals
         self.latencies = deque(maxlen=2000)
@@ -90,7 +112,8 @@ class Controller(Node):
 
         self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
         self.diag = c.Diagnostics(self, 'controller')
-        self.create_subscription(Float64, c.SETPOINT, self.on_setpoint, c.COMMAND_QOS)
+        # newest setpoint wins: a flood is dropped in the middleware, not queued for Python
+        self.create_subscription(Float64, c.SETPOINT, self.on_setpoint, SETPOINT_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self.on_joint_state, c.SENSOR_QOS)
         if self.use_ambient_topic:
             self.create_subscription(Temperature, c.AMBIENT_TEMPERATURE, self.on_ambient,
@@ -108,15 +131,20 @@ class Controller(Node):
         problem = self.setpoint.offer(msg.data)
         if problem:
             self.get_logger().warn(f'rejected setpoint: {problem}; keeping '
-                                   f'{self.setpoint.value:.4g} rad')
-            self.diag.publish(c.WARN, f'rejected setpoint: {problem}', self._status())
+                                   f'{self.setpoint.value:.4g} rad (throttled: '
+                                   f'{self.setpoint.rejected} rejected so far)',
+                                   throttle_duration_sec=1.0)
+            now = time.monotonic()
+            if now - self._last_setpoint_diag >= 1.0:
+                self._last_setpoint_diag = now
+                self.diag.publish(c.WARN, f'rejected setpoint: {problem}', self._status())
 
     def on_ambient(self, msg):
         if -40.0 <= msg.temperature <= 80.0:    # NaN fails both comparisons
             self.ambient_c = msg.temperature
 
     def on_joint_state(self, msg, info):
-        received_ns = info.get("received_timestamp", 0) if isinstance(info, dict) else 0
+        received_ns = info.get('received_timestamp', 0) if isinstance(info, dict) else 0
         arrival_ns = received_ns if received_ns > 0 else time.time_ns()
         try:
             position = msg.position[list(msg.name).index(c.JOINT_NAME)]
@@ -194,8 +222,12 @@ class Controller(Node):
         return out
 
     def timing_stats(self):
-        """Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
-        jitter p99 [ms] (|interval − period_s|) over the last 2000 samples."""
+        """
+        Return latency and timer jitter over the last 2000 samples.
+
+        Latency p50/p99 [ms] (joint-state arrival -> duty published) and watchdog-timer
+        jitter p99 [ms] (|interval − period_s|).
+        """
         out = {}
         if self.latencies:
             lat = np.asarray(self.latencies) * 1e3

@@ -1,4 +1,19 @@
-"""hardware_bridge: /sma/duty -> serial PWM/ADC microcontroller -> /sma/joint_states.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+hardware_bridge: /sma/duty -> serial PWM/ADC microcontroller -> /sma/joint_states.
 
 Drives the real rig (or the `mcu_emulator`) over the protocol of docs/protocol.md. The
 logic is in `hardware.bridge_core` (safety, handshake, calibration) and
@@ -15,27 +30,34 @@ topics:
   receive errors) and `hardware_bridge: duty` (host watchdog, rejected/clamped commands).
 
 On shutdown a zero-duty frame is sent before the port closes.
+
+Stale commands (docs/safety.md): the duty subscription has a QoS lifespan of
+duty_timeout_s, so the middleware drops samples that expired while this process could
+not take them, and each command's age (now minus its source timestamp) is checked again
+in the callback, because a sample taken after a freeze can be older than it was when the
+middleware queued it. More than one publisher on the duty topic means zero duty + ERROR.
 """
 import functools
 import sys
 import threading
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+import rclpy
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
 
+from . import common as c
 from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
 from ..hardware.link import SerialLink
-from . import common as c
 
 POTENTIOMETER_RAW = '/sma/potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
+PUBLISHER_CHECK_PERIOD_S = 0.05   # how often the duty topic's publishers are counted
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
           'error': DiagnosticStatus.ERROR, 'stale': DiagnosticStatus.STALE}
 
@@ -53,7 +75,8 @@ class HardwareBridge(Node):
             max_duty=f['max_duty'], interlock_threshold=f['interlock_threshold'],
             duty_timeout_s=f['duty_timeout_s'], duty_refresh_s=1.0 / f['duty_refresh_hz'],
             link_timeout_s=f['link_timeout_s'], heartbeat_period_s=1.0 / f['heartbeat_hz'],
-            adc_period_s=1.0 / f['publish_rate_hz'])
+            adc_period_s=1.0 / f['publish_rate_hz'],
+            interlock_dead_time_s=f['interlock_dead_time_s'])
 
         self._lock = threading.Lock()   # BridgeCore is shared by the executor and the link thread
         self._stopping = False
@@ -62,8 +85,11 @@ class HardwareBridge(Node):
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, c.DIAGNOSTICS, c.DIAGNOSTICS_QOS)
-        self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
+        self.duty_sub = self.create_subscription(
+            Float64MultiArray, c.DUTY, self.on_duty,
+            c.expiring_command_qos(config.duty_timeout_s))
         self.create_timer(TICK_PERIOD_S, self.on_tick)
+        self.create_timer(PUBLISHER_CHECK_PERIOD_S, self.check_duty_publishers)
         self.create_timer(1.0 / f['diagnostics_rate_hz'], self.publish_diagnostics)
         self.link = SerialLink(self.port, baud, self._on_open, self._on_data, self._on_close,
                                self._on_open_failed, f['reconnect_backoff_min_s'],
@@ -99,6 +125,10 @@ class HardwareBridge(Node):
                                       'above this (the firmware caps it at 0.5).', 0.0, 0.5),
             'duty_timeout_s': fl('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long '
                                  '-> zero duty + WARN [s].', 0.01, 10.0),
+            'interlock_dead_time_s': fl('interlock_dead_time_s', 0.05, 'A wire heats only '
+                                        'after the other has had zero duty this long; not '
+                                        'below the firmware dead time 0.025 s [s].', 0.025,
+                                        10.0),
             'link_timeout_s': fl('link_timeout_s', 0.5, 'No valid frame from the MCU this long '
                                  '-> link lost, zero duty, re-handshake [s].', 0.05, 10.0),
             'heartbeat_hz': fl('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', 0.1, 100.0),
@@ -114,9 +144,17 @@ class HardwareBridge(Node):
 
     # --- callbacks (executor thread) ----------------------------------------------------
 
-    def on_duty(self, msg):
+    def on_duty(self, msg, info):
+        sent_ns = info.get('source_timestamp', 0) if isinstance(info, dict) else 0
+        # source timestamps are the sender's system clock (same host, or synchronised)
+        age_s = (time.time_ns() - sent_ns) * 1e-9 if sent_ns > 0 else 0.0
         with self._lock:
-            self._write(self.core.on_duty_command(msg.data, time.monotonic()))
+            self._write(self.core.on_duty_command(msg.data, time.monotonic(), age_s))
+
+    def check_duty_publishers(self):
+        count = self.count_publishers(self.duty_sub.topic_name)
+        with self._lock:
+            self._write(self.core.on_publisher_count(count, time.monotonic()))
 
     def on_tick(self):
         with self._lock:

@@ -1,4 +1,19 @@
-"""In-process closed loop for the demo, the benchmarks and the tests.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+In-process closed loop for the demo, the benchmarks and the tests.
 
 `run_closed_loop` puts plant_sim (accelerated: it owns time and publishes /clock),
 controller and setpoint (both on use_sim_time) plus a `TraceProbe` on one executor, spins
@@ -6,8 +21,8 @@ until `duration_s` of sim time have passed and returns the probe's `Trace`. The 
 talk only over the real topics. `attach` hooks let a caller add more nodes (e.g. a bag
 recorder) to the same executor for the run.
 """
-import time
 from dataclasses import dataclass, field
+import time
 
 import numpy as np
 from rclpy.executors import SingleThreadedExecutor
@@ -29,6 +44,7 @@ LOCKSTEP_TIMEOUT_S = 1.0
 @dataclass
 class Trace:
     """Samples seen on the topics, on the plant's (sim) time axis [s]."""
+
     time_s: list = field(default_factory=list)       # joint-state stamps
     position: list = field(default_factory=list)     # measured shaft angle [rad]
     setpoint: list = field(default_factory=list)     # latest setpoint at that stamp [rad]
@@ -36,7 +52,7 @@ class Trace:
     theta: list = field(default_factory=list)        # latest plant wire temperatures [°C]
 
     def arrays(self):
-        """Dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
+        """Return a dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
         out = {k: np.asarray(getattr(self, k), dtype=float)
                for k in ('time_s', 'position', 'setpoint')}
         out.update({k: np.asarray(getattr(self, k), dtype=float).reshape(-1, 2)
@@ -83,9 +99,12 @@ class TraceProbe(Node):
 
 
 class ExcitationSource(Node):
-    """Open-loop duty source for identification: answers each joint state with the next duty
-    of a sequence (so the plant's lockstep holds) and logs (stamp t_k, position at t_k,
-    duty sent in reply, which the plant holds over [t_k, t_k+1))."""
+    """
+    Open-loop duty source for identification.
+
+    Answers each joint state with the next duty of a sequence (so the plant's lockstep holds) and
+    logs (stamp t_k, position at t_k, duty sent in reply, which the plant holds over [t_k, t_k+1)).
+    """
 
     def __init__(self, duty_a, duty_b, **kwargs):
         super().__init__('excitation', **kwargs)
@@ -110,21 +129,25 @@ class ExcitationSource(Node):
 
 
 def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
-    """Drive the plant node open loop with a duty sequence (one entry per 25 ms plant step).
+    """
+    Drive the plant node open loop with a duty sequence (one entry per 25 ms plant step).
 
     Returns arrays (time_s, duty_a, duty_b, position): position sampled at time_s[k], and
     duty_*[k] held from time_s[k] over the next step (sample, then hold: the convention of
     `core.actuator.simulate` and `core.identification.DynamicData`).
     """
-    kw = dict(context=context, start_parameter_services=False)
+    kw = {'context': context, 'start_parameter_services': False}
     executor = SingleThreadedExecutor(context=context)
     nodes = []
     try:
         source = ExcitationSource(duty_a, duty_b, **kw)
         nodes.append(source)
+        # dead time 0: the rows must hold the duties the plant applied, and an excitation
+        # switches from one wire straight to the other; both at once is still refused
         plant_node = PlantSim(**kw, parameter_overrides=_overrides(
             {'accelerated': True, 'lockstep': True, 'lockstep_timeout_s': LOCKSTEP_TIMEOUT_S,
-             'real_time_factor': float(real_time_factor), **(plant or {})}))
+             'real_time_factor': float(real_time_factor), 'interlock_dead_time_s': 0.0,
+             **(plant or {})}))
         plant_node.timer.cancel()
         nodes.append(plant_node)
         for n in nodes:
@@ -153,7 +176,8 @@ def _overrides(d):
 def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20.0,
                     plant=None, controller=None, setpoint=None, attach=(), warmup_s=None,
                     wall_timeout_s=None):
-    """Run one closed-loop experiment; return the `Trace`.
+    """
+    Run one closed-loop experiment; return the `Trace`.
 
     profile: dict of setpoint parameters (profile, amplitude, offset, period_s, delay_s...);
     plant / controller / setpoint: extra parameter overrides of each node; attach:
@@ -164,7 +188,7 @@ def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20
     sim = [Parameter('use_sim_time', value=True)]
     # no parameter services: nothing sets parameters during a run, and 6 services per node
     # would double the executor's wait set (its rebuild is most of the per-step cost)
-    kw = dict(context=context, start_parameter_services=False)
+    kw = {'context': context, 'start_parameter_services': False}
     nodes = []
     executor = SingleThreadedExecutor(context=context)
     try:

@@ -1,4 +1,19 @@
-"""plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
 
 Publishes /sma/joint_states (joint `shaft`: position = potentiometer + ADC reading,
 velocity = finite difference of consecutive *sensed* positions, as a real pot/ADC chain
@@ -12,27 +27,31 @@ With `lockstep` it also waits (up to `lockstep_timeout_s` wall time) for the dut
 to its last joint state before the next step, so the loop sees the same one-sample
 delay on any host instead of whatever the executor's scheduling gives.
 
-Safety: a duty that is NaN/inf/outside [0, 1] is rejected (log + WARN) and the last valid
-one kept; if no valid duty arrived for `duty_timeout_s` (plant time) zero duty is applied,
-so a dead controller never leaves a wire heated.
+Safety (docs/safety.md): a duty that is NaN/inf/outside [0, 1] is rejected (log + WARN) and
+the last valid one kept; if no valid duty arrived for `duty_timeout_s` (plant time) zero duty
+is applied, so a dead controller never leaves a wire heated. The applied duty passes the
+dead-time interlock (`control.interlock`): a wire heats only after the other has had zero
+duty for `interlock_dead_time_s`. More than one publisher on the duty topic (two
+controllers) applies zero duty and reports ERROR while it lasts.
 """
 import math
 import time
 
 import numpy as np
 import rclpy
-import yaml
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
+import yaml
 
-from ..control.inputs import LastValid, duty_problem
+from . import common as c
+from ..control.inputs import duty_problem, LastValid
+from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
-from . import common as c
 
 # (parameter, range, description) for every switchable effect of ActuatorParams; each range
 # lies within the workbench's fit bounds, so any record the plant makes can be diagnosed
@@ -57,6 +76,9 @@ EFFECTS = (
     ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
     ('duty_limit_sharpness', 0.0, 30.0, 'current limit: p-norm sharpness (0 = hard corner)'),
 )
+# wall time between two counts of the duty topic's publishers [s]; count_publishers costs
+# about 18 µs, which matters at 4000 steps/s in accelerated mode
+PUBLISHER_CHECK_PERIOD_S = 0.025
 
 
 class PlantSim(Node):
@@ -81,6 +103,10 @@ class PlantSim(Node):
         self.duty_timeout_s = c.declare_float(
             self, 'duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero '
             'duty.', 0.01, 10.0)
+        dead_time_s = c.declare_float(
+            self, 'interlock_dead_time_s', 0.05, 'A wire heats only after the other has had '
+            'zero applied duty for this long [plant s] (docs/safety.md).', 0.0, 10.0,
+            read_only=True)
         model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
                                    'to_dict) for the plant; the effect parameters override it.',
                                    read_only=True)
@@ -108,6 +134,11 @@ class PlantSim(Node):
         self.duty = LastValid(duty_problem, initial=(0.0, 0.0))
         self.ambient_c = ambient
         self.applied = (0.0, 0.0)
+        self.applied_time_s = None     # plant time [s] at which `applied` was decided
+        self.interlock = DeadTimeInterlock(dead_time_s)
+        self.duty_publishers = 0       # publishers on the duty topic at the last tick
+        self._last_reject_diag = -1.0  # monotonic time of the last rejected-duty WARN
+        self._publishers_checked = -1.0   # monotonic time of the last publisher count
         self.last_duty_time = None     # plant time [s] of the last valid duty
         self.last_position = None
         self.sim_time = 0.0
@@ -118,7 +149,9 @@ class PlantSim(Node):
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.temp_pub = self.create_publisher(Temperature, c.WIRE_TEMPERATURE, c.SENSOR_QOS)
         self.diag = c.Diagnostics(self, 'plant')
-        self.create_subscription(Float64MultiArray, c.DUTY, self.on_duty, c.COMMAND_QOS)
+        # lifespan in wall seconds (DDS source timestamps): a frozen plant does not replay
+        self.duty_sub = self.create_subscription(
+            Float64MultiArray, c.DUTY, self.on_duty, c.expiring_command_qos(self.duty_timeout_s))
         if self.use_ambient_topic:
             self.create_subscription(Temperature, c.AMBIENT_TEMPERATURE, self.on_ambient,
                                      c.SENSOR_QOS)
@@ -152,9 +185,14 @@ class PlantSim(Node):
         self.awaiting_since = None
         problem = self.duty.offer(tuple(msg.data))
         if problem:
-            self.get_logger().warn(f'rejected duty: {problem}; keeping {self.duty.value}')
-            self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
-                              self.stamp())
+            self.get_logger().warn(f'rejected duty: {problem}; keeping {self.duty.value} '
+                                   f'({self.duty.rejected} rejected so far)',
+                                   throttle_duration_sec=1.0)
+            now = time.monotonic()
+            if now - self._last_reject_diag >= 1.0:
+                self._last_reject_diag = now
+                self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
+                                  self.stamp())
             return
         self.last_duty_time = self.now_s()
 
@@ -183,7 +221,13 @@ class PlantSim(Node):
             if dt <= 0:   # sim clock not running yet, or went backwards
                 return
         stale = self.duty_stale()
-        self.applied = (0.0, 0.0) if stale else self.duty.value
+        conflict = self.check_duty_publishers()
+        requested = (0.0, 0.0) if stale or conflict else self.duty.value
+        self.applied_time_s = self.now_s()
+        self.applied, held = self.interlock.apply(*requested, self.applied_time_s)
+        if held == BOTH_REQUESTED:    # a reversal waiting out the dead time is normal
+            self.get_logger().warn(f'interlock: {held}; applying {self.applied}',
+                                   throttle_duration_sec=1.0)
         if stale and not self.was_stale and self.last_duty_time is not None:
             self.get_logger().warn(f'no valid duty for {self.duty_timeout_s:g} s: zero duty')
             self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(),
@@ -203,11 +247,37 @@ class PlantSim(Node):
                                               temperature=float(theta), variance=0.0))
         self.steps += 1
         if self.steps % self.steps_per_diag == 0:
-            if stale and self.last_duty_time is not None:
+            if conflict:
+                self.diag.publish(c.ERROR, self._conflict_text(), self._status(), stamp)
+            elif stale and self.last_duty_time is not None:
                 self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(), stamp)
             else:
                 self.diag.publish(c.OK, 'running' if not stale else 'no duty yet (zero applied)',
                                   self._status(), stamp)
+
+    def check_duty_publishers(self):
+        """
+        Return True while more than one node publishes on the duty topic.
+
+        Two controllers alternate their commands, and the plant cannot tell which one is
+        meant: zero duty is applied and ERROR reported until one of them is gone.
+        """
+        now = time.monotonic()
+        if now - self._publishers_checked < PUBLISHER_CHECK_PERIOD_S:
+            return self.duty_publishers > 1    # accelerated: not on every fast step
+        self._publishers_checked = now
+        count = self.count_publishers(self.duty_sub.topic_name)
+        before, self.duty_publishers = self.duty_publishers, count
+        if count > 1 and before <= 1:
+            self.get_logger().error(self._conflict_text())
+            self.diag.publish(c.ERROR, self._conflict_text(), self._status(), self.stamp())
+        elif count <= 1 < before:
+            self.get_logger().info(f'{count} publisher on {self.duty_sub.topic_name} again')
+        return count > 1
+
+    def _conflict_text(self):
+        return (f'{self.duty_publishers} publishers on {self.duty_sub.topic_name}: '
+                'applying zero duty')
 
     def duty_stale(self):
         """No valid duty for duty_timeout_s of plant time (or never)."""
@@ -218,7 +288,8 @@ class PlantSim(Node):
         th = self.actuator.temperature_c
         return {'applied_duty_a': float(self.applied[0]), 'applied_duty_b': float(self.applied[1]),
                 'theta_a_c': float(th[0]), 'theta_b_c': float(th[1]),
-                'rejected_duties': self.duty.rejected, 'sim_time_s': float(self.now_s())}
+                'rejected_duties': self.duty.rejected, 'interlock_held': self.interlock.held,
+                'duty_publishers': self.duty_publishers, 'sim_time_s': float(self.now_s())}
 
 
 def _header(stamp, frame):

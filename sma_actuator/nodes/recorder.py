@@ -1,10 +1,28 @@
-"""recorder node: record topics to a rosbag2-compatible MCAP bag (docs/recording.md).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+recorder node: record topics to a rosbag2-compatible MCAP bag (docs/recording.md).
 
 Subscribes (raw, so the CDR bytes are stored as received) to every topic matching ``topics``
 as soon as it has a publisher, with the QoS rosbag2 would request (reliable/transient_local
 only if all publishers offer it), and writes through :class:`sma_actuator.bag.BagWriter`.
 Log time is the node clock at reception, publish time the publisher's source timestamp.
 SIGINT/SIGTERM close the bag properly; after SIGKILL the file is readable up to the last chunk.
+A write failure (full disk, file size limit, unwritable directory) reports ERROR on
+/diagnostics, closes what it can (the flushed chunks stay readable) and ends the console
+script with exit status 1 and one line on stderr.
 
 Run: ``recorder --ros-args --params-file config/recorder.yaml -p run_name:=step1``
 Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor, then
@@ -13,19 +31,31 @@ Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor,
 import functools
 import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+import rclpy
 from rclpy.node import Node
-
-from sma_actuator.bag.errors import BagError
+from sma_actuator.bag.errors import BagError, BagWriteError
 from sma_actuator.bag.msgdefs import type_description_hash
 from sma_actuator.bag.qos import adapt_request_to_offers
-from sma_actuator.bag.recording import (DEFAULT_NAME_TEMPLATE, DEFAULT_TOPICS, TopicSelector,
-                                        bag_directory)
-from sma_actuator.bag.ros_interop import (ERROR, OK, WARN, declare_parameters, diagnostics,
-                                          message_class, parameter_overrides, publisher_offers,
-                                          qos_profile, take_pending)
-from sma_actuator.bag.writer import COMPRESSIONS, BagWriter
+from sma_actuator.bag.recording import (
+    bag_directory,
+    DEFAULT_NAME_TEMPLATE,
+    DEFAULT_TOPICS,
+    TopicSelector,
+)
+from sma_actuator.bag.ros_interop import (
+    declare_parameters,
+    diagnostics,
+    ERROR,
+    message_class,
+    OK,
+    parameter_overrides,
+    publisher_offers,
+    qos_profile,
+    take_pending,
+    WARN,
+)
+from sma_actuator.bag.writer import BagWriter, COMPRESSIONS
 from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
 
 PARAMETERS = {
@@ -58,7 +88,8 @@ DRAIN_CYCLES = 10
 
 
 class RecorderNode(Node):
-    """Record matching topics into a bag; see module doc.
+    """
+    Record matching topics into a bag; see module doc.
 
     :param context: rclpy context (tests, embedding); default: the global one.
     :param params: Parameter values by name (same names as config/recorder.yaml).
@@ -76,21 +107,27 @@ class RecorderNode(Node):
         self._selector = TopicSelector(p['topics'])
         path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
                                               p['name_template'])
-        self.bag = BagWriter(path, compression=p['compression'],
-                             chunk_size_bytes=p['chunk_size_bytes'],
-                             chunk_max_age_s=p['chunk_max_age_s'],
-                             max_file_size_bytes=p['max_file_size_bytes'],
-                             max_file_duration_s=p['max_file_duration_s'],
-                             overwrite=p['overwrite'])
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        try:
+            self.bag = BagWriter(path, compression=p['compression'],
+                                 chunk_size_bytes=p['chunk_size_bytes'],
+                                 chunk_max_age_s=p['chunk_max_age_s'],
+                                 max_file_size_bytes=p['max_file_size_bytes'],
+                                 max_file_duration_s=p['max_file_duration_s'],
+                                 overwrite=p['overwrite'])
+        except BagWriteError as err:
+            self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: recording', ERROR,
+                                               str(err), [('bag', path)]))
+            raise
         self._depth = p['queue_depth']
         self._recording_subs = {}
         self._skipped = {}  # topic -> reason, reported once
         self._write_errors = 0
         self._closed = False
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.failure = None   # the BagWriteError that stopped the recording, if any
         self.create_timer(p['discovery_period_s'], self._discover)
         if p['chunk_max_age_s'] > 0:
-            self.create_timer(p['chunk_max_age_s'] / 2, self.bag.flush_if_due)
+            self.create_timer(p['chunk_max_age_s'] / 2, self._flush_if_due)
         self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics)
         self.get_logger().info(f'recording {self._selector.patterns} to {self.bag.path}')
         self._discover()
@@ -137,9 +174,13 @@ class RecorderNode(Node):
 
     def _on_message(self, topic, data, info):
         self._write(topic, data, info)
+        if self._closed:
+            return   # a write failure closed the bag and destroyed the subscriptions
         # take the rest of the queue now, not one message per executor cycle (see take_pending)
         for data, info in take_pending(self._recording_subs[topic]):
             self._write(topic, data, info)
+            if self._closed:
+                break
 
     def _write(self, topic, data, info):
         if self._closed:
@@ -149,13 +190,35 @@ class RecorderNode(Node):
             self.bag.write(topic, data, log_time, info.get('source_timestamp') or log_time)
         except (OSError, BagError) as err:
             self._write_errors += 1
+            if self.bag.failed is not None:
+                self._fail(self.bag.failed)
+                return
             self.get_logger().error(f"cannot write '{topic}' message: {err}",
                                     throttle_duration_sec=5.0)
+
+    def _flush_if_due(self):
+        if self._closed:
+            return
+        try:
+            self.bag.flush_if_due()
+        except BagError as err:
+            self._fail(err)
+
+    def _fail(self, err):
+        """Stop recording after a write failure: ERROR on /diagnostics, close what we can."""
+        if self.failure is not None:
+            return
+        self.failure = err
+        self.get_logger().error(f'recording stopped: {err}')
+        self._publish_diagnostics()
+        self.close()
 
     def _publish_diagnostics(self):
         if self._closed:
             return
-        if self._write_errors:
+        if self.failure is not None:
+            level, text = ERROR, f'recording stopped: {self.failure}'
+        elif self._write_errors:
             level, text = ERROR, f'{self._write_errors} messages could not be written'
         elif not self._recording_subs:
             level, text = WARN, 'no matching topic with a publisher yet'
@@ -169,7 +232,8 @@ class RecorderNode(Node):
                                            values))
 
     def close(self):
-        """Stop recording and finish the bag (summary, metadata.yaml); idempotent.
+        """
+        Stop recording and finish the bag (summary, metadata.yaml); idempotent.
 
         :return: The bag's metadata record (files, topics, counts).
         """
@@ -183,7 +247,8 @@ class RecorderNode(Node):
                 except Exception:  # noqa: BLE001 - handle already invalid after shutdown
                     pass
             self.get_logger().info(f'closed {self.bag.path}: {self.bag.message_count} messages '
-                                   f'on {len(record.topics)} topics')
+                                   f'on {len(record.topics)} topics'
+                                   + (' (after a write failure)' if self.failure else ''))
         return self.bag.close()
 
     def destroy_node(self):
@@ -200,7 +265,10 @@ def main(args=None):
     node, code = None, 0
     try:
         node = RecorderNode()
-        executor = spin_until_stopped(node, stop, poll_s=0.1)
+        executor = spin_until_stopped(node, stop, poll_s=0.1,
+                                      done=lambda: node.failure is not None)
+        if node.failure is not None:
+            raise node.failure
         for _ in range(DRAIN_CYCLES):
             executor.spin_once(timeout_sec=0.02)
     except (BagError, ValueError) as err:

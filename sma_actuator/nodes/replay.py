@@ -1,4 +1,19 @@
-"""replay node: play a bag with its original timing (docs/recording.md).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+replay node: play a bag with its original timing (docs/recording.md).
 
 Publishes the stored CDR bytes (no re-serialisation) of each selected topic, on the topic name
 after ``remap``, with the QoS the original publishers offered (as rosbag2 play). Timing,
@@ -15,24 +30,30 @@ import sys
 import threading
 import time
 
-import numpy as np
-import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
+import numpy as np
+import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64MultiArray
-
 from sma_actuator.bag.errors import BagError, UnknownTypeError
-from sma_actuator.bag.playback import Player, PlaybackOptions, parse_remappings
+from sma_actuator.bag.playback import parse_remappings, PlaybackOptions, Player
 from sma_actuator.bag.qos import adapt_offer_to_recorded_offers, load_offered_qos_profiles
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.ros_interop import (ERROR, OK, declare_parameters, diagnostics,
-                                          message_class, parameter_overrides, qos_profile)
+from sma_actuator.bag.ros_interop import (
+    declare_parameters,
+    diagnostics,
+    ERROR,
+    message_class,
+    OK,
+    parameter_overrides,
+    qos_profile,
+)
 from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
+from std_msgs.msg import Float64MultiArray
 
 PARAMETERS = {
     'bag_path': ('', 'Bag directory or .mcap file to play (required)', None),
@@ -55,7 +76,8 @@ DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
 
 
 class ReplayNode(Node):
-    """Play a bag; call :meth:`start`, watch :attr:`finished`, :meth:`stop` to abort.
+    """
+    Play a bag; call :meth:`start`, watch :attr:`finished`, :meth:`stop` to abort.
 
     :param context: rclpy context (tests, embedding); default: the global one.
     :param params: Parameter values by name (same names as config/replay.yaml).
@@ -158,7 +180,7 @@ class ReplayNode(Node):
 
     @property
     def stats(self):
-        """The player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
+        """Return the player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
         return self._player.stats
 
     def start(self):

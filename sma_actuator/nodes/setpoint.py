@@ -1,4 +1,19 @@
-"""setpoint: publishes /sma/setpoint [rad] from a profile (step, ramp, sine, square, chirp).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+setpoint: publishes /sma/setpoint [rad] from a profile (step, ramp, sine, square, chirp).
 
 The profile (`sma_actuator.profiles.Profile`) runs on the node clock (sim time with
 use_sim_time) from the first timer tick; profile parameters can be changed at runtime.
@@ -7,18 +22,18 @@ exit (for users without the ros2 CLI):
 
     setpoint --ros-args -p one_shot:=true -p offset:=0.3
 """
+from dataclasses import fields, replace
 import sys
 import threading
 import time
-from dataclasses import fields, replace
 
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
 from std_msgs.msg import Float64
 
-from ..profiles import PROFILES, Profile
 from . import common as c
+from ..profiles import Profile, PROFILES
 
 PROFILE_PARAMS = (
     ('amplitude', -3.0, 3.0, 'Profile amplitude A [rad].'),
@@ -77,7 +92,8 @@ class Setpoint(Node):
                            'period_s': p.period_s, 'setpoint_rad': self.value})
 
     def publish_once(self, wait_s=5.0, stop=None):
-        """One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
+        """
+        One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
 
         `stop` (a threading.Event, set by SIGINT/SIGTERM) ends the wait early.
         """

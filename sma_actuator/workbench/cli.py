@@ -1,4 +1,19 @@
-"""`sma-model`: fit, compare and diagnose actuator models on recorded data.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`sma-model`: fit, compare and diagnose actuator models on recorded data.
 
     sma-model fit DATA [DATA ...] [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml]
     sma-model compare DATA [DATA ...] --model FITTED.yaml [--report DIR] [--json]
@@ -14,8 +29,8 @@ stderr only when stderr is a terminal. See docs/workbench.md.
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
+import sys
 
 import numpy as np
 
@@ -38,10 +53,12 @@ class OneLineParser(argparse.ArgumentParser):
 
 # ------------------------------------------------------------------------------ progress
 class Progress:
-    """Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
+    """
+    Progress bar on stderr, drawn only when stderr is a terminal (callable for the engine).
 
     Called as progress(done, total, label); `close()` clears the line.
     """
+
     WIDTH = 24
 
     def __init__(self, stage='', stream=None):
@@ -224,7 +241,7 @@ def score_line(part, s, unit='', width=10):
 
 
 def model_line(effects, kind):
-    """'modified PI base + saturation, delay' ('... (the paper's model)' without effects)."""
+    """Return 'modified PI base + saturation, delay' ('... (the paper's model)' if none)."""
     if effects:
         return f'{kind} PI base + {", ".join(effects)}'
     return f'{kind} PI base' + (" (the paper's model)" if kind == 'modified' else '')
@@ -286,7 +303,7 @@ def per_record(fit, data):
 
 
 def fit_json(fit, out, records=()):
-    """The `fit --json` document."""
+    """Return the `fit --json` document."""
     val = fit.validation or {}
     doc = {'effects': list(fit.effects), 'kind': fit.kind,
            'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
@@ -501,7 +518,7 @@ def cmd_effects(args):
 
 # ------------------------------------------------------------------------------ parser
 def build_parser():
-    """The argparse parser of `sma-model` (one-line errors, exit code 2)."""
+    """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument('data', metavar='DATA', nargs='+',
                         help='CSVs (dynamic or static curves) or MCAP bags (file or '

@@ -1,4 +1,19 @@
-"""Where the model fails: error by regime and residual correlation tests.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Where the model fails: error by regime and residual correlation tests.
 
 The residual is e = measured − model, in the unit of the measured output.
 
@@ -36,8 +51,8 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
-from ..core.identification import scores
 from .data import is_static
+from ..core.identification import scores
 
 Z99 = 2.576
 STEADY_RATE_K_PER_S = 0.1
@@ -55,6 +70,7 @@ MIN_SHARE = 0.02               # ... if the regime holds at least this fraction 
 @dataclass
 class Comparison:
     """Result of `compare`; `to_json()` gives the plain-data form printed by the CLI."""
+
     kind: str                       # 'dynamic' | 'static'
     measured: np.ndarray
     predicted: np.ndarray
@@ -70,7 +86,7 @@ class Comparison:
 
     @property
     def residual(self):
-        """e = measured − model."""
+        """E = measured − model."""
         return self.measured - self.predicted
 
     def to_json(self):
@@ -93,7 +109,8 @@ def _summary_json(test):
 
 
 def compare(data, prediction, signals=None, split=None):
-    """Compare measured `data` with a model `prediction`: scores, regimes, residual tests.
+    """
+    Compare measured `data` with a model `prediction`: scores, regimes, residual tests.
 
     data: DynamicData or StaticData. prediction: array over the record (dynamic) or a list of
     (curve_id, array) (static). signals: model signals (dict with 'theta_a', 'theta_b' [°C]).
@@ -147,7 +164,7 @@ def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
 
 
 def flat_static_prediction(data, prediction):
-    """Static prediction [(curve_id, array), ...] laid out like data.output (by curve id)."""
+    """Return a static prediction [(curve_id, array), ...] laid out like data.output."""
     out = np.full(len(data.output), np.nan)
     for cid, values in prediction:
         mask = np.asarray(data.curve) == cid
@@ -180,7 +197,7 @@ def smooth(x, n):
 
 
 def dynamic_regimes(data, temps):
-    """group -> {label: boolean mask} for a dynamic record (see module doc)."""
+    """Group -> {label: boolean mask} for a dynamic record (see module doc)."""
     y, dt = data.position, data.dt
     span = max(float(np.ptp(y)), 1e-12)
     ys = smooth(y, round(SMOOTH_S / dt))
@@ -216,7 +233,7 @@ def input_rate(data):
 
 
 def reversals(y, threshold):
-    """Indices of the turning points of y: extremes after which y moves back by > threshold."""
+    """Indicate of the turning points of y: extremes after which y moves back by > threshold."""
     turns, direction, lo, hi, extreme = [], 0, 0, 0, 0
     for k in range(1, len(y)):
         if direction == 0:   # until the first move larger than the threshold
@@ -254,7 +271,7 @@ def travel_masks(y):
 
 
 def static_regimes(data, val_ids):
-    """group -> {label: mask} for static curves (see module doc)."""
+    """Group -> {label: mask} for static curves (see module doc)."""
     u = np.asarray(data.input, float)
     y = np.asarray(data.output, float)
     curve = np.asarray(data.curve)
@@ -281,7 +298,8 @@ def static_regimes(data, val_ids):
 
 
 def breakdown(residual, masks, span):
-    """group -> rows {group, label, samples, fraction, rmse, nrmse, bias, error_share}.
+    """
+    Group -> rows {group, label, samples, fraction, rmse, nrmse, bias, error_share}.
 
     nrmse = regime RMSE / measured range; bias = mean residual; error_share = the regime's
     share of the total squared error. Empty regimes have None figures.
@@ -378,7 +396,8 @@ def _runs(values, limit=10):
 
 
 def residual_tests(residual, signals, dt, unit, max_lag=None):
-    """Autocorrelation of the residual and its cross-correlation with each signal.
+    """
+    Autocorrelation of the residual and its cross-correlation with each signal.
 
     dt: lag step in `unit` ('s' for time, 'samples' for static curves); max_lag in samples
     (default: MAX_LAG_S of lags, at least 10, at most N/4). Returns {band, max_lag, lag_unit,

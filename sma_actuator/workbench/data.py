@@ -1,4 +1,19 @@
-"""Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
 
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
 names are case-insensitive, column order is free, extra columns are ignored):
@@ -76,7 +91,8 @@ def comment_unit(path):
 
 
 def load_data(path, rate_hz=None, position_unit=None):
-    """Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or an engine `StaticData`.
+    """
+    Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or an engine `StaticData`.
 
     rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
@@ -106,7 +122,7 @@ def load_data(path, rate_hz=None, position_unit=None):
 
 
 def is_bag(path):
-    """True if `path` is an MCAP file (by suffix or magic bytes) or a directory holding one."""
+    """Return True if `path` is an MCAP file (suffix or magic bytes) or a folder with one."""
     path = Path(path)
     if path.is_dir():
         return any(path.glob('*.mcap'))
@@ -121,7 +137,8 @@ def is_bag(path):
 
 # ------------------------------------------------------------------------------ CSV
 def read_csv_table(path):
-    """Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
+    """
+    Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
 
     Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
     duplicated or empty column name, a row with the wrong number of fields, or a field
@@ -194,7 +211,7 @@ def _parse_row(path, line_no, header, fields):
 
 
 def _columns(path, header, rows, needed, optional=()):
-    """dict name -> column for the needed (error if missing) and present optional names."""
+    """Return a dict name -> column of the needed (error if missing) and present optional names."""
     missing = [c for c in needed if c not in header]
     if missing:
         raise DataError(f'{path}: missing column(s) {", ".join(missing)} (found '
@@ -308,7 +325,8 @@ def make_static(source, u, y, curve):
 
 # ------------------------------------------------------------------------------ bags
 def load_bag(path, rate_hz=None):
-    """`DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
+    """
+    `DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
 
     The setpoint before the first setpoint message (NaN in load_run) is filled with the
     first setpoint; a bag without any setpoint message has none.
@@ -338,7 +356,7 @@ def load_bag(path, rate_hz=None):
 
 # ------------------------------------------------------------------------------ checks
 def is_static(data):
-    """True for static curve data (no time axis), False for a `DynamicData`."""
+    """Return True for static curve data (no time axis), False for a `DynamicData`."""
     return not isinstance(data, DynamicData)
 
 

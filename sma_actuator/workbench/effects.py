@@ -1,4 +1,19 @@
-"""Catalog of physical effects the base model (the paper's) may lack.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Catalog of physical effects the base model (the paper's) may lack.
 
 Each effect is a small class: its docstring states the physics, `parameters` maps the
 `ActuatorParams` fields it frees to (lower, upper, start) bounds, and `signature` says
@@ -16,6 +31,7 @@ import numpy as np
 
 class Effect:
     """Base class of a catalog effect (see module docstring)."""
+
     name = ''
     signature = ''
     parameters = {}       # ActuatorParams field (or 'tau_s') -> (lower, upper, start)
@@ -30,31 +46,41 @@ class Effect:
     needs_two_wires = False
 
     def scratch_start(self, params):
-        """Start values of the from-scratch refit (`own_grid`) for a model with `params`;
-        default: the same as the warm start."""
+        """
+        Start values of the from-scratch refit (`own_grid`) for a model with `params`.
+
+        Default: the same as the warm start.
+        """
         return {}
 
     def scratch_bounds(self, params):
-        """(lower, upper, start) of parameters bounded differently in the from-scratch
-        refit (`own_grid`) of the base fit `params`, e.g. the base's 'tau_s'; default none."""
+        """
+        Return (lower, upper, start) of parameters bounded differently from scratch.
+
+        In the from-scratch refit (`own_grid`) of the base fit `params`, e.g. the base's 'tau_s';
+        default none.
+        """
         return {}
 
     @property
     def doc(self):
-        """The physics docstring."""
+        """Return the physics docstring."""
         return ' '.join((self.__doc__ or '').split())
 
     def applicable(self, data):
-        """None if the effect can be fitted on `data`, else the reason it cannot."""
+        """Return None if the effect can be fitted on `data`, else the reason it cannot."""
         return None
 
     def bounds(self, params):
-        """(lower, upper, start) per parameter for a model with `params` (ActuatorParams);
-        default: the `parameters` table."""
+        """
+        (lower, upper, start) per parameter for a model with `params` (ActuatorParams).
+
+        Default: the `parameters` table.
+        """
         return dict(self.parameters)
 
     def start_values(self, data):
-        """Starting values of the parameters for `data` (default: the table's start)."""
+        """Start values of the parameters for `data` (default: the table's start)."""
         return {k: v[2] for k, v in self.parameters.items()}
 
     def alternative_starts(self, data):
@@ -62,21 +88,33 @@ class Effect:
         return []
 
     def unresolved(self, values, data):
-        """None if the fitted `values` describe the effect at a size the data can resolve,
-        else why not (diagnose then does not call it significant). Default None."""
+        """
+        Return None if the data can resolve the effect at the fitted `values`, else why not.
+
+        Diagnose then does not call it significant. Default None.
+        """
         return None
 
     def transform_inputs(self, duty_a, duty_b, ambient, values):
-        """Plug-in hook: inputs (arrays) seen by the thermal model, given this effect's
-        parameter values (dict). Duties must stay in [0, 1]. Identity by default."""
+        """
+        Plug-in hook.
+
+        Inputs (arrays) seen by the thermal model, given this effect's parameter values (dict).
+        Duties must stay in [0, 1]. Identity by default.
+        """
         return duty_a, duty_b, ambient
 
 
 class Saturation(Effect):
-    """Hysteresis saturation: the transformation of NiTi is complete at both ends (all
-    martensite cold, all austenite hot), so contraction stops growing however far the
-    temperature moves. The classical Prandtl-Ishlinskii operator of eq. (5) keeps growing
-    linearly; the modified operator of eq. (6) (backlash with saturation) does not."""
+    """
+    Hysteresis saturation.
+
+    The transformation of NiTi is complete at both ends (all martensite cold, all austenite hot),
+    so contraction stops growing however far the temperature moves. The classical
+    Prandtl-Ishlinskii operator of eq. (5) keeps growing linearly; the modified operator of eq. (6)
+    (backlash with saturation) does not.
+    """
+
     name = 'saturation'
     signature = ('error grows at the ends of travel; the model overshoots where the '
                  'measured loop flattens; residual correlates with |position|')
@@ -85,9 +123,14 @@ class Saturation(Effect):
 
 
 class FastDynamics(Effect):
-    """Unmodelled fast dynamics tau of the paper's Fig. 13: a first-order lag on the heat
-    input (heat spreading from core to surface, amplifier filtering), so the wire responds
-    to a duty step with an S-shaped rather than exponential temperature rise."""
+    """
+    Unmodelled fast dynamics tau of the paper's Fig.
+
+    13: a first-order lag on the heat input (heat spreading from core to surface, amplifier
+    filtering), so the wire responds to a duty step with an S-shaped rather than exponential
+    temperature rise.
+    """
+
     name = 'fast_dynamics'
     parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
@@ -95,24 +138,33 @@ class FastDynamics(Effect):
     own_grid = True
 
     def alternative_starts(self, data):
-        """A slow lag trades off against the basic time constant: also start there."""
+        """Also start at a slow lag: it trades off against the basic time constant."""
         return [{'tau_fast_s': 0.5}]
 
     def scratch_bounds(self, params):
-        """The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
+        """
+        Keep τ the slow lag in the from-scratch refit.
+
+        The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
         from scratch the search can end in the swapped pair, τ at its lower bound and the
         slow lag in τ_fast, which the hysteresis then fits worse (rich simulator M 0.33:
         τ 0.2 s, τ_fast 1.41 s, 0.70 % training NRMSE). Keep τ the slow one: the base fit's
         single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast means
-        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %)."""
+        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %).
+        """
         return {'tau_s': (0.5 * params.tau_s, 20.0, params.tau_s)}
     signature = ('residual spikes right after duty steps, same sign as the step; '
                  'residual correlates with the duty rate')
 
 
 class Delay(Effect):
-    """Transport delay between command and measured position (serial link, filtering in
-    the sensor chain, PWM update latency): the whole response is shifted in time."""
+    """
+    Transport delay between command and measured position.
+
+    Serial link, filtering in the sensor chain, PWM update latency: the whole response is
+    shifted in time.
+    """
+
     name = 'delay'
     parameters = {'delay_s': (0.0, 1.5, 0.05)}
     # also from scratch, like fast_dynamics: a plant record with a 0.3 s delay refitted
@@ -125,8 +177,12 @@ class Delay(Effect):
         return [{'delay_s': 0.3}]
 
     def unresolved(self, values, data):
-        """A delay below one sample period is how the recorder aligned duty and position
-        samples (zero-order hold over the interval), not a transport delay."""
+        """
+        Return why a delay below one sample period is not a transport delay.
+
+        It is how the recorder aligned duty and position samples (zero-order hold over the
+        interval).
+        """
         dt = getattr(data, 'dt', None)
         if dt and values.get('delay_s', 0.0) < dt:
             return (f'the fitted delay {1e3 * values["delay_s"]:.0f} ms is below one sample '
@@ -137,11 +193,17 @@ class Delay(Effect):
 
 
 class Convection(Effect):
-    """Temperature-dependent heat transfer: natural convection from a thin wire follows
-    Nu ∝ Ra^n, so the film coefficient grows with the excess temperature as h ∝ ΔT^n
-    (n ≈ 0.06-0.25 for thin wires, radiation adds to it), hA(θ) = hA_ref (|θ − θa| / 50 K)^n:
+    """
+    Temperature-dependent heat transfer.
+
+    Natural convection from a thin wire follows Nu ∝ Ra^n, so the film coefficient grows with the
+    excess temperature as h ∝ ΔT^n (n ≈ 0.06-0.25 for thin wires, radiation adds to it), hA(θ) =
+    hA_ref (|θ − θa| / 50 K)^n:
+
     a hot wire loses heat faster and settles cooler than the linear eq. (7) predicts, and a
-    wire near ambient cools more slowly."""
+    wire near ambient cools more slowly.
+    """
+
     name = 'convection'
     parameters = {'convection_exponent': (-0.2, 1.0, 0.2)}
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
@@ -149,9 +211,13 @@ class Convection(Effect):
 
 
 class AmbientDrift(Effect):
-    """Ambient temperature changes during the run: eq. (7) loses heat to the actual
-    ambient θa(t) (measured), not to a constant, shifting every temperature and so the
-    position at a given duty."""
+    """
+    Ambient temperature changes during the run: eq.
+
+    (7) loses heat to the actual ambient θa(t) (measured), not to a constant, shifting every
+    temperature and so the position at a given duty.
+    """
+
     name = 'ambient_drift'
     parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
     # a drifting ambient shifts every temperature; without it the base fit (often with a
@@ -171,20 +237,28 @@ class AmbientDrift(Effect):
 
 
 class PhaseResistance(Effect):
-    """Electrical resistance depends on phase: martensite has a higher resistivity than
-    austenite, so at a given duty the Joule power R i² (current-limited) or V²/R changes as
-    the wire transforms: P = P0 d (1 + κ (1 − y)), y the contraction fraction."""
+    """
+    Electrical resistance depends on phase.
+
+    Martensite has a higher resistivity than austenite, so at a given duty the Joule power R i²
+    (current-limited) or V²/R changes as the wire transforms: P = P0 d (1 + κ (1 − y)), y the
+    contraction fraction.
+    """
+
     name = 'phase_resistance'
     # NiTi resistivity differs by roughly 10-25 % between the phases; the bound leaves
     # room for a current limiter that is not perfectly stiff and covers the plant's range
     parameters = {'phase_kappa': (-0.5, 0.5, 0.1)}
 
     def bounds(self, params):
-        """The sign of κ follows from the drive: a wire's resistance falls as it contracts
-        (martensite R_M above austenite R_A, the basis of SMA self-sensing), so a current-
-        limited amplifier (P = R I_max², V/R > I_max) heats martensite more (κ >= 0) and a
-        voltage drive (P = V²/R) heats it less (κ <= 0). Without this a wrong-signed κ
-        would act as a generic correction of the hysteresis shape."""
+        """
+        Bound κ to the sign the drive gives it.
+
+        A wire's resistance falls as it contracts (martensite R_M above austenite R_A, the basis
+        of SMA self-sensing), so a current-limited amplifier (P = R I_max², V/R > I_max) heats
+        martensite more (κ >= 0) and a voltage drive (P = V²/R) heats it less (κ <= 0). Without
+        this a wrong-signed κ would act as a generic correction of the hysteresis shape.
+        """
         limited = params.supply_v / params.resistance_ohm > params.current_limit_a
         return {'phase_kappa': (0.0, 0.5, 0.1) if limited else (-0.5, 0.0, -0.1)}
 
@@ -208,9 +282,14 @@ class PhaseResistance(Effect):
 
 
 class StressCoupling(Effect):
-    """Stress coupling of the antagonistic pair: when one wire contracts it stretches the
-    other, raising its stress and, by Clausius-Clapeyron (~6-7 MPa/K), its transformation
-    temperatures; equivalently the wire sees an effective temperature lowered by σ y_other."""
+    """
+    Stress coupling of the antagonistic pair.
+
+    When one wire contracts it stretches the other, raising its stress and, by Clausius-Clapeyron
+    (~6-7 MPa/K), its transformation temperatures; equivalently the wire sees an effective
+    temperature lowered by σ y_other.
+    """
+
     name = 'stress_coupling'
     parameters = {'stress_k': (0.0, 50.0, 4.0)}
     needs_two_wires = True
@@ -219,8 +298,12 @@ class StressCoupling(Effect):
 
 
 class AsymmetricWires(Effect):
-    """The two wires differ (length, diameter, resistance, crimping, pre-strain): heating
-    gain, time constant and stroke of wire b relative to wire a are free."""
+    """
+    The two wires differ (length, diameter, resistance, crimping, pre-strain).
+
+    Heating gain, time constant and stroke of wire b relative to wire a are free.
+    """
+
     name = 'asymmetric_wires'
     parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
                   'stroke_ratio_b': (0.5, 2.0, 1.0)}
@@ -230,9 +313,14 @@ class AsymmetricWires(Effect):
 
 
 class SensorNonlinearity(Effect):
-    """Potentiometer nonlinearity: track resistance is not uniform and the wiper loads the
-    divider, so the reading is a smooth function of the angle, here the polynomial
-    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad; enough for bow and S shapes)."""
+    """
+    Potentiometer nonlinearity.
+
+    Track resistance is not uniform and the wiper loads the divider, so the reading is a smooth
+    function of the angle, here the polynomial p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad;
+    enough for bow and S shapes).
+    """
+
     name = 'sensor_nonlinearity'
     # bounded so each term alone keeps p monotone over about ±1 rad of travel (together
     # they may turn earlier: `core.actuator.sensor_inverse` then falls back to first order)
@@ -243,10 +331,15 @@ class SensorNonlinearity(Effect):
 
 
 class FatigueDrift(Effect):
-    """Functional fatigue: with its accumulated transformation cycles N_j each wire loses
-    recoverable strain and elongates plastically (stabilised martensite), most of it in the
-    first cycles (shakedown). Each wire fatigues by its own use: stroke loss f_s g_j and a
-    zero drift f_j g_j of the shaft, g_j = 1 − exp(−N_j / N_f), N_j = Σ|Δy_j| / 2."""
+    """
+    Functional fatigue.
+
+    With its accumulated transformation cycles N_j each wire loses recoverable strain and elongates
+    plastically (stabilised martensite), most of it in the first cycles (shakedown). Each wire
+    fatigues by its own use: stroke loss f_s g_j and a zero drift f_j g_j of the shaft, g_j = 1 −
+    exp(−N_j / N_f), N_j = Σ|Δy_j| / 2.
+    """
+
     name = 'fatigue_drift'
     # N_f >= 2 cycles: a faster shakedown ends within the first transformation, where
     # g_a − g_b with huge cancelling offsets only fits the start-up transient
@@ -263,10 +356,14 @@ class FatigueDrift(Effect):
 
 
 class CurrentLimit(Effect):
-    """Current limiter of the amplifier engages within the used duty range: the mean
-    current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
-    saturates), so high duties heat less than the linear PWM law predicts. Current ripple
-    rounds the corner: sat(d) = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, n free."""
+    """
+    Current limiter of the amplifier engages within the used duty range.
+
+    The mean current, and so the heating power, stops rising above a duty d_lim (eq. 7's R i²
+    saturates), so high duties heat less than the linear PWM law predicts. Current ripple rounds
+    the corner: sat(d) = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, n free.
+    """
+
     name = 'current_limit'
     # sharpness n of the p-norm limiter: ~2 (very soft) to 30 (practically a hard corner)
     parameters = {'duty_limit': (0.02, 1.0, 0.9), 'duty_limit_sharpness': (2.0, 30.0, 6.0)}
@@ -279,8 +376,11 @@ class CurrentLimit(Effect):
         return {'duty_limit': float(np.clip(0.85 * top, 0.02, 1.0))}
 
     def alternative_starts(self, data):
-        """Also start from a limit that is not engaged (the base model itself): a weak
-        limit is a small departure from there, not from a knee inside the duty range."""
+        """
+        Also start from a limit that is not engaged (the base model itself).
+
+        a weak limit is a small departure from there, not from a knee inside the duty range.
+        """
         return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
@@ -326,7 +426,7 @@ for _cls in BUILTIN.values():
 
 
 def is_builtin(name):
-    """True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
+    """Return True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
     return name in BUILTIN and type(CATALOG.get(name)) is BUILTIN[name]
 
 

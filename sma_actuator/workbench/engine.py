@@ -1,4 +1,19 @@
-"""Workbench engine: fit a model with a set of effects, and diagnose the missing effect.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Workbench engine: fit a model with a set of effects, and diagnose the missing effect.
 
 fit_model: the paper's base model (per-wire first-order thermal dynamics, modified PI,
 linear shaft/sensor map, wires sharing parameters) plus the chosen catalog effects,
@@ -30,19 +45,19 @@ several significant candidates come within `NEAR_TIE` (10 %) of the best gain, t
 cannot really tell them apart: the one with the lowest BIC (the more parsimonious
 explanation) is put first and every explanation in the group says so.
 """
-import time
 from dataclasses import dataclass, field, fields
 from functools import partial
+import time
 
 import numpy as np
 
+from .effects import CATALOG, Effect, get_effect, is_builtin
+from .parallel import available_cores, imap_on_cores
+from .records import zeros
 from ..core import actuator as act
 from ..core.hysteresis import PlayHysteresis
 from ..core.identification import (DynamicData, fit_dynamic, fit_static, narrow_bands,
                                    record_span, scored_mask, scores)
-from .effects import CATALOG, Effect, get_effect, is_builtin
-from .parallel import available_cores, imap_on_cores
-from .records import zeros
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -56,7 +71,8 @@ NEAR_TIE = 0.10
 @dataclass
 class StaticData:
     """Quasi-static curves: input, output, curve id per sample (curves start from reset)."""
-    input: np.ndarray
+
+    input: np.ndarray  # noqa: A003 (the pair input/output names the model's two signals)
     output: np.ndarray
     curve: np.ndarray
 
@@ -67,6 +83,7 @@ class StaticData:
 @dataclass
 class ModelFit:
     """A fitted model: effects included, parameters, scores and predictions."""
+
     effects: list
     kind: str
     values: dict
@@ -104,9 +121,14 @@ class ModelFit:
         return self.trajectory(data).position_rad
 
     def inputs(self, data):
-        """(duty_a, duty_b, ambient) the thermal model sees on dynamic data: plug-in input
-        transforms applied with the fitted values, constant ambient if none was measured."""
-        amb = data.ambient if data.ambient is not None else np.full(len(data), self.params.ambient_c)
+        """
+        (duty_a, duty_b, ambient) the thermal model sees on dynamic data.
+
+        Plug-in input transforms applied with the fitted values, constant ambient if none was
+        measured.
+        """
+        amb = (data.ambient if data.ambient is not None
+               else np.full(len(data), self.params.ambient_c))
         return _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
 
     def trajectory(self, data):
@@ -125,14 +147,14 @@ def _input_hooks(effects):
 
 
 def _hooked_inputs(effects, duty_a, duty_b, ambient, values):
-    """Inputs after every plug-in transform, duties clipped to [0, 1]."""
+    """Input after every plug-in transform, duties clipped to [0, 1]."""
     for eff in _input_hooks(effects):
         duty_a, duty_b, ambient = eff.transform_inputs(duty_a, duty_b, ambient, values)
     return np.clip(duty_a, 0.0, 1.0), np.clip(duty_b, 0.0, 1.0), ambient
 
 
 def load_fit(d, data=None):
-    """A ModelFit from `to_dict` output; scores and predictions are recomputed on `data`."""
+    """Return a ModelFit from `to_dict` output; scores and predictions are recomputed on `data`."""
     model = d.get('model', {})
     if set(model) == {'hysteresis'}:
         params = PlayHysteresis.from_dict(model['hysteresis'])
@@ -165,7 +187,8 @@ def _kind(effects, kind):
 
 
 def fit_model(data, effects=(), kind=None, progress=None, base_fit=None):
-    """Fit the base model plus `effects` (catalog names) to dynamic or static data.
+    """
+    Fit the base model plus `effects` (catalog names) to dynamic or static data.
 
     kind: 'classical' or 'modified' PI base (default modified; 'saturation' forces
     modified). base_fit: a previous ModelFit whose grid and values warm-start this one.
@@ -362,12 +385,13 @@ def _free_count(fit):
 @dataclass
 class Diagnosis:
     """Result of `diagnose`."""
+
     baseline: ModelFit
     candidates: list
     missing_effect: object
 
     def to_json(self):
-        """The `sma-model diagnose --json` document."""
+        """Return the `sma-model diagnose --json` document."""
         return {'baseline': {'effects': list(self.baseline.effects),
                              'validation_nrmse': self.baseline.validation['nrmse']},
                 'candidates': [{k: v for k, v in c.items() if k not in ('fit', 'bic', 'seconds')}
@@ -377,7 +401,8 @@ class Diagnosis:
 
 def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MIN_IMPROVEMENT,
              kind=None, jobs=1):
-    """Rank candidate effects by held-out error reduction; name the missing one (or None).
+    """
+    Rank candidate effects by held-out error reduction; name the missing one (or None).
 
     base: a ModelFit (or None: fit the paper's base model, `kind` PI). candidates: effect
     names (default: every catalog effect not in the base). jobs: processes for the
@@ -449,8 +474,12 @@ def diagnose_rounds(data, base, rounds, **kw):
 
 
 def _candidate(task):
-    """Refit with one candidate effect and judge it (see the module docstring); returns
-    the candidate's entry of `Diagnosis.candidates` (module level: runs in worker processes)."""
+    """
+    Refit with one candidate effect and judge it (see the module docstring).
+
+    Returns the candidate's entry of `Diagnosis.candidates` (module level: runs in worker
+    processes).
+    """
     started = time.perf_counter()
     entry = _judge(*task)
     entry['seconds'] = time.perf_counter() - started
@@ -458,7 +487,7 @@ def _candidate(task):
 
 
 def _judge(data, base, name, n_eff, bic0, min_improvement):
-    """The candidate entry of `name` (without its time)."""
+    """Return the candidate entry of `name` (without its time)."""
     eff = get_effect(name)
     reason = not_applicable(eff, data) if isinstance(data, DynamicData) else eff.applicable(data)
     if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
@@ -492,16 +521,20 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
             'significant': significant,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
-                            f'{100 * base.train["nrmse"]:.2f} % -> {100 * fit.train["nrmse"]:.2f} %, '
+                            f'{100 * base.train["nrmse"]:.2f} % -> '
+                            f'{100 * fit.train["nrmse"]:.2f} %, '
                             f'BIC change {bic1 - bic0:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
             'fit': fit, 'bic': float(bic1)}
 
 
 def _ablated_nrmse(data, base, fit, eff):
-    """Held-out NRMSE of the candidate `fit` with the effect's parameters back at the base
-    model's values (re-fitted weights and time constant kept); None when that cannot be
-    done (static data, no parameters, plug-in parameters without a neutral value)."""
+    """
+    Return the held-out NRMSE of `fit` with the effect's parameters back at the base values.
+
+    The re-fitted weights and time constant are kept; None when that cannot be done (static
+    data, no parameters, plug-in parameters without a neutral value).
+    """
     if isinstance(data, StaticData) or not eff.parameters or fit.split is None:
         return None
     names = {f.name for f in fields(act.ActuatorParams)}

@@ -1,4 +1,19 @@
-"""MODEL.yaml: which effects a model includes and, once fitted, their values.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+MODEL.yaml: which effects a model includes and, once fitted, their values.
 
 Shape (written from the engine's ``ModelFit.to_dict()``, read back by ``load_fit``)::
 
@@ -14,8 +29,8 @@ A hand-written MODEL.yaml needs only ``effects`` (and ``kind`` for a classical b
 `compare` needs a fitted file (written by ``sma-model fit --out``).
 """
 import os
-import tempfile
 from pathlib import Path
+import tempfile
 
 import numpy as np
 import yaml
@@ -28,7 +43,8 @@ class ModelFileError(ValueError):
 
 
 def read_model(path, known_effects=None):
-    """Read and check MODEL.yaml; returns the dict (effects list, optional kind, ...).
+    """
+    Read and check MODEL.yaml; returns the dict (effects list, optional kind, ...).
 
     known_effects: names accepted in ``effects`` (default: no name check).
     """
@@ -76,12 +92,12 @@ def check_model(spec, source, known_effects=None):
 
 
 def is_fitted(spec):
-    """True if the model dict carries fitted values (a non-empty 'model' section)."""
+    """Return True if the model dict carries fitted values (a non-empty 'model' section)."""
     return bool(spec.get('model'))
 
 
 def is_static_model(spec):
-    """True if the fitted model is a static hysteresis operator (fitted on curve data)."""
+    """Return True if the fitted model is a static hysteresis operator (fitted on curve data)."""
     return set(spec.get('model') or {}) == {'hysteresis'}
 
 
@@ -97,7 +113,7 @@ def check_writable(path, force=False):
 
 
 def to_plain(obj):
-    """numpy scalars/arrays and tuples -> plain Python (YAML- and JSON-safe)."""
+    """Numpy scalars/arrays and tuples -> plain Python (YAML- and JSON-safe)."""
     if isinstance(obj, dict):
         return {str(k): to_plain(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):

@@ -1,22 +1,43 @@
-"""Run independent CPU-bound jobs on every core: diagnose's candidate refits, and the
-hidden-effect tests and benchmark (one record per core)."""
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Run independent CPU-bound jobs on every core.
+
+Diagnose's candidate refits, and the hidden-effect tests and benchmark (one record per core).
+"""
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 import multiprocessing
 import os
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
 def available_cores():
-    """Number of cores this process may run on."""
+    """Return the number of cores this process may run on."""
     return len(os.sched_getaffinity(0))
 
 
 def imap_on_cores(fn, items, workers=None):
-    """Yield (item, fn(item)) as each finishes, on `workers` processes (default: the cores
-    this process may use). One BLAS thread per worker (the workers already fill the cores);
-    spawn, not fork: the caller may hold DDS or numba threads that must not be forked.
-    fn must be importable (a module-level function)."""
+    """
+    Yield (item, fn(item)) as each finishes, on `workers` processes (default.
+
+    The cores this process may use). One BLAS thread per worker (the workers already fill the
+    cores); spawn, not fork: the caller may hold DDS or numba threads that must not be forked.
+
+    fn must be importable (a module-level function).
+    """
     items = list(items)
     workers = max(1, min(len(items), workers or available_cores()))
     if workers == 1:
@@ -24,7 +45,7 @@ def imap_on_cores(fn, items, workers=None):
             yield item, fn(item)
         return
     saved = {k: os.environ.get(k) for k in BLAS_THREADS}
-    os.environ.update({k: '1' for k in BLAS_THREADS})
+    os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
     try:
         spawn = multiprocessing.get_context('spawn')
         with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:

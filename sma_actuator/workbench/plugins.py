@@ -1,4 +1,19 @@
-"""Plug-in point: add your own effect to the catalog without editing the package.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Plug-in point: add your own effect to the catalog without editing the package.
 
 Three ways, all ending in `sma_actuator.workbench.effects.register_effect(cls)`:
 
@@ -17,8 +32,8 @@ import importlib
 import importlib.metadata
 import importlib.util
 import inspect
-import sys
 from pathlib import Path
+import sys
 
 ENTRY_POINT_GROUP = 'sma_actuator.effects'
 
@@ -28,7 +43,8 @@ class PluginError(ValueError):
 
 
 def load_plugins(specs):
-    """Load each --plugin spec (file path or module name); returns names of effects added.
+    """
+    Load each --plugin spec (file path or module name); returns names of effects added.
 
     A plug-in may not replace an effect already in the catalog (same name, other class):
     that raises `PluginError` and the catalog is restored.
@@ -113,7 +129,7 @@ def effect_classes(module):
 
 
 def is_registered(cls):
-    """True if an instance of exactly `cls` is in the catalog."""
+    """Return True if an instance of exactly `cls` is in the catalog."""
     from .effects import CATALOG
     return any(type(e) is cls for e in CATALOG.values())
 
@@ -140,7 +156,8 @@ def register_module_effects(module, origin):
 
 
 def load_entry_points(warn=None):
-    """Register effects from the `sma_actuator.effects` entry-point group.
+    """
+    Register effects from the `sma_actuator.effects` entry-point group.
 
     A broken entry point does not stop the workbench: `warn(message)` is called (default:
     a line on stderr) and the others still load. Returns the names of effects added.
@@ -166,4 +183,3 @@ def _load_entry_point(ep, origin):
     if not (inspect.isclass(obj) and issubclass(obj, Effect)):
         raise PluginError(f'plugin {origin}: is neither a module nor an Effect subclass')
     return [register_class(obj, origin)]
-

@@ -27,8 +27,8 @@ validates; with two or more, the last record given is held out (train on the oth
 """
 import numpy as np
 
-from ..core.identification import DynamicData
 from .data import DataError
+from ..core.identification import DynamicData
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s

@@ -1,4 +1,19 @@
-"""HTML report with PNG figures (matplotlib Agg, no display needed).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+HTML report with PNG figures (matplotlib Agg, no display needed).
 
 Files written into the report directory (nothing else is touched):
 
@@ -14,10 +29,10 @@ Files written into the report directory (nothing else is touched):
 import html
 from pathlib import Path
 
-import numpy as np
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+import numpy as np
 
 from .compare import CONCENTRATION_RATIO, MIN_SHARE
 
@@ -46,7 +61,8 @@ def check_report_dir(directory, force=False):
 
 def write_report(directory, comparison, title, *, data_line='', model=None, diagnosis=None,
                  alternative=None, force=False):
-    """Write the report; returns the path of index.html.
+    """
+    Write the report; returns the path of index.html.
 
     comparison: `compare.Comparison`. model: {'effects', 'kind', 'parameters'} shown in the
     summary. diagnosis: `diagnose(...).to_json()` dict, shown as a ranked table.
@@ -177,7 +193,7 @@ def plot_hysteresis(comparison):
 
 
 def plot_curves(comparison):
-    """Static data: output vs input per curve, measured dots and model lines."""
+    """Plot static data: output vs input per curve, measured dots and model lines."""
     fig, axes = _figure(w=7, h=5)
     ax = axes[0, 0]
     u, curve = comparison.signals['input'], comparison.signals['curve']
@@ -332,7 +348,7 @@ def _diagnosis_html(diagnosis):
 
 
 def render_html(comparison, title, data_line, model, diagnosis, figures):
-    """The report page as a string (figures: [(file, caption, fig)])."""
+    """Return the report page as a string (figures: [(file, caption, fig)])."""
     imgs = ''.join(f'<h3>{html.escape(cap)}</h3><img src="{name}" alt="{html.escape(cap)}">'
                    for name, cap, _ in figures)
     parts = [f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(title)}'

@@ -1,5 +1,20 @@
 #!/usr/bin/env python3
-"""Write one hidden-effect recording (CSV) from the rich SMA simulator.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+r"""
+Write one hidden-effect recording (CSV) from the rich SMA simulator.
 
     python test/support/make_hidden_dataset.py --effect delay --magnitude 1 \\
         --excitation closed --noise-rad 0.002 --rate-hz 40 --duration-s 600 --seed 3 \\
@@ -8,8 +23,8 @@
 Columns: time,duty_a,duty_b,position,ambient_temperature[,setpoint] (s, 0..1, rad, degC, rad).
 """
 import argparse
-import sys
 from pathlib import Path
+import sys
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # make `support` importable
 
@@ -18,7 +33,7 @@ from support.richsim import EFFECTS, EXCITATIONS, simulate, write_csv  # noqa: E
 
 def parse_args(argv=None):
     """Command-line options (see module docstring)."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--effect', required=True, choices=sorted(EFFECTS))
     ap.add_argument('--magnitude', type=float, default=1.0)
     ap.add_argument('--excitation', choices=EXCITATIONS, default='open')

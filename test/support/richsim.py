@@ -1,4 +1,19 @@
-"""Rich, independent simulator of the antagonistic SMA wire actuator (test-data generator).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Rich, independent simulator of the antagonistic SMA wire actuator (test-data generator).
 
 It makes recordings with one hidden physical effect at a time for the model-workbench
 tests and deliberately shares no code or formulation with sma_actuator: Preisach hysteresis
@@ -13,8 +28,18 @@ import math
 import numpy as np
 
 from . import richsim_excitation as exc
-from .richsim_kernel import (N_WIRE_FIELDS, W_AREA, W_C, W_FATIGUE, W_HA, W_LEN, W_R,
-                             W_STROKE, Plant, run)
+from .richsim_kernel import (
+    N_WIRE_FIELDS,
+    Plant,
+    run,
+    W_AREA,
+    W_C,
+    W_FATIGUE,
+    W_HA,
+    W_LEN,
+    W_R,
+    W_STROKE,
+)
 from .richsim_preisach import everett_table, new_state
 
 EFFECTS = {
@@ -34,7 +59,7 @@ EFFECTS = {
     'phase_resistance': {'description': 'R(xi) = R_M (1 + rho xi)/(1 + rho), martensite '
                          'rho = 18 M % above austenite, through the PWM/current-limit law',
                          'magnitude_range': (0.5, 1.4)},
-    'stress_coupling': {'description': 'loop tension shifts both wires\' transformation '
+    'stress_coupling': {'description': "loop tension shifts both wires' transformation "
                         'temperatures up by 10 M K per full stroke of contraction',
                         'magnitude_range': (0.3, 2.0)},
     'asymmetric_wires': {'description': 'wire b: 4 M % longer, 12 M % more recoverable '
@@ -99,7 +124,8 @@ def _params(params):
 
 
 def wire_row(pp, length_factor=1.0, strain_factor=1.0, h_factor=1.0, fatigue_kappa=1.0):
-    """Per-wire properties (columns W_*) from geometry.
+    """
+    Per-wire properties (columns W_*) from geometry.
 
     R = r_l L, C = rho pi d^2/4 L c, A = pi d L, hA = f_h h A with h = C0/(tau0 A0) from the
     nominal wire (cooling time constant tau0), stroke = f_eps eps_L L.
@@ -148,17 +174,19 @@ def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None):
     """Plant namedtuple and (2, N_WIRE_FIELDS) wire array for `effect` at `magnitude`."""
     rng = np.random.default_rng(0) if rng is None else rng
     over, wire_b, hard = _effect_settings(effect, magnitude, duration_s, rng)
-    base = dict(
-        supply_v=pp['supply_v'], i_max_a=pp['i_max_a'], pulley_r_m=pp['pulley_r_m'],
-        phi0_rad=pp['phi0_rad'], adc_half_range_rad=pp['adc_half_range_rad'],
-        adc_bits=pp['adc_bits'], cmd_dt_s=pp['cmd_dt_s'], kp=pp['kp'], ki=pp['ki'],
-        d0=pp['d0'], u_knee=pp['u_knee'], u_max=pp['duty_max'], delay_s=0.0, tau_fast_s=0.0,
-        fast_cap_frac=0.5, conv_exp=0.0, conv_ref_k=50.0, emissivity=0.0, rho_phase=0.0,
-        stress_k_per_stroke=0.0, stress_self_weight=pp['stress_self_weight'],
-        fatigue_loss=0.0, fatigue_elong=0.0,
-        fatigue_n0=0.0, cl_knee_duty=0.0, cl_sharpness=4.0, sens_gain=0.0, sens_sine=0.8,
-        sens_quad=0.4, amb0_c=pp['ambient_c'], amb_ramp_k_per_s=0.0, amb_sine_k=0.0,
-        amb_period_s=max(duration_s, 1.0), amb_phase_rad=0.0)
+    base = {
+        'supply_v': pp['supply_v'], 'i_max_a': pp['i_max_a'], 'pulley_r_m': pp['pulley_r_m'],
+        'phi0_rad': pp['phi0_rad'], 'adc_half_range_rad': pp['adc_half_range_rad'],
+        'adc_bits': pp['adc_bits'], 'cmd_dt_s': pp['cmd_dt_s'], 'kp': pp['kp'], 'ki': pp['ki'],
+        'd0': pp['d0'], 'u_knee': pp['u_knee'], 'u_max': pp['duty_max'], 'delay_s': 0.0,
+        'tau_fast_s': 0.0, 'fast_cap_frac': 0.5, 'conv_exp': 0.0, 'conv_ref_k': 50.0,
+        'emissivity': 0.0, 'rho_phase': 0.0,
+        'stress_k_per_stroke': 0.0, 'stress_self_weight': pp['stress_self_weight'],
+        'fatigue_loss': 0.0, 'fatigue_elong': 0.0,
+        'fatigue_n0': 0.0, 'cl_knee_duty': 0.0, 'cl_sharpness': 4.0, 'sens_gain': 0.0,
+        'sens_sine': 0.8,
+        'sens_quad': 0.4, 'amb0_c': pp['ambient_c'], 'amb_ramp_k_per_s': 0.0, 'amb_sine_k': 0.0,
+        'amb_period_s': max(duration_s, 1.0), 'amb_phase_rad': 0.0}
     base.update(over)
     wires = np.vstack([wire_row(pp, fatigue_kappa=1.0),
                        wire_row(pp, fatigue_kappa=0.35, **wire_b)])
@@ -222,7 +250,8 @@ def _streams(seed):
 
 def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, rate_hz=40,
              noise_rad=0.002, seed=0, params=None):
-    """Simulate one recording with hidden `effect` at `magnitude` (EFFECTS lists the ranges).
+    """
+    Simulate one recording with hidden `effect` at `magnitude` (EFFECTS lists the ranges).
 
     excitation: 'open' (random duty sequences) or 'closed' (own PI at 25 ms tracking random
     setpoints).  Returns a dict of equal-length arrays: time [s], duty_a, duty_b [0..1]

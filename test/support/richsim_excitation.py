@@ -1,4 +1,19 @@
-"""Excitation generators on the 25 ms command clock (open-loop duties, closed-loop setpoints).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Excitation generators on the 25 ms command clock (open-loop duties, closed-loop setpoints).
 
 Open loop: random multilevel duty sequences that heat one wire at a time (the other wire
 gets 0 or a sub-transformation preheat <= 0.12, so both wires are never above 0.2 duty at
@@ -31,8 +46,12 @@ def _preheat(rng):
 
 
 def _level(rng, duty_max):
-    """Pulse level: half partial (0.25-0.33: inside the heating band As..Af at steady state
-    for the default wire), half full transformation (0.33-duty_max)."""
+    """
+    Pulse level.
+
+    Half partial (0.25-0.33: inside the heating band As..Af at steady state for the default wire),
+    half full transformation (0.33-duty_max).
+    """
     return rng.uniform(0.25, 0.33) if rng.random() < 0.5 else rng.uniform(0.33, duty_max)
 
 
@@ -54,16 +73,20 @@ def _ramp(rng, dt, duty_max):
 
 
 def _sine(rng, dt, duty_max):
-    """d = L (1 - cos(2 pi f t))/2 for 1-3 periods, f ~ U(0.03, 0.25) Hz (slow and fast)."""
+    """D = L (1 - cos(2 pi f t))/2 for 1-3 periods, f ~ U(0.03, 0.25) Hz (slow and fast)."""
     w, level, f = rng.integers(2), rng.uniform(0.28, duty_max), rng.uniform(0.03, 0.25)
     t = np.arange(int(rng.integers(1, 4) / f / dt)) * dt
     return _on(w, level * 0.5 * (1 - np.cos(2 * np.pi * f * t)), 0.0, t.size)
 
 
 def _minor(rng, dt, duty_max):
-    """Nested partial reversals: heat into the heating band (duty 0.26-0.34 ~ As..Af at
-    steady state), cool towards the cooling band (0.04-0.16 ~ below Mf..Ms); maxima fall and minima
-    rise so the loops nest (Preisach minor loops)."""
+    """
+    Nested partial reversals.
+
+    Heat into the heating band (duty 0.26-0.34 ~ As..Af at steady state), cool towards the cooling
+    band (0.04-0.16 ~ below Mf..Ms); maxima fall and minima rise so the loops nest (Preisach minor
+    loops).
+    """
     w, pre = rng.integers(2), _preheat(rng)
     hi, lo = rng.uniform(0.29, min(0.34, duty_max)), rng.uniform(0.04, 0.1)
     rows = [_on(w, hi, pre, _n(rng, 1.5, 6, dt))]
@@ -86,8 +109,12 @@ def _switch(rng, dt, duty_max):
 
 
 def _cocontract(rng, dt, duty_max):
-    """Co-contraction: contract one wire fully, hold it warm with a 0.15-0.2 duty (around
-    Ms, so it stays mostly austenitic) while the antagonist heats: both wires pull at once."""
+    """
+    Co-contraction.
+
+    Contract one wire fully, hold it warm with a 0.15-0.2 duty (around Ms, so it stays mostly
+    austenitic) while the antagonist heats: both wires pull at once.
+    """
     w = rng.integers(2)
     hold, level = rng.uniform(0.15, 0.2), _level(rng, duty_max)
     return np.vstack([_on(w, rng.uniform(0.4, duty_max), 0.0, _n(rng, 2, 5, dt)),
@@ -115,7 +142,8 @@ _OPEN = ((_pulse, 0.23), (_ramp, 0.12), (_sine, 0.1), (_minor, 0.22), (_switch, 
 
 
 def open_loop_duty(rng, duration_s, cmd_dt_s=0.025, duty_max=0.5, hard=0.0):
-    """Duty commands [0..1] per 25 ms tick, shape (n_ticks, 2) for wires (a, b).
+    """
+    Duty commands [0..1] per 25 ms tick, shape (n_ticks, 2) for wires (a, b).
 
     Segments are drawn from _OPEN (or _hard with probability `hard`) until duration_s is filled.
     """
@@ -141,7 +169,7 @@ def _sp_ramp(rng, dt, amp, cur):
 
 
 def _sp_sine(rng, dt, amp, cur):
-    """c + a sin(2 pi f t), f ~ U(0.02, 0.12) Hz, |c| + a <= amp, for 10-30 s."""
+    """C + a sin(2 pi f t), f ~ U(0.02, 0.12) Hz, |c| + a <= amp, for 10-30 s."""
     a = rng.uniform(0.1, 0.5 * amp / 0.6)
     c = rng.uniform(-(amp - a), amp - a)
     t = np.arange(_n(rng, 10, 30, dt)) * dt
@@ -166,9 +194,12 @@ _CLOSED = ((_sp_step, 0.3), (_sp_ramp, 0.2), (_sp_sine, 0.2), (_sp_random, 0.2),
 
 def closed_loop_setpoint(rng, duration_s, cmd_dt_s=0.025, amplitude=0.6, hard=0.0,
                          hard_amplitude=1.1):
-    """Setpoint [rad] per 25 ms tick, |sp| <= amplitude; with probability `hard` a segment is
-    an out-of-reach hold at +-hard_amplitude for 3-8 s (drives the wire through full
-    transformation)."""
+    """
+    Setpoint [rad] per 25 ms tick, |sp| <= amplitude.
+
+    With probability `hard` a segment is an out-of-reach hold at +-hard_amplitude for 3-8 s (drives
+    the wire through full transformation).
+    """
     n_ticks = int(np.ceil(duration_s / cmd_dt_s)) + 1
     makers, probs = zip(*_CLOSED)
     parts, total, cur = [], 0, 0.0

@@ -1,15 +1,30 @@
-"""Fine-grid numba kernel of the rich SMA simulator (see docs/richsim.md for the physics).
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Fine-grid numba kernel of the rich SMA simulator (see docs/richsim.md for the physics).
 
 One explicit loop over a fine time grid (dt <= 1 ms): command clock (25 ms) -> optional
 PI controller -> transport delay -> PWM/current-limit power law -> 1- or 2-node thermal
 network (RK4) -> Preisach hysteresis -> fatigue -> antagonistic kinematics -> potentiometer
 + 12-bit ADC.  All effect switches are encoded so that magnitude 0 reproduces the null model.
 """
-import math
 from collections import namedtuple
+import math
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 from .richsim_preisach import preisach_step
 
@@ -34,14 +49,15 @@ SIGMA_SB = 5.670374419e-8   # Stefan-Boltzmann [W/(m^2 K^4)]
 
 @njit(cache=True)
 def ambient(p, t):
-    """True ambient [degC]: theta_a(t) = amb0 + ramp*t + sine*sin(2*pi*t/period + phase)."""
+    """Return the true ambient [degC], amb0 + ramp*t + sine*sin(2*pi*t/period + phase)."""
     return (p.amb0_c + p.amb_ramp_k_per_s * t
             + p.amb_sine_k * math.sin(2.0 * math.pi * t / p.amb_period_s + p.amb_phase_rad))
 
 
 @njit(cache=True)
 def joule_power(p, wire, duty, xi):
-    """Mean Joule power [W]: P = d_eff * R(xi) * min(V/R, I_max)^2.
+    """
+    Mean Joule power [W]: P = d_eff * R(xi) * min(V/R, I_max)^2.
 
     R(xi) = R_M (1 + rho xi)/(1 + rho)  (R_M: datasheet, martensite; xi: martensite fraction),
     d_eff = k (d/k) / (1 + (d/k)^n)^(1/n): soft average-current limit with knee duty k.
@@ -57,7 +73,8 @@ def joule_power(p, wire, duty, xi):
 
 @njit(cache=True)
 def heat_loss(p, wire, theta, theta_a):
-    """Heat lost to air [W]: hA * dT_ref * sign(dT) |dT/dT_ref|^(1+n) + eps sigma A (T^4 - Ta^4).
+    """
+    Heat lost to air [W]: hA * dT_ref * sign(dT) |dT/dT_ref|^(1+n) + eps sigma A (T^4 - Ta^4).
 
     n = 0 and eps = 0 give Newton cooling hA (theta - theta_a).
     """
@@ -75,7 +92,8 @@ def heat_loss(p, wire, theta, theta_a):
 
 @njit(cache=True)
 def thermal_rhs(p, wire, power, th_heat, th_wire, theta_a):
-    """d/dt of (heated node, wire node) [K/s].
+    """
+    d/dt of (heated node, wire node) [K/s].
 
     One node (tau_fast = 0): C dth/dt = P - Q(th).  Two nodes: C1 dth1/dt = P - G (th1 - th2),
     C2 dth2/dt = G (th1 - th2) - Q(th2), C1 = f C, C2 = (1-f) C, G = C1 / tau_fast, so the
@@ -104,7 +122,8 @@ def rk4_thermal(p, wire, power, th1, th2, theta_a, dt):
 
 @njit(cache=True)
 def sensor_ideal(p, phi):
-    """Potentiometer reading before noise/ADC [rad].
+    """
+    Potentiometer reading before noise/ADC [rad].
 
     y = phi + g FS (s sin(pi x) + q x^2), x = phi/half, FS = 2 half (g = 0: ideal).
     """
@@ -127,8 +146,12 @@ def adc(p, y):
 
 @njit(cache=True)
 def pi_split(p, err, integ):
-    """PI + antagonistic split.  u = kp e + I (clamped to +-u_max, conditional integration);
-    u > 0 heats wire a with d = u + d0 min(u/u_knee, 1) (dead-zone compensation), u < 0 wire b."""
+    """
+    PI + antagonistic split.
+
+     u = kp e + I (clamped to +-u_max, conditional integration); u > 0 heats wire a with d = u + d0
+    min(u/u_knee, 1) (dead-zone compensation), u < 0 wire b.
+    """
     new_i = integ + p.ki * err * p.cmd_dt_s
     u = p.kp * err + new_i
     if abs(u) > p.u_max and u * err > 0.0:
@@ -144,7 +167,8 @@ def pi_split(p, err, integ):
 
 @njit(cache=True)
 def contraction(p, wire, aus, cycles):
-    """Wire shortening [m]: c = stroke a (1 - loss g) - elong L kappa g, g = 1 - exp(-N/N0).
+    """
+    Wire shortening [m]: c = stroke a (1 - loss g) - elong L kappa g, g = 1 - exp(-N/N0).
 
     a: austenite fraction, N: accumulated transformation cycles (sum |da| / 2).
     """
@@ -157,7 +181,8 @@ def contraction(p, wire, aus, cycles):
 
 @njit(cache=True)
 def stress_shift(p, aus_self, aus_other):
-    """Upward shift of a wire's transformation temperatures [K] from the loop tension.
+    """
+    Upward shift of a wire's transformation temperatures [K] from the loop tension.
 
     Frictionless pulley: both wires carry the same tension, which grows with the total
     contraction: dT = k (w_self a_self + a_other), k = (tension rise per stroke)/(dsigma/dT).
@@ -167,7 +192,8 @@ def stress_shift(p, aus_self, aus_other):
 
 @njit(cache=True)
 def run(p, wires, tab, lo, step, state, n_steps, dt, stride, closed, cmd_a, cmd_b, setp, noise):
-    """Simulate n_steps of dt [s]; return per-sample arrays (every `stride` steps).
+    """
+    Simulate n_steps of dt [s]; return per-sample arrays (every `stride` steps).
 
     Returns out[10, n_samples]: measured position, true angle, wire temperatures a/b,
     austenite fractions a/b, true ambient, mean commanded duty a/b over the following

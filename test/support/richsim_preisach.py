@@ -1,4 +1,19 @@
-"""Preisach hysteresis (temperature -> austenite fraction) for the rich SMA simulator.
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Preisach hysteresis (temperature -> austenite fraction) for the rich SMA simulator.
 
 Deliberately NOT a Prandtl-Ishlinskii operator: a continuous Preisach model whose relay
 density is a smooth 2-D Gaussian in (centre, width) coordinates, evaluated exactly through
@@ -10,8 +25,8 @@ width w = alpha - beta ~ N(w0, sw^2), independent, so alpha and beta are correla
 With c0 = 60, w0 = 26, sc = sw/2 = 1.5 K the major loop has (1 % / 99 % points)
 As = 68, Af = 78, Ms = 52, Mf = 42 degC.
 """
-import numpy as np
 from numba import njit
+import numpy as np
 
 GRID_LO_C = 20.0    # Everett table lower edge [degC]; density is ~0 outside the grid
 GRID_HI_C = 110.0   # upper edge [degC]
@@ -20,7 +35,8 @@ STACK_DEPTH = 512   # max stored extrema per wire (nested minor loops)
 
 
 def everett_table(c0=60.0, w0=26.0, sc=1.5, sw=3.0):
-    """Tabulate the normalised Everett function on a square grid.
+    """
+    Tabulate the normalised Everett function on a square grid.
 
     E(alpha, beta) = integral over {beta <= b <= a <= alpha} of mu(a, b) da db, with
     mu(a, b) = N((a + b)/2; c0, sc) * N(a - b; w0, sw) (Jacobian of (a, b) -> (c, w) is 1),
@@ -54,7 +70,8 @@ def everett(tab, lo, step, alpha, beta):
 
 
 def new_state(n_wires, u0):
-    """Preisach memory for n_wires starting fully martensitic at input u0 [degC].
+    """
+    Preisach memory for n_wires starting fully martensitic at input u0 [degC].
 
     The history is 'came from -inf, rose to u0'.  Returns (stack, prefix, top, direction,
     u_prev) arrays; stack[w, 0] is the -inf sentinel (grid lower edge).
@@ -83,7 +100,8 @@ def _push(stack, prefix, top, w, tab, lo, step, value):
 
 @njit(cache=True)
 def preisach_step(state, w, tab, lo, step, u):
-    """Advance wire w's memory to input u [degC]; return austenite fraction in [0, 1].
+    """
+    Advance wire w's memory to input u [degC]; return austenite fraction in [0, 1].
 
     a = sum_k (+E(M_k, m_{k-1}) - E(M_k, m_k)) + last segment, over the alternating dominant
     extrema (m_0 = -inf); extrema exceeded by the input are wiped out.
