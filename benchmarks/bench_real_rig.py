@@ -28,7 +28,6 @@ from pathlib import Path
 import time
 
 import numpy as np
-
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import diagnose, fit_model, record_scores
 from sma_actuator.workbench.records import join

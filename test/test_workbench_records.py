@@ -20,15 +20,16 @@ spring-biased wire records in ../shared/data/real/spring_biased_wire.
 import json
 from pathlib import Path
 
+from conftest import real_data_path
 import numpy as np
 import pytest
-import yaml
-
-from conftest import real_data_path
 from sma_actuator.core.actuator import ActuatorParams, simulate
+from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import fit_model
+from sma_actuator.workbench.engine import diagnose_rounds, fit_model
+from support.richsim_excitation import open_loop_duty
+import yaml
 
 WIRE = Path(real_data_path()).parent / 'spring_biased_wire'
 DT = 0.05
@@ -61,6 +62,7 @@ def run(capsys, *args):
 
 
 def assert_one_line_error(code, err, *fragments):
+    """Assert exit code 2 and one stderr line 'sma-model: error: ...' with the fragments."""
     assert code == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith('sma-model: error: '), err
@@ -198,9 +200,7 @@ def test_trained_without_full_cooling_the_model_cools_to_the_measured_rest():
 
 
 def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
-    """The package's plant with a transport delay and an engaged current limit at once."""
-    from support.richsim_excitation import open_loop_duty
-    from sma_actuator.core.identification import DynamicData
+    """Return the package's plant with a transport delay and a current limit at once."""
     rng = np.random.default_rng(seed)
     cmd = open_loop_duty(rng, duration_s, duty_max=0.6)
     dt = 1.0 / rate_hz
@@ -214,7 +214,6 @@ def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
 
 @pytest.mark.slow
 def test_rounds_find_both_hidden_effects_and_each_lowers_the_error():
-    from sma_actuator.workbench.engine import diagnose_rounds
     data = two_effect_record()
     base = fit_model(data)
     diags, added, final = diagnose_rounds(data, base, 4, jobs=0)
