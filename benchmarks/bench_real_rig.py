@@ -51,8 +51,8 @@ def main():
         started = time.perf_counter()
         data = join(recs, held_out=(held,))
         fit = fit_model(data, effects=effects)
-        sc = {r['data']: r['scores']['all'] for r in record_scores(data, fit.prediction,
-                                                                      fit.split)}[held]
+        per = record_scores(data, fit.prediction, fit.split)
+        sc = {r['data']: r['scores']['all'] for r in per}[held]
         print(f'{held:<10} {100 * sc["nrmse"]:6.2f} % {sc["rmse"]:6.3f} mm '
               f'{time.perf_counter() - started:7.1f} s', flush=True)
     data = join(recs, held_out=(NAMES[-1],))

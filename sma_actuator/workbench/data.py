@@ -272,7 +272,8 @@ def check_time(path, time, lines):
 
 
 def make_dynamic(source, cols, unit='rad'):
-    """`DynamicData` from a dict with the dynamic column names; errors name `source`.
+    """
+    Return a `DynamicData` from a dict with the dynamic column names; errors name `source`.
 
     The layout is 'single' (one wire against a bias spring) when duty_b is always 0.
     """

@@ -146,10 +146,8 @@ def zeros(data):
     z = np.zeros(len(data))
     segs = data.segments or (('', 0, len(data)),)
     for i, (_, a, b) in enumerate(segs):
-        one = DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b],
-                          data.position[a:b])
         stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
-        z[a:stop] = record_zero(one)
+        z[a:stop] = record_zero(segment_view(data, a, b))
     return z
 
 
