@@ -67,7 +67,7 @@ def main():
                             stderr=subprocess.DEVNULL)
     context = rclpy.context.Context()
     rclpy.init(context=context, domain_id=domain)
-    node = rclpy.create_node('latency_probe', context=context)
+    node = rclpy.create_node('latency_probe', context=context, namespace=c.NAMESPACE)
     ex = SingleThreadedExecutor(context=context)
     ex.add_node(node)
     sent, rtt, stats = [None], [], {}

@@ -39,7 +39,7 @@ import tempfile
 import time
 
 DEFAULT_RATES = [1000, 2000, 4000, 6000, 8000, 12000, 16000]
-TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_temperature',
+TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_a/temperature',
           '/sma/ambient_temperature']
 
 
@@ -58,7 +58,7 @@ def publisher(rate_hz, duration_s):
             '/sma/duty': (Float64MultiArray(data=[0.0, 0.0]), reliable),
             '/sma/joint_states': (JointState(name=['shaft'], position=[0.0], velocity=[0.0]),
                                   qos_profile_sensor_data),
-            '/sma/wire_temperature': (Temperature(), qos_profile_sensor_data),
+            '/sma/wire_a/temperature': (Temperature(), qos_profile_sensor_data),
             '/sma/ambient_temperature': (Temperature(), qos_profile_sensor_data)}
     pubs = {t: node.create_publisher(type(m), t, q) for t, (m, q) in msgs.items()}
     deadline = time.monotonic() + 20
@@ -115,7 +115,7 @@ def _sequences(bag):
     decode = {'/sma/setpoint': lambda d: deserialize_message(d, Float64).data,
               '/sma/duty': lambda d: deserialize_message(d, Float64MultiArray).data[0],
               '/sma/joint_states': lambda d: deserialize_message(d, JointState).position[0],
-              '/sma/wire_temperature': lambda d: deserialize_message(d, Temperature).temperature,
+              '/sma/wire_a/temperature': lambda d: deserialize_message(d, Temperature).temperature,
               '/sma/ambient_temperature':
                   lambda d: deserialize_message(d, Temperature).temperature}
     seqs = {t: [] for t in TOPICS}

@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_temperature',
+TOPICS = ['/sma/setpoint', '/sma/duty', '/sma/joint_states', '/sma/wire_a/temperature',
           '/sma/ambient_temperature']
 T0 = 1_700_000_000_000_000_000
 
@@ -75,7 +75,7 @@ def measure(bag, factor, rate_hz, duration_s):
     from std_msgs.msg import Float64, Float64MultiArray
 
     types = {'/sma/setpoint': Float64, '/sma/duty': Float64MultiArray,
-             '/sma/joint_states': JointState, '/sma/wire_temperature': Temperature,
+             '/sma/joint_states': JointState, '/sma/wire_a/temperature': Temperature,
              '/sma/ambient_temperature': Temperature}
     context = rclpy.context.Context()
     rclpy.init(context=context)

@@ -13,125 +13,222 @@
 # limitations under the License.
 
 """
-Closed-loop tracking: pi vs pi_inverse on the paper's 0.05 Hz, ±0.5 rad sine.
+Tracking with the fitted model: pi vs pi_inverse, base model vs the model with the effect.
 
-1. Identification run: plant_sim (accelerated) driven open loop by a multilevel duty
-   excitation (`control.excitation.multilevel`, its own seed and its own noise seed);
-   `core.identification.fit_dynamic` fits the thermal time constant and the modified-PI
-   hysteresis from what came over /sma/joint_states. The controller's model is this fit
-   (written to a YAML), never the plant's parameters.
-2. Tracking runs: plant_sim + controller (model = the fit) + setpoint through the real
-   topics, once per mode, same plant noise seed.
-Printed side by side: RMS over the whole run (from the start of the sine) and over the
-periods after the first (steady state), max error, and the pi_inverse / pi ratio
-(target <= 0.5).
+For each plant (an effect switched on) the benchmark
+1. records an open-loop excitation (300 s at 40 Hz: `control.excitation.multilevel` on
+   plant_sim's model, the simulator's own excitation on the rich simulator) and fits two
+   models with the workbench
+   (`workbench.engine.fit_model`, what `sma-model fit` runs): the paper's base model and
+   the base model plus the plant's effect (`sma-model fit --add EFFECT`); each is written
+   with the workbench's model file writer and read back with `control.load_model`;
+2. tracks the paper's 0.05 Hz, ±0.5 rad sine for 3 periods with `pi` and `pi_inverse`
+   on each model (`control.closed_loop.run_tracking`, 25 ms), RMS error after the first
+   period.
+Plants: `plant` is plant_sim's model (`control.closed_loop.CorePlant`: the core actuator
+with plant_sim's potentiometer, 1 mrad noise, 12-bit ADC); `richsim` is the independent
+simulator of test/support (Preisach hysteresis, RK4, its own formulation of every effect).
+On the plain plant it also runs steps (±0.4 rad) and a 0.2 Hz sine: rise time (10-90 %),
+overshoot and RMS error, pi against pi_inverse.
 
-Run: python benchmarks/bench_tracking.py [--periods 3] [--plant gain_ratio_b=1.15 ...]
-     [--free gain_ratio_b=0.5:2:1 ...] [--save-model config/controller_model.yaml]
+Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
+     [--models DIR] (fitted models are cached in DIR; delete it to refit)
 """
 import argparse
-import os
 from pathlib import Path
-import random
-import tempfile
+import sys
 import time
+import warnings
 
-import rclpy
+import numpy as np
+
+from sma_actuator.control import ControllerCore, ControllerSettings, load_model
+from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.excitation import multilevel
-from sma_actuator.control.metrics import summarize
-from sma_actuator.control.model_file import save_model
-from sma_actuator.core.identification import DynamicData, fit_dynamic
-from sma_actuator.nodes.harness import run_closed_loop, run_excitation
+from sma_actuator.core.actuator import ActuatorParams
+from sma_actuator.core.identification import DynamicData
+from sma_actuator.profiles import Profile
+from sma_actuator.workbench.engine import fit_model
+from sma_actuator.workbench.modelfile import write_model
 
-SINE = {'profile': 'sine', 'amplitude': 0.5, 'offset': 0.0, 'period_s': 20.0, 'delay_s': 1.0}
+DT = 0.025
+SINE = Profile('sine', 0.5, period_s=20.0, delay_s=1.0)
+# plant_sim parameters of each case (level 1-2 of test/support/plant_records.py)
+PLANT_CASES = {
+    'plain': ({}, None),
+    'delay': ({'delay_s': 0.3}, 'delay'),
+    'asymmetric_wires': ({'gain_ratio_b': 0.6, 'stroke_ratio_b': 1.5}, 'asymmetric_wires'),
+    'sensor_nonlinearity': ({'sensor_c2_rad': 0.15, 'sensor_c3_rad': -0.1,
+                             'sensor_c4_rad': 0.05}, 'sensor_nonlinearity'),
+}
+# rich simulator (effect, magnitude) of each case
+RICH_CASES = {
+    'plain': (('none', 0.0), None),
+    'delay': (('delay', 1.0), 'delay'),
+    'asymmetric_wires': (('asymmetric_wires', 2.0), 'asymmetric_wires'),
+    'sensor_nonlinearity': (('sensor_nonlinearity', 1.5), 'sensor_nonlinearity'),
+}
 
 
-def identify(context, seconds, seed, plant, free=None):
-    """Excitation run through plant_sim, then fit_dynamic; returns the DynamicFit."""
-    duty_a, duty_b = multilevel(seconds, 0.025, seed=seed)
-    t, a, b, pos = run_excitation(context, duty_a, duty_b, plant={**plant, 'seed': seed + 1000})
-    return fit_dynamic(DynamicData(t, a, b, pos), free=free)
+def make_plant(source, case, seed):
+    """Return a fresh plant of `source` for `case`."""
+    if source == 'plant':
+        return CorePlant(ActuatorParams(**PLANT_CASES[case][0]), DT, seed=seed)
+    from support.richsim_loop import RichPlant
+    effect, magnitude = RICH_CASES[case][0]
+    return RichPlant(effect, magnitude, seed=seed)
 
 
-def parse_free(items):
-    """NAME=lo:hi:init -> {NAME: (lo, hi, init)}; tau_s is always free."""
-    if not items:
-        return None
-    out = {'tau_s': (0.3, 10.0, 2.0)}
-    for item in items:
-        name, _, spec = item.partition('=')
-        out[name] = tuple(float(v) for v in spec.split(':'))
-    return out
+def excitation_record(source, case, seconds, seed):
+    """
+    Return the DynamicData of an open-loop excitation record of the plant.
+
+    plant_sim's model: `control.excitation.multilevel` (what scripts/fit_controller_model.py
+    records); the rich simulator: its own open-loop excitation (test/support/richsim.py).
+    """
+    if source == 'richsim':
+        from support.richsim import simulate
+        effect, magnitude = RICH_CASES[case][0]
+        d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT, seed=seed)
+        return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
+                           d['ambient_temperature'])
+    duty_a, duty_b = multilevel(seconds, DT, seed=seed)
+    plant = make_plant(source, case, seed + 1000)
+    pos = [plant.measure()]
+    amb = [plant.ambient_c()]
+    for a, b in zip(duty_a[:-1], duty_b[:-1]):
+        pos.append(plant.step(a, b))
+        amb.append(plant.ambient_c())
+    return DynamicData(np.arange(len(duty_a)) * DT, duty_a, duty_b, np.array(pos),
+                       np.array(amb))
 
 
-def parse_overrides(items):
-    out = {}
-    for item in items:
-        key, _, value = item.partition('=')
-        out[key] = float(value)
-    return out
+def fitted_model(models, source, case, effects, seconds, seed):
+    """Fit (or read the cached) model file; return (model, validation NRMSE, path)."""
+    path = models / f'{source}_{case}_{"+".join(effects) or "base"}.yaml'
+    if not path.exists():
+        fit = fit_model(excitation_record(source, case, seconds, seed), tuple(effects))
+        write_model(path, fit.to_dict(), force=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        spec_nrmse = __import__('yaml').safe_load(path.read_text())['scores']['validation']
+    return load_model(path), spec_nrmse['nrmse'], path
+
+
+def sine_rms(model, mode, source, case, seed=7, profile=SINE, periods=3):
+    """RMS error [rad] after the first period of the sine."""
+    ctrl = ControllerCore(model, ControllerSettings(mode=mode))
+    run = run_tracking(ctrl, make_plant(source, case, seed), profile,
+                       profile.delay_s + periods * profile.period_s, DT)
+    return run.summary(profile.delay_s + profile.period_s)['rms_error']
+
+
+def step_metrics(model, mode, source, amplitude):
+    """(rise time 10-90 % [s], overshoot [% of the step], RMS [rad]) of a step from 0."""
+    step = Profile('step', amplitude, delay_s=2.0)
+    run = run_tracking(ControllerCore(model, ControllerSettings(mode=mode)),
+                       make_plant(source, 'plain', 7), step, 12.0, DT)
+    t, y = run.time_s - step.delay_s, run.position * np.sign(amplitude)
+    a = abs(amplitude)
+    after = t >= 0
+    y0 = float(y[np.searchsorted(t, 0.0) - 1])
+    t10 = t[after][np.argmax(y[after] >= y0 + 0.1 * (a - y0))]
+    t90 = t[after][np.argmax(y[after] >= y0 + 0.9 * (a - y0))]
+    reached = np.any(y[after] >= y0 + 0.9 * (a - y0))
+    overshoot = 100.0 * max(0.0, float(np.max(y[after])) - a) / a
+    rms = run.summary(step.delay_s)['rms_error']
+    return (float(t90 - t10) if reached else float('nan')), overshoot, rms
+
+
+def figure(path, models, seconds, seed):
+    """Plot pi_inverse on plant_sim's model with a 0.3 s delay: base vs delay model."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+    fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    runs = {}
+    for effects, label in (([], 'base model'), (['delay'], 'base model + delay')):
+        model, nrmse, _ = fitted_model(models, 'plant', 'delay', effects, seconds, seed)
+        ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+        run = run_tracking(ctrl, make_plant('plant', 'delay', 7), SINE, 61.0, DT)
+        rms = run.summary(21.0)['rms_error']
+        runs[label] = run
+        ax[0].plot(run.time_s, run.position, label=f'{label} (fit NRMSE {100 * nrmse:.2f} %): '
+                   f'RMS {rms:.3f} rad')
+        ax[1].plot(run.time_s, run.setpoint - run.position, label=label)
+    ax[0].plot(run.time_s, run.setpoint, 'k--', lw=1, label='setpoint')
+    ax[0].set_ylabel('measured angle [rad]')
+    ax[0].set_title('pi_inverse on plant_sim with a 0.3 s delay (models fitted by sma-model fit)')
+    ax[0].legend(fontsize=8, loc='lower left')
+    ax[1].set_ylabel('error [rad]')
+    ax[1].set_xlabel('time [s]')
+    ax[1].legend(fontsize=8)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    print(f'figure: {path}')
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
-    ap.add_argument('--periods', type=int, default=3, help='sine periods per tracking run')
-    ap.add_argument('--excitation-s', type=float, default=150.0)
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[1])
+    ap.add_argument('--source', nargs='*', default=['plant', 'richsim'],
+                    choices=['plant', 'richsim'])
+    ap.add_argument('--cases', nargs='*', default=list(PLANT_CASES), choices=list(PLANT_CASES))
+    ap.add_argument('--models', default='runs/bench_tracking_models',
+                    help='directory of the fitted model files (cache)')
+    ap.add_argument('--excitation-s', type=float, default=300.0)
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')
-    ap.add_argument('--plant', nargs='*', default=[], metavar='PARAM=VALUE',
-                    help='plant_sim effect overrides (hidden from the model structure)')
-    ap.add_argument('--controller', nargs='*', default=[], metavar='PARAM=VALUE',
-                    help='controller parameter overrides for both modes, e.g. kp=1.5 ki=2')
-    ap.add_argument('--free', nargs='*', default=[], metavar='NAME=LO:HI:INIT',
-                    help='extra model parameters to identify (fit_dynamic free), e.g. '
-                         'gain_ratio_b=0.5:2:1')
-    ap.add_argument('--save-model', default='', help='also write the identified model here')
+    ap.add_argument('--no-steps', action='store_true', help='skip steps and the 0.2 Hz sine')
+    ap.add_argument('--figure', default='', metavar='PNG',
+                    help='also plot pi_inverse on the delayed plant, base vs delay model')
     ns = ap.parse_args()
-    plant = parse_overrides(ns.plant)
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    context = rclpy.context.Context()
-    rclpy.init(context=context, domain_id=random.SystemRandom().randint(101, 200))
-    try:
-        t0 = time.monotonic()
-        fit = identify(context, ns.excitation_s, ns.seed, plant, parse_free(ns.free))
-        t_id = time.monotonic() - t0
-        header = (f'Identified by benchmarks/bench_tracking.py from a {ns.excitation_s:g} s '
-                  f'multilevel excitation (seed {ns.seed}) of plant_sim {plant or "(defaults)"}\n'
-                  f'validation NRMSE {fit.validation["nrmse"]:.4f}, tau_s {fit.params.tau_s:.4f}')
-        model_path = Path(ns.save_model) if ns.save_model else Path(
-            tempfile.mkdtemp()) / 'controller_model.yaml'
-        save_model(fit.params, model_path, header)
-        duration = SINE['delay_s'] + ns.periods * SINE['period_s']
-        results = {}
-        for mode in ('pi', 'pi_inverse'):
-            t1 = time.monotonic()
-            trace = run_closed_loop(context, SINE, duration, mode=mode, real_time_factor=100.0,
-                                    plant={**plant, 'seed': 7},
-                                    controller={**parse_overrides(ns.controller),
-                                                'model_file': str(model_path)})
-            a = trace.arrays()
-            t = a['time_s'] - a['time_s'][0]
-            whole = summarize(t, a['setpoint'], a['position'], 0.025, SINE['delay_s'])
-            steady = summarize(t, a['setpoint'], a['position'], 0.025,
-                               SINE['delay_s'] + SINE['period_s'])
-            results[mode] = (whole, steady, time.monotonic() - t1)
-    finally:
-        rclpy.try_shutdown(context=context)
-    print(f'identification: {ns.excitation_s:g} s excitation, {t_id:.1f} s wall; train NRMSE '
-          f'{fit.train["nrmse"]:.4f}, validation NRMSE {fit.validation["nrmse"]:.4f}, '
-          f'tau_s {fit.params.tau_s:.3f} s, {fit.params.hysteresis.n_operators} play operators'
-          f', free {fit.free}; model {model_path}')
-    print(f'plant overrides: {plant or "none"}; controller overrides: '
-          f'{parse_overrides(ns.controller) or "none"}; '
-          f'sine 0.05 Hz ±0.5 rad, {ns.periods} periods')
-    print(f'{"mode":12s} {"rms whole":>10s} {"rms steady":>11s} {"max steady":>11s} '
-          f'{"wall s":>7s}')
-    for mode, (whole, steady, wall) in results.items():
-        print(f'{mode:12s} {whole["rms_error"]:10.4f} {steady["rms_error"]:11.4f} '
-              f'{steady["max_error"]:11.4f} {wall:7.1f}')
-    for key, i in (('whole', 0), ('steady', 1)):
-        ratio = results['pi_inverse'][i]['rms_error'] / results['pi'][i]['rms_error']
-        print(f'ratio pi_inverse / pi ({key}): {ratio:.3f}   (target <= 0.5: '
-              f'{"met" if ratio <= 0.5 else "NOT met"})')
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
+    models = Path(ns.models)
+    models.mkdir(parents=True, exist_ok=True)
+    print('0.05 Hz ±0.5 rad sine, 3 periods, RMS error after the first [rad]; models fitted on '
+          f'{ns.excitation_s:g} s of open-loop excitation (validation NRMSE in brackets)')
+    print(f'{"plant":8s} {"case":20s} {"model":24s} {"pi":>8s} {"pi_inverse":>11s} '
+          f'{"inv/pi":>7s} {"effect cuts pi_inverse":>23s}')
+    for source in ns.source:
+        for case in ns.cases:
+            effect = (PLANT_CASES if source == 'plant' else RICH_CASES)[case][1]
+            rows = []
+            for effects in ([[]] if effect is None else [[], [effect]]):
+                t0 = time.monotonic()
+                model, nrmse, _ = fitted_model(models, source, case, effects, ns.excitation_s,
+                                               ns.seed)
+                rms = {m: sine_rms(model, m, source, case) for m in ('pi', 'pi_inverse')}
+                rows.append((effects, nrmse, rms, time.monotonic() - t0))
+            for i, (effects, nrmse, rms, _) in enumerate(rows):
+                cut = ''
+                if i == 1:
+                    gain = 1.0 - rms['pi_inverse'] / rows[0][2]['pi_inverse']
+                    cut = f'{100 * gain:+.0f} % ({"met" if gain >= 0.2 else "NOT met"})'
+                label = f'base+{effects[0]}' if effects else 'base'
+                label = f'{label} [{100 * nrmse:.2f} %]'
+                ratio = rms['pi_inverse'] / rms['pi']
+                print(f'{source:8s} {case:20s} {label:24s} {rms["pi"]:8.4f} '
+                      f'{rms["pi_inverse"]:11.4f} {ratio:7.3f} {cut:>23s}', flush=True)
+    if ns.figure:
+        figure(ns.figure, models, ns.excitation_s, ns.seed)
+    if ns.no_steps:
+        return
+    print('\nplain plant, base model: steps from 0 (rise 10-90 % [s], overshoot [%], RMS [rad]) '
+          'and a 0.2 Hz ±0.5 rad sine (RMS after the first period [rad])')
+    print(f'{"plant":8s} {"reference":16s} {"pi":>26s} {"pi_inverse":>26s}')
+    for source in ns.source:
+        model, _, _ = fitted_model(models, source, 'plain', [], ns.excitation_s, ns.seed)
+        for amplitude in (0.4, -0.4):
+            cells = []
+            for mode in ('pi', 'pi_inverse'):
+                rise, over, rms = step_metrics(model, mode, source, amplitude)
+                cells.append(f'{rise:5.2f} s {over:5.1f} % {rms:6.4f}')
+            print(f'{source:8s} {f"step {amplitude:+.1f} rad":16s} {cells[0]:>26s} '
+                  f'{cells[1]:>26s}')
+        fast = Profile('sine', 0.5, period_s=5.0, delay_s=1.0)
+        cells = [f'{sine_rms(model, m, source, "plain", profile=fast, periods=4):.4f}'
+                 for m in ('pi', 'pi_inverse')]
+        print(f'{source:8s} {"sine 0.2 Hz":16s} {cells[0]:>26s} {cells[1]:>26s}', flush=True)
 
 
 if __name__ == '__main__':

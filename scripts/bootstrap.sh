@@ -26,7 +26,9 @@ _sma_venv="${SMA_VENV:-$_sma_root/.venv}"
     fi
     extra=("$vendor_copyright/setup.py" "$vendor_copyright/package.xml")
   fi
+  vendor="$_sma_root/../shared/vendor/ros2-launch-jazzy"
   want="$(cat "$_sma_root/requirements/"*.txt "$_sma_root/setup.py" "${extra[@]}" \
+    "$_sma_root/scripts/bootstrap.sh" "$_sma_root/scripts/build_composition_interfaces.py" \
     | sha256sum | cut -c1-16)"
   if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     "$_sma_venv/bin/python" -m pip install -q -r "$_sma_root/requirements/$_sma_set.txt" \
@@ -41,9 +43,36 @@ _sma_venv="${SMA_VENV:-$_sma_root/.venv}"
       rm -rf "$tmp_src"
     fi
     "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$_sma_root"
+    # ROS 2 Jazzy launch system: no registry serves it; its PyPI deps are in requirements.
+    # Built from a copy, as ament_copyright above.
+    tmp_src="$(mktemp -d)"
+    for pkg in launch launch_ros launch_xml launch_yaml; do
+      cp -r "$vendor/$pkg" "$tmp_src/$pkg"
+      rm -rf "$tmp_src/$pkg/build" "$tmp_src/$pkg/"*.egg-info
+    done
+    "$_sma_venv/bin/python" -m pip install -q --no-deps --no-build-isolation "$tmp_src/launch" \
+      "$tmp_src/launch_ros" \
+      "$tmp_src/launch_xml" "$tmp_src/launch_yaml"
+    rm -rf "$tmp_src"
+    "$_sma_venv/bin/python" "$_sma_root/scripts/build_composition_interfaces.py" \
+      "$vendor/composition_interfaces" 2>&1 | grep -v -e '^Reading' -e '^Writing' -e 'duplicate entry'
+    # what an ament_python install puts in share/: the ament index marker and share/<pkg>
+    # (linked to the source tree, as the editable install links the code), so that
+    # ament_index (ros2 launch, launch_ros Node, config_path) finds the package in the venv
+    share="$_sma_venv/share"
+    mkdir -p "$share/ament_index/resource_index/packages" "$share/sma_actuator"
+    touch "$share/ament_index/resource_index/packages/sma_actuator"
+    for item in package.xml config launch; do
+      ln -sfn "$_sma_root/$item" "$share/sma_actuator/$item"
+    done
     echo "$want" > "$stamp"
   fi
 ) || { echo "bootstrap: installing into $_sma_venv failed" >&2; return 1 2>/dev/null || exit 1; }
 # editable installs put console scripts where ros2 run looks (lib/sma_actuator, from setup.cfg)
 export PATH="$_sma_venv/lib/sma_actuator:$_sma_venv/bin:$PATH"
+# the venv is an ament prefix (the ros-* wheels' share/ plus this package's marker)
+case ":${AMENT_PREFIX_PATH:-}:" in
+  *":$_sma_venv:"*) ;;
+  *) export AMENT_PREFIX_PATH="$_sma_venv${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}" ;;
+esac
 unset _sma_root _sma_set _sma_venv

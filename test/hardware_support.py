@@ -98,7 +98,7 @@ class Probe(Node):
     """Publishes /sma/duty; records joint states, raw counts and diagnostics with arrival times."""
 
     def __init__(self, duty=True, **kwargs):
-        super().__init__('bridge_probe', **kwargs)
+        super().__init__('bridge_probe', **c.node_options(kwargs))
         self.joint_states, self.raw, self.diagnostics = [], [], []
         # duty=False beside a controller: a second duty publisher makes the bridge send zero
         self.duty_pub = (self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)

@@ -124,6 +124,28 @@ def test_topics_can_be_renamed_and_the_shaft_joint_is_picked(tmp_path):
     np.testing.assert_allclose(a['position'], a['time'])
 
 
+def _moved(events, namespace):
+    return [(top.replace('/sma/', namespace + '/'), ty, msg, log) for top, ty, msg, log in events]
+
+
+def test_the_actuator_namespace_is_found_in_the_bag(tmp_path):
+    events = _events(range(0, 300, 10), lambda t: t, DUTY, SETPOINT)
+    path = _write(tmp_path / 'left', _moved(events, '/left'))
+    a = load_run(path)
+    np.testing.assert_allclose(a['position'], a['time'])
+    assert 'setpoint' in a and a['duty_a'][-1] == 0.3
+
+
+def test_a_bag_of_two_actuators_needs_a_namespace(tmp_path):
+    left = _moved(_events(range(0, 100, 10), lambda t: t, DUTY), '/left')
+    right = _moved(_events(range(0, 100, 10), lambda t: -t, DUTY), '/right')
+    path = _write(tmp_path / 'both', sorted(left + right, key=lambda e: e[3]))
+    with pytest.raises(BagError, match=r"several actuators \['/left', '/right'\]"):
+        load_run(path)
+    np.testing.assert_allclose(load_run(path, namespace='/right')['position'],
+                               -load_run(path, namespace='/left')['position'])
+
+
 def test_same_arrays_from_an_independent_rosbag2_writer(run, tmp_path):
     store = get_typestore(Stores.ROS2_JAZZY)
     events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY, SETPOINT, AMBIENT)

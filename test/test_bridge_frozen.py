@@ -38,7 +38,7 @@ CONTROLLER = textwrap.dedent("""
     from std_msgs.msg import Float64MultiArray
     from sma_actuator.nodes import common as c
     rclpy.init()
-    node = rclpy.create_node('fake_controller')
+    node = rclpy.create_node('fake_controller', namespace=c.NAMESPACE)
     pub = node.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
     while True:
         pub.publish(Float64MultiArray(data=[0.5, 0.0]))

@@ -142,7 +142,7 @@ def test_a_second_duty_publisher_zeroes_the_duty_with_an_error(emulated, ros_con
     emulator, loop = emulated
     loop.probe.hold(0.4, 0.0, 0.3)
     assert emulator.mcu.pwm_a == to_counts(0.4)
-    other = rclpy.create_node('second_controller', context=ros_context)
+    other = rclpy.create_node('second_controller', context=ros_context, namespace=c.NAMESPACE)
     try:
         other.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
         assert wait_for(lambda: emulator.mcu.pwm_a == 0 and loop.level('duty') == ERROR, 5.0)

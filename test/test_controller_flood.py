@@ -42,7 +42,7 @@ FLOODER = textwrap.dedent("""
     from std_msgs.msg import Float64
     from sma_actuator.nodes import common as c
     rclpy.init()
-    node = rclpy.create_node('flooder')
+    node = rclpy.create_node('flooder', namespace=c.NAMESPACE)
     pub = node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
     end = time.monotonic() + float(sys.argv[1])
     n = 0
@@ -58,7 +58,7 @@ FLOOD_S = 5.0
 def test_setpoint_flood_keeps_the_control_period_and_throttles_warnings(ros_context,
                                                                         ros_domain_id):
     env = dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id))
-    node = rclpy.create_node('duty_watch', context=ros_context)
+    node = rclpy.create_node('duty_watch', context=ros_context, namespace=c.NAMESPACE)
     stamps = []    # source timestamps [s] of the duty messages: the controller's clock
 
     def on_duty(msg, info):

@@ -39,7 +39,7 @@ class TopicProbe:
     """A node that publishes setpoints/duties and collects diagnostics, duties, joint states."""
 
     def __init__(self, context, duty=False):
-        self.node = rclpy.create_node('tester', context=context)
+        self.node = rclpy.create_node('tester', context=context, namespace=c.NAMESPACE)
         self.sp = self.node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
         # only without a controller: a second duty publisher makes the plant apply zero
         self.duty_pub = (self.node.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)

@@ -101,7 +101,7 @@ def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_
         assert ctrl.core.settings.mode == 'pi_inverse' and ctrl.core.pi.kp == 5.0
         bad = ctrl.set_parameters([Parameter('mode', value='bang_bang')])
         assert not bad[0].successful and ctrl.core.settings.mode == 'pi_inverse'
-        out_of_range = ctrl.set_parameters([Parameter('kp', value=-1.0)])
+        out_of_range = ctrl.set_parameters([Parameter('kp', value=-2.0)])
         assert not out_of_range[0].successful and ctrl.core.pi.kp == 5.0
         read_only = ctrl.set_parameters([Parameter('period_s', value=0.01)])
         assert not read_only[0].successful
@@ -110,7 +110,7 @@ def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_
 
 
 def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain_id):
-    node = rclpy.create_node('listener', context=ros_context)
+    node = rclpy.create_node('listener', context=ros_context, namespace=c.NAMESPACE)
     got = []
     node.create_subscription(Float64, c.SETPOINT, lambda m: got.append(m.data), c.COMMAND_QOS)
     ex = SingleThreadedExecutor(context=ros_context)
@@ -164,7 +164,7 @@ def test_plant_follows_the_ambient_topic_and_rejects_a_bad_ambient(ros_context):
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('use_ambient_topic', value=True), Parameter('accelerated', value=True),
         Parameter('real_time_factor', value=50.0)])
-    node = rclpy.create_node('ambient_source', context=ros_context)
+    node = rclpy.create_node('ambient_source', context=ros_context, namespace=c.NAMESPACE)
     pub = node.create_publisher(Temperature, c.AMBIENT_TEMPERATURE, c.SENSOR_QOS)
     warns = []
     node.create_subscription(DiagnosticArray, c.DIAGNOSTICS,

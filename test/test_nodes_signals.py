@@ -88,7 +88,7 @@ def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_t
     """
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
-    probe = rclpy.create_node('probe', context=ros_context)
+    probe = rclpy.create_node('probe', context=ros_context, namespace=c.NAMESPACE)
     duties = []
     probe.create_subscription(Float64MultiArray, c.DUTY, lambda m: duties.append(list(m.data)),
                               c.COMMAND_QOS)

@@ -44,7 +44,7 @@ def test_stale_joint_states_make_the_controller_command_zero_and_report_error(ro
     ex = SingleThreadedExecutor(context=ros_context)
     ctrl = Controller(context=ros_context, parameter_overrides=[
         Parameter('feedback_timeout_s', value=0.2)])
-    node = rclpy.create_node('feeder', context=ros_context)
+    node = rclpy.create_node('feeder', context=ros_context, namespace=c.NAMESPACE)
     js = node.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
     sp = node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
     duties, diags = [], []
@@ -88,16 +88,16 @@ def test_killed_controller_leaves_zero_duty_after_the_plant_timeout(ros_context,
     ex = SingleThreadedExecutor(context=ros_context)
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('duty_timeout_s', value=0.2)])
-    node = rclpy.create_node('watcher', context=ros_context)
+    node = rclpy.create_node('watcher', context=ros_context, namespace=c.NAMESPACE)
     sp = node.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
     diags, temps = [], []
     node.create_subscription(DiagnosticArray, c.DIAGNOSTICS,
                              lambda m: diags.extend((time.monotonic(), s) for s in m.status
                                                     if s.name.startswith('plant_sim')),
                              c.DIAGNOSTICS_QOS)
-    node.create_subscription(Temperature, c.WIRE_TEMPERATURE,
-                             lambda m: temps.append((time.monotonic(), m.temperature))
-                             if m.header.frame_id == 'wire_a' else None, c.SENSOR_QOS)
+    node.create_subscription(Temperature, c.WIRE_TEMPERATURES[0],
+                             lambda m: temps.append((time.monotonic(), m.temperature)),
+                             c.SENSOR_QOS)
     for n in (plant, node):
         ex.add_node(n)
     proc = subprocess.Popen([sys.executable, '-m', 'sma_actuator.nodes.controller',

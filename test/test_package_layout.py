@@ -15,8 +15,9 @@
 """
 The ament_python layout, checked mechanically.
 
-a colcon build of this package installs every console script where `ros2 run sma_actuator <node>`
-looks, plus package.xml, the ament index marker and the config YAML files.
+A colcon build of this package installs every console script where `ros2 run sma_actuator
+<node>` looks, plus package.xml, the ament index marker, the config YAML files and the launch
+files; `colcon test` runs the package's pytest suite.
 """
 import ast
 import configparser
@@ -91,3 +92,20 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path):
     configs = {p.name for p in (ROOT / 'config').glob('*.yaml')}
     installed = {p.name for p in (prefix / 'share' / 'sma_actuator' / 'config').iterdir()}
     assert configs and configs <= installed
+    launches = {p.name for p in (ROOT / 'launch').glob('*.launch.py')}
+    assert launches == {'sim.launch.py', 'hardware.launch.py', 'emulator.launch.py'}
+    assert launches == {p.name for p in (prefix / 'share' / 'sma_actuator' / 'launch').iterdir()}
+
+    # `colcon test` runs the package's pytest suite (ament_python): one fast test here
+    base = [colcon, '--log-base', str(tmp_path / 'log')]
+    dirs = ['--build-base', str(tmp_path / 'build'), '--install-base', str(tmp_path / 'install')]
+    result = subprocess.run(
+        base + ['test', '--base-paths', str(tmp_path / 'src'), *dirs, '--pytest-args', '-k',
+                'test_template_test_depends_are_declared'],
+        cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    result = subprocess.run(base + ['test-result', '--test-result-base', str(tmp_path / 'build'),
+                                    '--verbose'],
+                            cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stdout[-2000:]
+    assert '1 test, 0 errors, 0 failures, 0 skipped' in result.stdout, result.stdout[-2000:]

@@ -110,5 +110,5 @@ def test_empty_topic_list_is_one_line_and_exit_status_1(tmp_path):
                                '-p', 'topics:=[]'],
         capture_output=True, text=True, timeout=60)
     line = _one_line_failure(proc, proc.stdout + proc.stderr)
-    assert 'topics must be a list' in line and "'/sma/*'" in line, line
+    assert 'topics must be a list' in line and "['*', '/diagnostics']" in line, line
     assert not (tmp_path / 'bag').exists()

@@ -45,8 +45,8 @@ CONTRACT = {  # topic: (type, qos, message for index i)
     '/sma/joint_states': (JointState, qos_profile_sensor_data,
                           lambda i: JointState(name=['shaft'], position=[0.1 * i],
                                                velocity=[-0.1 * i])),
-    '/sma/wire_temperature': (Temperature, qos_profile_sensor_data,
-                              lambda i: Temperature(temperature=30.0 + i, variance=0.1)),
+    '/sma/wire_a/temperature': (Temperature, qos_profile_sensor_data,
+                                lambda i: Temperature(temperature=30.0 + i, variance=0.1)),
     '/sma/ambient_temperature': (Temperature, qos_profile_sensor_data,
                                  lambda i: Temperature(temperature=21.0 + 0.01 * i)),
 }

@@ -21,13 +21,20 @@ from sma_actuator.bag.recording import bag_directory, DEFAULT_TOPICS, TopicSelec
 
 
 def test_default_selection_is_the_sma_namespace_and_diagnostics():
-    selector = TopicSelector(DEFAULT_TOPICS)
-    for topic in ('/sma/duty', '/sma/joint_states', '/sma/wire_temperature', '/diagnostics',
+    selector = TopicSelector(DEFAULT_TOPICS, '/sma')
+    for topic in ('/sma/duty', '/sma/joint_states', '/sma/wire_a/temperature', '/diagnostics',
                   '/sma/sub/topic'):
         assert selector.matches(topic), topic
     for topic in ('/rosout', '/parameter_events', '/clock', '/measured/joint_states',
-                  '/diagnostics_agg', '/smart'):
+                  '/diagnostics_agg', '/smart', '/left/duty'):
         assert not selector.matches(topic), topic
+
+
+def test_relative_patterns_resolve_in_the_recorder_namespace():
+    selector = TopicSelector(DEFAULT_TOPICS, '/left')
+    assert selector.matches('/left/duty') and selector.matches('/left/wire_b/temperature')
+    assert not selector.matches('/sma/duty') and not selector.matches('/right/duty')
+    assert TopicSelector(['duty'], '/').patterns == ['/duty']
 
 
 def test_exact_names_and_patterns_mix():
@@ -37,7 +44,7 @@ def test_exact_names_and_patterns_mix():
 
 
 @pytest.mark.parametrize('patterns, problem', [([], 'no topics'), (['', ' '], 'no topics'),
-                                               (['sma/*'], 'absolute')])
+                                               (['~/duty'], 'private')])
 def test_bad_selections_are_rejected(patterns, problem):
     with pytest.raises(ValueError, match=problem):
         TopicSelector(patterns)

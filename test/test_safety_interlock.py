@@ -87,15 +87,16 @@ def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
     ex = SingleThreadedExecutor(context=ros_context)
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('interlock_dead_time_s', value=dead_time_s)])
-    watcher = rclpy.create_node('watcher', context=ros_context)
+    watcher = rclpy.create_node('watcher', context=ros_context, namespace=c.NAMESPACE)
     diags, temps = [], {'wire_a': [], 'wire_b': []}
     watcher.create_subscription(
         DiagnosticArray, c.DIAGNOSTICS,
         lambda m: diags.extend(s for s in m.status if s.name.startswith('plant_sim')),
         c.DIAGNOSTICS_QOS)
-    watcher.create_subscription(
-        Temperature, c.WIRE_TEMPERATURE,
-        lambda m: temps[m.header.frame_id].append(m.temperature), c.SENSOR_QOS)
+    for frame, topic in zip(c.WIRE_FRAMES, c.WIRE_TEMPERATURES):
+        watcher.create_subscription(
+            Temperature, topic, lambda m, frame=frame: temps[frame].append(m.temperature),
+            c.SENSOR_QOS)
     for n in (plant, watcher):
         ex.add_node(n)
     env = dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id))

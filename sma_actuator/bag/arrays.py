@@ -16,11 +16,12 @@
 Turn a recorded run (MCAP bag) into aligned numpy arrays for the model workbench.
 
 All signals are put on one uniform time grid built on the recorder's log time (receive time,
-the one clock every topic shares), starting at the first ``/sma/joint_states`` message:
+the one clock every topic shares), starting at the first ``<ns>/joint_states`` message (``<ns>``
+is the actuator's namespace, ``/sma`` by default, found in the bag):
 
 - ``position`` [rad]: linear interpolation between joint-state samples (a measured,
   continuous signal);
-- ``duty_a``, ``duty_b`` [0..1]: zero-order hold of ``/sma/duty`` (a command holds until the
+- ``duty_a``, ``duty_b`` [0..1]: zero-order hold of ``<ns>/duty`` (a command holds until the
   next one); 0 before the first command, since the amplifiers start switched off;
 - ``setpoint`` [rad]: zero-order hold, NaN before the first setpoint;
 - ``ambient_temperature`` [degC]: zero-order hold, the first reading held backwards to the
@@ -39,13 +40,15 @@ import numpy as np
 from .errors import BagError, MissingTopicError, TruncatedBagError, UnknownTypeError
 from .reader import BagReader
 
-#: role -> (default topic, expected type)
+#: role -> (topic name relative to the actuator's namespace, expected type)
 ROLES = {
-    'joint_states': ('/sma/joint_states', 'sensor_msgs/msg/JointState'),
-    'duty': ('/sma/duty', 'std_msgs/msg/Float64MultiArray'),
-    'setpoint': ('/sma/setpoint', 'std_msgs/msg/Float64'),
-    'ambient_temperature': ('/sma/ambient_temperature', 'sensor_msgs/msg/Temperature'),
+    'joint_states': ('joint_states', 'sensor_msgs/msg/JointState'),
+    'duty': ('duty', 'std_msgs/msg/Float64MultiArray'),
+    'setpoint': ('setpoint', 'std_msgs/msg/Float64'),
+    'ambient_temperature': ('ambient_temperature', 'sensor_msgs/msg/Temperature'),
 }
+#: Namespace assumed when the bag holds no joint states at all (the nodes' default).
+DEFAULT_NAMESPACE = '/sma'
 REQUIRED_ROLES = ('joint_states', 'duty')
 JOINT_NAME = 'shaft'
 #: Largest grid load_run builds (10 h at 1 kHz); beyond that the log times are suspect.
@@ -66,7 +69,7 @@ def _joint_position(msg, path: Path) -> float:
 
 def _duty_pair(msg, path: Path):
     if len(msg.data) != 2:
-        raise BagError(path, f'/sma/duty message with {len(msg.data)} values (expected '
+        raise BagError(path, f'duty message with {len(msg.data)} values (expected '
                              '[duty_a, duty_b])')
     return float(msg.data[0]), float(msg.data[1])
 
@@ -79,8 +82,32 @@ _EXTRACT = {
 }
 
 
-def _topic_map(topics: Optional[Dict[str, str]]) -> Dict[str, str]:
-    mapping = {role: default for role, (default, _) in ROLES.items()}
+def bag_namespace(reader: BagReader, path: Path) -> str:
+    """
+    Return the namespace of the one actuator recorded in a bag (``/sma``, ``/left``, ``/``).
+
+    It is the namespace of the bag's ``.../duty`` topic (the command, which only the actuator's
+    own loop publishes), else of its ``.../joint_states`` topic (a replayed measurement may sit
+    beside the actuator's, e.g. ``/measured/joint_states``); DEFAULT_NAMESPACE if neither.
+
+    :raises BagError: The bag holds several actuators: pass ``namespace``.
+    """
+    for role in ('duty', 'joint_states'):
+        name, type_name = ROLES[role]
+        found = sorted(topic.rsplit('/', 1)[0] or '/' for topic, info in reader.topics.items()
+                       if topic.rsplit('/', 1)[-1] == name and info.type == type_name
+                       and info.message_count)
+        if len(found) > 1:
+            raise BagError(path, f'{name} of several actuators {found}: pass namespace= to '
+                                 'choose one')
+        if found:
+            return found[0]
+    return DEFAULT_NAMESPACE
+
+
+def _topic_map(topics: Optional[Dict[str, str]], namespace: str) -> Dict[str, str]:
+    prefix = namespace.rstrip('/') + '/'
+    mapping = {role: prefix + name for role, (name, _) in ROLES.items()}
     unknown = set(topics or {}) - set(ROLES)
     if unknown:
         raise ValueError(f'unknown topic roles {sorted(unknown)}; valid roles: {sorted(ROLES)}')
@@ -158,7 +185,8 @@ def default_rate_hz(times_ns) -> float:
 
 
 def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
-             topics: Optional[Dict[str, str]] = None) -> Dict[str, np.ndarray]:
+             topics: Optional[Dict[str, str]] = None,
+             namespace: Optional[str] = None) -> Dict[str, np.ndarray]:
     """
     Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
 
@@ -166,6 +194,8 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     :param rate_hz: Grid rate [Hz]; default: the joint-state rate (1 / median interval).
     :param topics: Override topic names by role: ``joint_states``, ``duty``, ``setpoint``,
         ``ambient_temperature`` (e.g. ``{'joint_states': '/measured/joint_states'}``).
+    :param namespace: The actuator's namespace (``/left``); default: found in the bag
+        (:func:`bag_namespace`).
     :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
         ``position`` [rad], and when recorded ``ambient_temperature`` [degC], ``setpoint`` [rad].
     :raises BagError: (a ValueError) naming the file: missing, not MCAP, empty/truncated with
@@ -175,7 +205,11 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     reader = BagReader(path)
     if reader.message_count == 0 and reader.recoveries:
         raise TruncatedBagError(path, 'no complete chunk in the file; nothing was recovered')
-    data = _read_series(reader, path, _topic_map(topics))
+    if namespace is None:
+        namespace = bag_namespace(reader, path)
+    elif not namespace.startswith('/'):
+        raise ValueError(f'namespace must be absolute (start with /), got {namespace!r}')
+    data = _read_series(reader, path, _topic_map(topics, namespace))
     js_t, js_pos = _sorted(*data['joint_states'])
     if np.unique(js_t).size < 2:
         raise MissingTopicError(path, 'needs at least two joint states at distinct times')

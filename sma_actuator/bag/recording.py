@@ -19,8 +19,9 @@ from pathlib import Path
 import re
 from typing import Iterable, Optional, Union
 
-#: Topics recorded by default: the whole /sma namespace and the diagnostics.
-DEFAULT_TOPICS = ('/sma/*', '/diagnostics')
+#: Topics recorded by default: everything in the recorder's namespace (``/sma`` by default)
+#: and the diagnostics.
+DEFAULT_TOPICS = ('*', '/diagnostics')
 #: Default bag directory name: run name plus local start time, like rosbag2's default.
 DEFAULT_NAME_TEMPLATE = '{run_name}_{date:%Y_%m_%d-%H_%M_%S}'
 _SAFE_NAME = re.compile(r'^[A-Za-z0-9._-]+$')
@@ -30,22 +31,28 @@ class TopicSelector:
     """
     Decide which topics to record from names and glob patterns (``/sma/*``).
 
-    :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``.
-    :raises ValueError: No pattern, or a pattern that is not an absolute topic name.
+    :param patterns: Topic names or fnmatch patterns; ``*`` also matches ``/``. A relative
+        pattern (``*``, ``duty``) is resolved in ``namespace``, as ROS resolves topic names.
+    :param namespace: Absolute namespace of the recorder node (``/sma``, ``/``).
+    :raises ValueError: No pattern, a pattern with ``~`` or a namespace that is not absolute.
     """
 
-    def __init__(self, patterns: Iterable[str]):
+    def __init__(self, patterns: Iterable[str], namespace: str = '/'):
         if patterns is None or isinstance(patterns, (str, bytes)) or not all(
                 isinstance(p, str) for p in patterns):
             # `topics:=[]` on the command line arrives untyped (None): an empty selection
             raise ValueError(f'topics must be a list of topic names or patterns, got '
                              f'{patterns!r}: give at least one (default {list(DEFAULT_TOPICS)})')
-        self.patterns = [p.strip() for p in patterns if p and p.strip()]
-        if not self.patterns:
+        if not namespace.startswith('/'):
+            raise ValueError(f'namespace must be absolute (start with /): {namespace!r}')
+        given = [p.strip() for p in patterns if p and p.strip()]
+        if not given:
             raise ValueError('no topics to record: give at least one topic name or pattern')
-        bad = [p for p in self.patterns if not p.startswith('/')]
+        bad = [p for p in given if p.startswith('~')]
         if bad:
-            raise ValueError(f'topic patterns must be absolute (start with /): {bad}')
+            raise ValueError(f'private (~) topic patterns are not supported: {bad}')
+        prefix = namespace.rstrip('/') + '/'
+        self.patterns = [p if p.startswith('/') else prefix + p for p in given]
 
     def matches(self, topic: str) -> bool:
         """Return True if ``topic`` is to be recorded."""

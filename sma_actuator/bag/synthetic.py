@@ -34,7 +34,8 @@ SMA_TOPICS = {
     '/sma/setpoint': ('std_msgs/msg/Float64', 'reliable'),
     '/sma/duty': ('std_msgs/msg/Float64MultiArray', 'reliable'),
     '/sma/joint_states': ('sensor_msgs/msg/JointState', 'best_effort'),
-    '/sma/wire_temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
+    '/sma/wire_a/temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
+    '/sma/wire_b/temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
     '/sma/ambient_temperature': ('sensor_msgs/msg/Temperature', 'best_effort'),
     '/diagnostics': ('diagnostic_msgs/msg/DiagnosticArray', 'reliable'),
 }

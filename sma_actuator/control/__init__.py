@@ -15,14 +15,31 @@
 """
 ROS-free control logic of the actuator (unit-tested without ROS; the nodes are thin wrappers).
 
+The public API, the one a ROS-free user or a test needs::
+
+    from sma_actuator.control import ControllerCore, ControllerSettings, load_model
+    model = load_model('fitted.yaml')              # written by `sma-model fit --out`
+    ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+    out = ctrl.step(setpoint_rad, measured_rad, dt_s, ambient_c)   # -> out.duty_a, out.duty_b
+
+Modules:
+
 * `pi`: discrete PI with anti-windup (the paper's 25 ms PI).
+* `tuning`: default PI gains from the fitted model (SIMC rules).
 * `split`: antagonistic split of a signed command into two wire duties.
-* `estimator`: wire temperature/contraction estimate from the core model.
+* `estimator`: wire state estimate from the core model, Smith prediction of the
+  measurement over the delay, drift (offset / stroke) correction.
 * `guard`: thermal guard (duty limits from the estimated temperatures).
-* `feedforward`: inverse compensation H^-1 + static thermal map (mode `pi_inverse`).
+* `feedforward`: inverse compensation sensor^-1, per-wire H^-1 and thermal inverse
+  (mode `pi_inverse`).
 * `on_off`: the paper's fully-heated / fully-cooled relay mode.
 * `core`: `ControllerCore`, the three modes assembled into one step function.
+* `model_file`: `load_model`, the package's one model file format.
 * `inputs`: validation of setpoints and duties (reject, keep the last valid value).
 * `metrics`: rms / max error and settling time of a tracking run.
 * `excitation`: open-loop duty sequences for identification runs.
 """
+from .core import ControllerCore, ControllerSettings, ControlStep
+from .model_file import load_model
+
+__all__ = ['ControllerCore', 'ControllerSettings', 'ControlStep', 'load_model']

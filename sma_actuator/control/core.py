@@ -15,56 +15,104 @@
 """
 `ControllerCore`: one control step of modes pi, pi_inverse and on_off (no ROS).
 
-Per sample k (period dt, nominally the paper's 25 ms):
+Per sample k (period dt, nominally the paper's 25 ms), with r the setpoint and y the
+measured angle, both in sensor units [rad] (the error that is judged is r − y):
 
   1. estimator  advance the model by dt with the duties applied over the last period
-                (θ̂, ŷ), and move the inverse's hysteresis state along with it
+                (θ̂, ŷ; the measured ambient, `ambient_c`, drives it), and move the
+                inverse's hysteresis state along with it
   2. guard      per-wire duty limits L_a, L_b = min(duty_max, thermal-guard limit)
-  3. command    e = r − φ_meas;   u in [−L_b, L_a] (signed, + heats wire a)
-                  pi:          u = PI(e)
-                  pi_inverse:  u = PI(e) around u_ff = d_a,ff − d_b,ff (`feedforward`)
+  3. command    u in [−L_b, L_a] (signed, + heats wire a)
+                  pi:          u = PI(r − y)
+                  pi_inverse:  u = PI(e) around u_ff = d_a,ff − d_b,ff (`feedforward`), with
+                               every effect of the model used (below)
                   on_off:      u = relay(r − φ0) (±on_duty: one end position or the other)
   4. split      duty_a = clip(u, 0, L_a), duty_b = clip(−u, 0, L_b), then never both
                 above `both_threshold`
+
+pi_inverse, effect by effect:
+  * sensor nonlinearity: the PI and the inverse work on true angles, p^-1(r) and p^-1(y),
+    the potentiometer polynomial (`core.actuator.sensor_polynomial`) inverted on its rising branch;
+  * delay D: the measurement is predicted D ahead (Smith predictor, `estimator`), and the
+    reference is extrapolated D ahead (r + D ṙ, ṙ from the last two setpoints; a jump
+    larger than `JUMP_RATE_RAD_S` dt is a step and is not extrapolated), so the PI compares
+    where the shaft will read D from now with where the reference will be then;
+  * thermal lag: the thermal inverse brings the wire to the target of t + h + D in h
+    (`ff_horizon_s`), the reference extrapolated over h + D;
+  * asymmetric wires, current limit, convection, phase resistance, stress coupling: per-
+    wire H^-1 and thermal inverse (`feedforward`);
+  * ambient: the measured ambient drives the estimate and the thermal inverse (a model fitted
+    at constant ambient, `ambient_gain` 0, is used with the physical gain 1: its fitted
+    ambient is the recording's);
+  * drift (`drift_correction`): offset and stroke corrected from the measurements
+    (`estimator.DriftEstimator`), bounded.
+Gains: kp, ki default to SIMC rules on the model (`tuning`), gentler with a longer delay;
+pi_inverse bounds the closed-loop time constant by `TAU_C_INVERSE_S`.
 """
 from dataclasses import dataclass, replace
+import math
 
-from .estimator import WireEstimator
+import numpy as np
+
+from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
+from .tuning import simc_gains, TAU_C_MIN_S
+from ..core.actuator import sensor_polynomial
 from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
+# a setpoint moving faster than this [rad/s] between two samples is a step, not a trajectory
+JUMP_RATE_RAD_S = 3.0
+# longest reference extrapolation [rad]
+MAX_EXTRAPOLATION_RAD = 0.5
+NOMINAL_DT_S = 0.025
+# τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
+# step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
+TAU_C_INVERSE_S = 0.25
 
 
 @dataclass
 class ControllerSettings:
-    """Tunable settings (the controller node's parameters of the same names)."""
+    """
+    Tunable settings (the controller node's parameters of the same names).
+
+    kp, ki: None (or negative) = derived from the model (`tuning.simc_gains`).
+    """
 
     mode: str = 'pi'
-    kp: float = 3.0                 # [duty / rad]
-    ki: float = 4.0                 # [duty / (rad s)]
+    kp: float = None                # [duty / rad]; None: SIMC from the model
+    ki: float = None                # [duty / (rad s)]; None: SIMC from the model
     duty_max: float = 1.0           # per-wire duty limit
     both_threshold: float = 0.05    # never both duties above this
     max_temp_c: float = 110.0       # thermal guard maximum [°C]
     guard_horizon_s: float = 0.5    # thermal guard look-ahead [s]
     on_off_band_rad: float = 0.05   # relay half-band of mode on_off [rad]
     on_off_duty: float = 1.0        # heating duty of mode on_off
-    ff_horizon_s: float = 0.5       # pi_inverse thermal inverse horizon [s]; 0: static map
+    ff_horizon_s: float = 0.2       # pi_inverse thermal inverse horizon [s]; 0: static map
+    smith: bool = True              # pi_inverse: predict the measurement over the delay
+    drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
+    drift_time_s: float = 30.0      # memory of the drift estimator [s]
 
     def __post_init__(self):
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
-        for name in ('kp', 'ki', 'duty_max', 'both_threshold', 'max_temp_c',
-                     'guard_horizon_s', 'on_off_band_rad', 'on_off_duty', 'ff_horizon_s'):
+        for name in ('kp', 'ki'):
+            value = getattr(self, name)
+            if value is not None:
+                value = finite_scalar(name, value)
+                setattr(self, name, None if value < 0 else value)
+        for name in ('duty_max', 'both_threshold', 'max_temp_c', 'guard_horizon_s',
+                     'on_off_band_rad', 'on_off_duty', 'ff_horizon_s', 'drift_time_s'):
             setattr(self, name, finite_scalar(name, getattr(self, name)))
+        self.smith, self.drift_correction = bool(self.smith), bool(self.drift_correction)
         if not 0.0 <= self.duty_max <= 1.0 or not 0.0 <= self.both_threshold <= 1.0:
             raise ValueError('duty_max and both_threshold must be in [0, 1]')
-        if self.kp < 0 or self.ki < 0 or self.ff_horizon_s < 0 or self.guard_horizon_s <= 0:
-            raise ValueError('kp, ki, ff_horizon_s must be >= 0 and guard_horizon_s > 0')
+        if self.ff_horizon_s < 0 or self.guard_horizon_s <= 0 or self.drift_time_s <= 0:
+            raise ValueError('ff_horizon_s must be >= 0, guard_horizon_s and drift_time_s > 0')
 
 
 @dataclass
@@ -81,22 +129,97 @@ class ControlStep:
     guard_active: bool = False
 
 
+class ReferencePredictor:
+    """r(t + L) ≈ r + L ṙ from the setpoint samples; steps are not extrapolated."""
+
+    def __init__(self):
+        self.reset()
+
+    def reset(self):
+        """Forget the setpoint history."""
+        self.last, self.rate = None, 0.0
+
+    def update(self, r, dt):
+        """Take the setpoint r [rad] of this sample."""
+        if self.last is not None:
+            rate = (r - self.last) / dt
+            self.rate = rate if abs(rate) <= JUMP_RATE_RAD_S else 0.0
+        self.last = r
+
+    def ahead(self, r, lead_s):
+        """Extrapolated setpoint lead_s [s] ahead [rad]."""
+        shift = self.rate * lead_s
+        return r + min(max(shift, -MAX_EXTRAPOLATION_RAD), MAX_EXTRAPOLATION_RAD)
+
+
+class SensorMap:
+    """The model's potentiometer polynomial p and its exact inverse, tabulated once."""
+
+    def __init__(self, params):
+        self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
+                             or params.sensor_c4_rad or params.sensor_c5_rad)
+        if not self.identity:
+            # the rising branch of p through 0 over the travel and well beyond it
+            angles = np.linspace(-2.0, 2.0, 8001)
+            readings = sensor_polynomial(params, angles)
+            falls = np.flatnonzero(np.diff(readings) <= 0)
+            mid = len(angles) // 2
+            lo = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
+            hi = int(falls[falls >= mid].min()) + 1 if np.any(falls >= mid) else len(angles)
+            self._readings, self._angles = readings[lo:hi], angles[lo:hi]
+
+    def angle(self, reading_rad):
+        """Return the true angle [rad] of a sensor reading (p^-1 on the tabulated branch)."""
+        if self.identity:
+            return reading_rad
+        return float(np.interp(reading_rad, self._readings, self._angles))
+
+
+def control_model(model):
+    """
+    Return the model as the controller runs it.
+
+    A model fitted at constant ambient (`ambient_gain` 0: the recording's ambient is its
+    `ambient_c`) is used with the physical gain 1, so the measured ambient moves the
+    estimated wire temperatures.
+    """
+    return model.with_changes(ambient_gain=1.0) if model.ambient_gain == 0.0 else model
+
+
 class ControllerCore:
-    """The controller's state machine; `model` is the identified `ActuatorParams`."""
+    """
+    The controller's state machine for an identified model (`ActuatorParams`, `load_model`).
+
+    `step(setpoint_rad, measured_rad, dt_s, ambient_c=None)` -> `ControlStep` with
+    `duty_a`, `duty_b` in [0, 1]. ambient_c: measured ambient [°C] (None: the model's).
+    """
 
     def __init__(self, model, settings=None):
-        self.model = model
+        self.fitted_model = model
+        self.model = control_model(model)
         self.settings = ControllerSettings() if settings is None else settings
-        self.estimator = WireEstimator(model)
-        self.pi = DiscretePI(self.settings.kp, self.settings.ki)
-        self.feedforward = InverseFeedforward(model)
+        self.estimator = WireEstimator(self.model)
+        self.drift = DriftEstimator(self.model, self.settings.drift_time_s)
+        self.sensor = SensorMap(self.model)
+        self.reference = ReferencePredictor()
+        self.pi = DiscretePI(0.0, 0.0)
+        self.feedforward = InverseFeedforward(self.model)
         self._apply(self.settings)
         self.reset()
 
+    def gains(self, settings=None):
+        """(kp, ki) in use for `settings` (default: the current ones): given or SIMC."""
+        s = self.settings if settings is None else settings
+        smith = s.mode == 'pi_inverse' and s.smith
+        kp, ki = simc_gains(self.model, NOMINAL_DT_S, smith=smith,
+                            tau_c_min_s=TAU_C_INVERSE_S if s.mode == 'pi_inverse' else TAU_C_MIN_S)
+        return (kp if s.kp is None else s.kp), (ki if s.ki is None else s.ki)
+
     def _apply(self, s):
-        self.pi.set_gains(s.kp, s.ki)
+        self.pi.set_gains(*self.gains(s))
         self.feedforward.duty_max = s.duty_max
         self.feedforward.horizon_s = s.ff_horizon_s
+        self.drift.time_s = s.drift_time_s
         self.guard = ThermalGuard(self.model, s.max_temp_c, s.guard_horizon_s)
         self.relay = OnOffRelay(s.on_off_band_rad, s.on_off_duty)
 
@@ -104,6 +227,8 @@ class ControllerCore:
         """Back to rest: wires estimated cold, integrator and relay cleared, duties zero."""
         self.estimator.reset()
         self.feedforward.reset()
+        self.drift.reset()
+        self.reference.reset()
         self.pi.reset()
         self.relay.reset()
         self.last_duty = (0.0, 0.0)
@@ -122,33 +247,67 @@ class ControllerCore:
         self.estimator.update(*self.last_duty, dt, ambient_c)
         self.feedforward.track(self.estimator.hysteresis_inputs())
 
-    def step(self, setpoint, measured, dt, ambient_c=None):
-        """One control sample: setpoint and measured angle [rad], dt [s] since the last step."""
+    def _ambient(self, ambient_c):
+        """Ambient [°C] the model's wires feel for a measured ambient (None: model's)."""
+        p = self.model
+        if ambient_c is None:
+            return p.ambient_c
+        return p.ambient_c + p.ambient_gain * (ambient_c - p.ambient_c)
+
+    def step(self, setpoint_rad, measured_rad, dt_s, ambient_c=None):
+        """
+        Run one control sample and return its `ControlStep` (duty_a, duty_b, internals).
+
+        setpoint_rad, measured_rad: desired and measured shaft angle [rad]; dt_s: time
+        since the last step [s]; ambient_c: measured ambient [°C] or None.
+        """
         s = self.settings
-        dt = finite_scalar('dt', dt)
+        dt = finite_scalar('dt_s', dt_s)
+        if dt <= 0:
+            raise ValueError(f'dt_s must be positive, got {dt}')
+        r = finite_scalar('setpoint_rad', setpoint_rad)
+        y = finite_scalar('measured_rad', measured_rad)
+        if ambient_c is not None and not math.isfinite(ambient_c):
+            ambient_c = None
         self._advance(dt, ambient_c)
+        self.reference.update(r, dt)
         theta = self.estimator.temperature_c
         g_a, g_b = self.guard.limits(theta, self.last_duty, ambient_c)
         lim_a, lim_b = min(s.duty_max, g_a), min(s.duty_max, g_b)
-        error = finite_scalar('setpoint', setpoint) - finite_scalar('measured', measured)
+        error = r - y
         u_ff = 0.0
         if s.mode == 'on_off':
-            u = min(max(self.relay.step(setpoint - self.model.offset_rad), -lim_b), lim_a)
+            u = min(max(self.relay.step(r - self.model.offset_rad), -lim_b), lim_a)
+        elif s.mode == 'pi':
+            u = self.pi.step(error, dt, -lim_b, lim_a)
         else:
-            if s.mode == 'pi_inverse':
-                (ff_a, ff_b), _ = self.feedforward.duties(setpoint, ambient_c,
-                                                          self.estimator.contraction, theta)
-                u_ff = ff_a - ff_b
-            u = self.pi.step(error, dt, -lim_b, lim_a, feedforward=u_ff)
+            u, u_ff = self._inverse_step(r, y, dt, ambient_c, theta, lim_a, lim_b)
         duty_a, duty_b = exclusive(*split(u, lim_a, lim_b), s.both_threshold)
         self.last_duty = (duty_a, duty_b)
         return ControlStep(duty_a, duty_b, error, u_ff, (lim_a, lim_b), tuple(theta),
                            self.pi.saturated, min(g_a, g_b) < s.duty_max)
+
+    def _inverse_step(self, r, y, dt, ambient_c, theta, lim_a, lim_b):
+        """Mode pi_inverse (module docstring): (u, u_ff)."""
+        s, p = self.settings, self.model
+        delay = p.delay_s
+        predicted = y + (self.estimator.smith_correction() if s.smith else 0.0)
+        angle = self.sensor.angle(predicted)
+        if s.drift_correction:
+            self.drift.update(self.estimator.contraction, self.sensor.angle(y), dt)
+        target = self.sensor.angle(self.reference.ahead(r, delay if s.smith else 0.0))
+        ff_target = self.sensor.angle(self.reference.ahead(r, delay + s.ff_horizon_s))
+        (ff_a, ff_b), _ = self.feedforward.duties(
+            ff_target, self._ambient(ambient_c), self.estimator.contraction, theta,
+            self.drift.offset, self.drift.stroke)
+        u_ff = ff_a - ff_b
+        return self.pi.step(target - angle, dt, -lim_b, lim_a, feedforward=u_ff), u_ff
 
     def idle(self, dt, ambient_c=None):
         """Fault path (stale feedback): zero duty, integrator cleared, estimate keeps running."""
         self._advance(finite_scalar('dt', dt), ambient_c)
         self.pi.reset()
         self.relay.reset()
+        self.reference.reset()
         self.last_duty = (0.0, 0.0)
         return ControlStep(0.0, 0.0, theta_est_c=tuple(self.estimator.temperature_c))

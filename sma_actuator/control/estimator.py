@@ -13,16 +13,44 @@
 # limitations under the License.
 
 """
-Wire state estimate: the core actuator model driven by the commanded duties.
+Wire state estimate, Smith prediction and drift correction from the core model.
 
 Real wires have no temperature sensor, so the controller runs the identified model
-(`core.AntagonisticActuator`) open loop on what it commanded. The thermal guard reads
-the estimated temperatures; the inverse feed-forward reads the estimated hysteresis
-inputs so its H^-1 state follows the wire's actual (estimated) trajectory.
+(`core.AntagonisticActuator`, the plant's own implementation) open loop on what it
+commanded. The thermal guard reads the estimated temperatures; the inverse feed-forward
+reads the estimated hysteresis inputs so its H^-1 state follows the wire's actual
+(estimated) trajectory.
+
+Smith prediction (delay D = the model's `delay_s`): the measurement the plant will show
+D from now is predicted as
+
+    y_pred(t + D) = y_meas(t) + ŷ(t) − ŷ(t − D)
+
+with ŷ the model's sensed angle without and with its delay. The model's own output
+carries the nominal response, the measurement corrects for everything the model gets
+wrong (that part still arrives delayed).
+
+Drift (`DriftEstimator`): runs on other days rest elsewhere and reach another stroke. The
+measured angle, linearised through the sensor inverse, is regressed on the model's
+contraction difference Δŷ = ŷ_a − s_b ŷ_b delayed by D:
+
+    φ_meas ≈ φ0' + g' Δŷ(t − D)
+
+by recursive least squares with exponential forgetting (time constant `drift_time_s`), and
+φ0', g' are clipped to φ0 ± `DRIFT_OFFSET_BOUND_RAD` and g × [1 − b, 1 + b],
+b = `DRIFT_STROKE_BOUND`. A sample teaches only while the contraction difference moves
+(its spread over the memory exceeds `MIN_SPREAD`), so a long hold cannot trade offset for
+stroke.
 """
+from collections import deque
+
 import numpy as np
 
 from ..core.actuator import AntagonisticActuator
+
+DRIFT_OFFSET_BOUND_RAD = 0.15
+DRIFT_STROKE_BOUND = 0.3
+MIN_SPREAD = 0.05
 
 
 class WireEstimator:
@@ -31,14 +59,16 @@ class WireEstimator:
     def __init__(self, params):
         self.params = params
         self.model = AntagonisticActuator(params)
+        self.reading_delayed = 0.0
 
     def reset(self):
         """Both wires at the model's ambient, cold (martensite)."""
         self.model.reset()
+        self.reading_delayed = self.model.reading_now
 
     def update(self, duty_a, duty_b, dt, ambient_c=None):
         """Advance by dt [s] with the duties that were applied over it; return θ̂ [°C] (2,)."""
-        self.model.step(duty_a, duty_b, dt, ambient_c)
+        self.reading_delayed = self.model.step(duty_a, duty_b, dt, ambient_c)
         return self.model.temperature_c
 
     @property
@@ -51,8 +81,56 @@ class WireEstimator:
         """Estimated contraction fractions [ŷ_a, ŷ_b]."""
         return self.model.contraction
 
+    def smith_correction(self):
+        """ŷ(t) − ŷ(t − D) [rad]: add to the measurement to predict it D ahead."""
+        return self.model.reading_now - self.reading_delayed
+
     def hysteresis_inputs(self):
-        """Input of each wire's hysteresis operator: θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
+        """Return each wire's hysteresis input θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
         th, y = self.temperature_c, self.contraction
         sigma = self.params.stress_k
         return np.array([th[0] - sigma * y[1], th[1] - sigma * y[0]])
+
+
+class DriftEstimator:
+    """Slow offset φ0' [rad] and stroke g' [rad] from measurements (module docstring)."""
+
+    def __init__(self, params, time_s=30.0):
+        self.offset0, self.stroke0 = params.offset_rad, params.stroke_rad
+        self.ratio_b = params.stroke_ratio_b
+        self.delay_s = params.delay_s
+        self.time_s = float(time_s)
+        self.reset()
+
+    def reset(self):
+        """Back to the model's offset and stroke."""
+        self.offset, self.stroke = self.offset0, self.stroke0
+        self._p = np.diag([1e-2, 1e-2])     # covariance of (offset, stroke) [rad²]
+        self._history = deque()             # (time, Δŷ) for the delay
+        self._recent = deque()              # Δŷ over the forgetting memory
+        self._t = 0.0
+
+    def update(self, contraction, angle_measured_rad, dt):
+        """Add one sample: model contractions (ŷ_a, ŷ_b) now, linearised measured angle."""
+        self._t += dt
+        dy = float(contraction[0] - self.ratio_b * contraction[1])
+        self._history.append((self._t, dy))
+        while len(self._history) > 1 and self._history[1][0] <= self._t - self.delay_s:
+            self._history.popleft()
+        x = np.array([1.0, self._history[0][1]])
+        self._recent.append(x[1])
+        if len(self._recent) > max(2, int(self.time_s / dt)):
+            self._recent.popleft()
+        if np.ptp(self._recent) < MIN_SPREAD:
+            return
+        lam = float(np.exp(-dt / self.time_s))
+        theta = np.array([self.offset, self.stroke])
+        px = self._p @ x
+        gain = px / (lam + x @ px)
+        theta = theta + gain * (angle_measured_rad - x @ theta)
+        self._p = (self._p - np.outer(gain, px)) / lam
+        self._p = np.minimum(self._p, 1.0)      # bounded covariance: no wind-up on holds
+        b = DRIFT_STROKE_BOUND * abs(self.stroke0)
+        self.offset = float(np.clip(theta[0], self.offset0 - DRIFT_OFFSET_BOUND_RAD,
+                                    self.offset0 + DRIFT_OFFSET_BOUND_RAD))
+        self.stroke = float(np.clip(theta[1], self.stroke0 - b, self.stroke0 + b))

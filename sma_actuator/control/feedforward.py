@@ -47,6 +47,7 @@ feed-forward: holding it at the temperature where y just reaches 0 would only wa
 import numpy as np
 
 from ..core import kernels
+from ..core.actuator import CONVECTION_REF_K
 from ..core.hysteresis import PlayHysteresis
 from ..core.thermal import thermal_step
 from ..core.validate import finite_scalar
@@ -90,10 +91,16 @@ class InverseFeedforward:
             self._u[j] = float(hysteresis_inputs[j])
             self._y[j] = self._plays[j].step(self._u[j])
 
-    def target_contractions(self, angle_rad):
-        """Step 1-2: (y_a*, y_b*); the idle wire's target is None."""
+    def target_contractions(self, angle_rad, offset_rad=None, stroke_rad=None):
+        """
+        Return (y_a*, y_b*) for a desired true angle [rad]; an idle wire's target is None.
+
+        offset_rad, stroke_rad: drift-corrected φ0 and g (default: the model's).
+        """
         p = self.params
-        dy = (finite_scalar('angle_rad', angle_rad) - p.offset_rad) / p.stroke_rad
+        offset = p.offset_rad if offset_rad is None else offset_rad
+        stroke = p.stroke_rad if stroke_rad is None else stroke_rad
+        dy = (finite_scalar('angle_rad', angle_rad) - offset) / stroke
         y_max = self._y_max
         if abs(dy) <= IDLE_CONTRACTION:
             return None, None
@@ -108,13 +115,43 @@ class InverseFeedforward:
     def _gain(self, j):
         return self._gains[j]
 
-    def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None):
-        """Step 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+    def thermal_duty(self, j, theta_target, theta_est, ambient, y_own=0.0):
+        """
+        Return wire j's duty that brings θ̂_j to θ* (step 4, every thermal effect inverted).
+
+        The heating gain is wire j's G (asymmetric wires) x (1 + κ (1 − y_j)) (phase
+        resistance), G and T divided by the convection factor (|θ − θa| / 50 K)^n taken
+        between θ̂ and θ*, then the current limiter's saturation is inverted: a hard limit
+        d_lim cannot be exceeded (any target beyond it asks for full duty), the smooth one
+        d_eff = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, is inverted exactly,
+        x = z / (1 − z^n)^(1/n), z = d_eff / d_lim.
+        """
+        p = self.params
+        gain = self._gain(j) * (1.0 + p.phase_kappa * (1.0 - y_own))
+        tau = self._tau(j)
+        if p.convection_exponent != 0.0:
+            ref = theta_target if theta_est is None else 0.5 * (theta_target + theta_est)
+            f = max((max(abs(ref - ambient), 0.5) / CONVECTION_REF_K) ** p.convection_exponent,
+                    0.05)
+            gain, tau = gain / f, tau / f
+        if self.horizon_s > 0 and theta_est is not None:
+            a, _ = thermal_step(float(theta_est), 0.0, ambient, 0.0, self.horizon_s, tau, 0.0)
+            d_eff = (theta_target - a) / ((1.0 - np.exp(-self.horizon_s / tau)) * gain)
+        else:
+            d_eff = (theta_target - ambient) / gain
+        return float(np.clip(current_limit_inverse(d_eff, p.duty_limit,
+                                                   p.duty_limit_sharpness, self.duty_max),
+                             0.0, self.duty_max))
+
+    def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None,
+               offset_rad=None, stroke_rad=None):
+        """Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         h = p.hysteresis
         duties, temps = [0.0, 0.0], [amb, amb]
-        for j, y_star in enumerate(self.target_contractions(angle_rad)):
+        targets = self.target_contractions(angle_rad, offset_rad, stroke_rad)
+        for j, y_star in enumerate(targets):
             if y_star is None:
                 self._last_target[j], self._direction[j] = None, 0
                 continue
@@ -131,12 +168,25 @@ class InverseFeedforward:
                     self._u[j], amb - 50.0, amb + gain * self.duty_max)[0][0])
             theta = u_star + p.stress_k * float(contraction[1 - j])
             temps[j] = theta
-            if self.horizon_s > 0 and theta_est is not None:
-                a, _ = thermal_step(float(theta_est[j]), 0.0, amb, 0.0, self.horizon_s,
-                                    self._tau(j), 0.0)
-                b = (1.0 - np.exp(-self.horizon_s / self._tau(j))) * gain
-                d = (theta - a) / b
-            else:
-                d = (theta - amb) / gain
-            duties[j] = float(np.clip(d, 0.0, self.duty_max))
+            est = None if theta_est is None else float(theta_est[j])
+            duties[j] = self.thermal_duty(j, theta, est, amb, float(contraction[j]))
         return tuple(duties), tuple(temps)
+
+
+def current_limit_inverse(d_eff, d_lim, sharpness, duty_max=1.0):
+    """
+    Return the commanded duty whose current-limited effective duty is d_eff.
+
+    Inverse of the kernel's limiter (`core.actuator`, step 1): hard min(d, d_lim) for
+    sharpness 0, else d_lim x / (1 + x^n)^(1/n). Unreachable targets give duty_max.
+    """
+    if d_eff <= 0.0:
+        return 0.0
+    if d_lim >= 1.0 and sharpness <= 0.0:
+        return d_eff
+    z = d_eff / d_lim
+    if sharpness <= 0.0:
+        return d_eff if z < 1.0 else duty_max
+    if z >= 1.0 - 1e-9:
+        return duty_max
+    return d_lim * z / (1.0 - z ** sharpness) ** (1.0 / sharpness)

@@ -439,6 +439,11 @@ class AntagonisticActuator:
         """Contraction fractions [y_a, y_b] (0 cold, 1 fully contracted)."""
         return self._state[4:6].copy()
 
+    @property
+    def reading_now(self):
+        """Sensed shaft angle [rad] at the present time, before the transport delay."""
+        return self._history[-1][1]
+
     def _measured(self, y_a, y_b):
         phi = shaft_angle(self.params, y_a, y_b, self._cycles[0], self._cycles[1])
         return float(sensor_polynomial(self.params, phi))

@@ -31,16 +31,21 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-# topic names (issue 3); kept in one place so nodes, tests and the demo agree
-SETPOINT = '/sma/setpoint'
-DUTY = '/sma/duty'
-JOINT_STATES = '/sma/joint_states'
-WIRE_TEMPERATURE = '/sma/wire_temperature'
-AMBIENT_TEMPERATURE = '/sma/ambient_temperature'
+# Topic names, relative to the node's namespace, so `-r __ns:=/left` (or launch_ros
+# `Node(namespace=...)`) moves a whole actuator. Every node defaults to NAMESPACE, so the
+# default names stay /sma/setpoint, /sma/duty, ... /diagnostics and /clock stay absolute
+# (one per ROS graph, by ROS convention).
+NAMESPACE = 'sma'
+SETPOINT = 'setpoint'
+DUTY = 'duty'
+JOINT_STATES = 'joint_states'
+AMBIENT_TEMPERATURE = 'ambient_temperature'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 JOINT_NAME = 'shaft'
 WIRE_FRAMES = ('wire_a', 'wire_b')
+# one sensor_msgs/Temperature topic per wire (plotting tools key series by topic)
+WIRE_TEMPERATURES = tuple(f'{frame}/temperature' for frame in WIRE_FRAMES)
 
 # feedback streams: newest sample wins, a lost one is not worth a retransmission
 SENSOR_QOS = qos_profile_sensor_data
@@ -50,6 +55,16 @@ DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
+
+
+def node_options(kwargs):
+    """
+    Return rclpy Node keyword arguments with the namespace defaulting to NAMESPACE.
+
+    A `__ns` remap on the command line (`--ros-args -r __ns:=/left`, which launch_ros
+    `Node(namespace=...)` passes) still takes precedence over this default, as in rcl.
+    """
+    return {'namespace': NAMESPACE, **kwargs}
 
 
 def expiring_command_qos(lifespan_s):
@@ -160,10 +175,11 @@ def config_path(name):
 class Diagnostics:
     """Publishes one DiagnosticStatus (`<node>: <name>`) on /diagnostics."""
 
-    def __init__(self, node, name, hardware_id='sma_actuator'):
+    def __init__(self, node, name, hardware_id=None):
         self.node = node
         self.name = f'{node.get_name()}: {name}'
-        self.hardware_id = hardware_id
+        # the node's full name tells two actuators (namespaces) apart on the one /diagnostics
+        self.hardware_id = hardware_id or node.get_fully_qualified_name()
         self.pub = node.create_publisher(DiagnosticArray, DIAGNOSTICS, DIAGNOSTICS_QOS)
 
     def publish(self, level, message, values=None, stamp=None):

@@ -32,6 +32,7 @@ parameters that can be changed at runtime (validated; an invalid set is refused)
 from collections import deque
 from dataclasses import fields
 import time
+import warnings
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
@@ -44,14 +45,14 @@ from std_msgs.msg import Float64, Float64MultiArray
 from . import common as c
 from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
-from ..control.model_file import load_model
+from ..control.model_file import load_model, ModelFormatWarning
 
 SETPOINT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
 # runtime-tunable settings: (name, range or None, description)
 TUNABLE = (
-    ('kp', 0.0, 100.0, 'Proportional gain [duty/rad].'),
-    ('ki', 0.0, 100.0, 'Integral gain [duty/(rad s)].'),
+    ('kp', -1.0, 100.0, 'Proportional gain [duty/rad]; negative: SIMC from the model.'),
+    ('ki', -1.0, 100.0, 'Integral gain [duty/(rad s)]; negative: SIMC from the model.'),
     ('duty_max', 0.0, 1.0, 'Per-wire duty limit.'),
     ('both_threshold', 0.0, 1.0, 'The two duties are never both above this.'),
     ('max_temp_c', 30.0, 200.0, 'Thermal guard: estimated wire temperature limit [°C].'),
@@ -59,6 +60,12 @@ TUNABLE = (
     ('on_off_band_rad', 0.0, 1.0, 'on_off: relay half-band on the setpoint [rad].'),
     ('on_off_duty', 0.0, 1.0, 'on_off: duty of the heated wire.'),
     ('ff_horizon_s', 0.0, 10.0, 'pi_inverse: thermal inverse horizon [s]; 0 = static map.'),
+    ('drift_time_s', 1.0, 3600.0, 'pi_inverse: memory of the drift estimator [s].'),
+)
+# runtime-switchable settings: (name, description)
+SWITCHES = (
+    ('smith', 'pi_inverse: predict the measurement over the model delay (Smith).'),
+    ('drift_correction', 'pi_inverse: correct offset and stroke from the measurements.'),
 )
 
 
@@ -66,11 +73,14 @@ class Controller(Node):
     """Controller node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('controller', **kwargs)
+        super().__init__('controller', **c.node_options(kwargs))
         d = ControllerSettings()
         mode = c.declare_str(self, 'mode', d.mode, 'Control mode.', MODES)
-        values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)
+        values = {name: c.declare_float(self, name, -1.0 if getattr(d, name) is None
+                                        else getattr(d, name), desc, lo, hi)
                   for name, lo, hi, desc in TUNABLE}
+        values.update({name: c.declare_bool(self, name, getattr(d, name), desc)
+                       for name, desc in SWITCHES})
         self.period_s = c.declare_float(self, 'period_s', 0.025, 'Control period and watchdog '
                                         'timer [s].', 0.001, 1.0, read_only=True)
         self.feedback_timeout_s = c.declare_float(
@@ -82,14 +92,17 @@ class Controller(Node):
                                       'setpoint [rad].', -3.2, 3.2, read_only=True)
         initial = c.declare_float(self, 'initial_setpoint_rad', 0.0, 'Setpoint until one '
                                   'arrives [rad].', -3.2, 3.2, read_only=True)
-        model_file = c.declare_str(self, 'model_file', '', 'Identified model YAML (Actuator'
-                                   'Params.to_dict); empty: config/controller_model.yaml.',
-                                   read_only=True)
+        model_file = c.declare_str(self, 'model_file', '', 'Model file (sma-model fit --out); '
+                                   'empty: config/controller_model.yaml.', read_only=True)
         self.use_ambient_topic = c.declare_bool(self, 'use_ambient_topic', False, 'Feed '
                                                 '/sma/ambient_temperature to the model.',
                                                 read_only=True)
         self.model_path = model_file or str(c.config_path('controller_model.yaml'))
-        model = load_model(self.model_path)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter('always', ModelFormatWarning)
+            model = load_model(self.model_path)
+        for w in caught:
+            self.get_logger().warn(str(w.message))
         self.core = ControllerCore(model, ControllerSettings(mode=mode, **values))
         # run every compiled kernel once now, so the first real sample is not late
         ControllerCore(model, ControllerSettings(mode='pi_inverse')).step(0.1, 0.0, self.period_s)
@@ -121,7 +134,9 @@ class Controller(Node):
         self.add_on_set_parameters_callback(self.on_set_parameters)
         self.create_timer(self.period_s, self.on_watchdog)
         self.create_timer(1.0, self.publish_status)
-        self.get_logger().info(f'controller mode {mode}, model {self.model_path}')
+        kp, ki = self.core.gains()
+        self.get_logger().info(f'controller mode {mode}, model {self.model_path}, '
+                               f'kp {kp:.3g} duty/rad, ki {ki:.3g} duty/(rad s)')
 
     def now_s(self):
         return self.get_clock().now().nanoseconds * 1e-9

@@ -55,7 +55,7 @@ from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
 from ..hardware.link import SerialLink
 
-POTENTIOMETER_RAW = '/sma/potentiometer_raw'
+POTENTIOMETER_RAW = 'potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
 PUBLISHER_CHECK_PERIOD_S = 0.05   # how often the duty topic's publishers are counted
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
@@ -66,7 +66,7 @@ class HardwareBridge(Node):
     """Bridge node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('hardware_bridge', **kwargs)
+        super().__init__('hardware_bridge', **c.node_options(kwargs))
         f = self._declare_parameters()
         self.port, baud, poly = f['port'], f['baud'], f['adc_polynomial']
         calibration = AdcCalibration(f['adc_offset_rad'], f['adc_scale_rad_per_count'],

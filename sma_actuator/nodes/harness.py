@@ -22,6 +22,7 @@ talk only over the real topics. `attach` hooks let a caller add more nodes (e.g.
 recorder) to the same executor for the run.
 """
 from dataclasses import dataclass, field
+import functools
 import time
 
 import numpy as np
@@ -64,14 +65,16 @@ class TraceProbe(Node):
     """Listens to setpoint, duty, wire temperatures and joint states; one row per joint state."""
 
     def __init__(self, **kwargs):
-        super().__init__('trace_probe', **kwargs)
+        super().__init__('trace_probe', **c.node_options(kwargs))
         self.trace = Trace()
         self.setpoint = None
         self.duty = (0.0, 0.0)
         self.theta = [float('nan'), float('nan')]
         self.create_subscription(Float64, c.SETPOINT, self._sp, c.COMMAND_QOS)
         self.create_subscription(Float64MultiArray, c.DUTY, self._duty, c.COMMAND_QOS)
-        self.create_subscription(Temperature, c.WIRE_TEMPERATURE, self._temp, c.SENSOR_QOS)
+        for wire, topic in enumerate(c.WIRE_TEMPERATURES):
+            self.create_subscription(Temperature, topic, functools.partial(self._temp, wire),
+                                     c.SENSOR_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
     def _sp(self, msg):
@@ -80,9 +83,8 @@ class TraceProbe(Node):
     def _duty(self, msg):
         self.duty = tuple(msg.data)
 
-    def _temp(self, msg):
-        if msg.header.frame_id in c.WIRE_FRAMES:
-            self.theta[c.WIRE_FRAMES.index(msg.header.frame_id)] = msg.temperature
+    def _temp(self, wire, msg):
+        self.theta[wire] = msg.temperature
 
     def _js(self, msg):
         if self.setpoint is None:      # the loop starts with the first setpoint
@@ -107,7 +109,7 @@ class ExcitationSource(Node):
     """
 
     def __init__(self, duty_a, duty_b, **kwargs):
-        super().__init__('excitation', **kwargs)
+        super().__init__('excitation', **c.node_options(kwargs))
         self.sequence = np.column_stack([duty_a, duty_b])
         self.k = 0
         self.applied = (0.0, 0.0)

@@ -15,9 +15,11 @@
 """
 plant_sim: the antagonistic SMA actuator of the core, driven by /sma/duty.
 
+Topic names are relative to the node's namespace (default /sma; `-r __ns:=/left`).
+
 Publishes /sma/joint_states (joint `shaft`: position = potentiometer + ADC reading,
 velocity = finite difference of consecutive *sensed* positions, as a real pot/ADC chain
-would give), /sma/wire_temperature (wire_a, wire_b: simulated, not sensed) and
+would give), /sma/wire_a/temperature and /sma/wire_b/temperature (simulated, not sensed) and
 /diagnostics. Every physical effect of `ActuatorParams` is a read-only parameter.
 
 Time: normally the node clock (wall, or /clock with use_sim_time). With `accelerated`
@@ -45,11 +47,11 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
-import yaml
 
 from . import common as c
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
+from ..control.model_file import load_model
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import Potentiometer
 
@@ -85,7 +87,7 @@ class PlantSim(Node):
     """Simulated actuator node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('plant_sim', **kwargs)
+        super().__init__('plant_sim', **c.node_options(kwargs))
         self.rate_hz = c.declare_float(self, 'rate_hz', 40.0, 'Publication and step rate [Hz].',
                                        1.0, 1000.0, read_only=True)
         self.accelerated = c.declare_bool(
@@ -107,8 +109,8 @@ class PlantSim(Node):
             self, 'interlock_dead_time_s', 0.05, 'A wire heats only after the other has had '
             'zero applied duty for this long [plant s] (docs/safety.md).', 0.0, 10.0,
             read_only=True)
-        model_file = c.declare_str(self, 'model_file', '', 'Optional YAML (ActuatorParams.'
-                                   'to_dict) for the plant; the effect parameters override it.',
+        model_file = c.declare_str(self, 'model_file', '', 'Optional model file (sma-model fit '
+                                   '--out) for the plant; the effect parameters override it.',
                                    read_only=True)
         ambient = c.declare_float(self, 'ambient_c', 22.0, 'Nominal ambient temperature [°C].',
                                   -40.0, 80.0, read_only=True)
@@ -119,10 +121,7 @@ class PlantSim(Node):
         noise = c.declare_float(self, 'noise_rad', 0.001, 'Potentiometer noise std [rad].',
                                 0.0, 0.1, read_only=True)
         seed = c.declare_int(self, 'seed', 0, 'Noise seed.', 0, 2 ** 31 - 1, read_only=True)
-        base = ActuatorParams()
-        if model_file:
-            with open(model_file) as f:
-                base = ActuatorParams.from_dict(yaml.safe_load(f))
+        base = load_model(model_file) if model_file else ActuatorParams()
         effects = {name: c.declare_float(self, name, getattr(base, name), desc, lo, hi,
                                          read_only=True)
                    for name, lo, hi, desc in EFFECTS}
@@ -147,7 +146,8 @@ class PlantSim(Node):
         self.awaiting_since = None     # wall time of the joint state awaiting a duty (lockstep)
 
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
-        self.temp_pub = self.create_publisher(Temperature, c.WIRE_TEMPERATURE, c.SENSOR_QOS)
+        self.temp_pubs = [self.create_publisher(Temperature, topic, c.SENSOR_QOS)
+                          for topic in c.WIRE_TEMPERATURES]
         self.diag = c.Diagnostics(self, 'plant')
         # lifespan in wall seconds (DDS source timestamps): a frozen plant does not replay
         self.duty_sub = self.create_subscription(
@@ -242,9 +242,9 @@ class PlantSim(Node):
         self.js_pub.publish(JointState(name=[c.JOINT_NAME], position=[position],
                                        velocity=[velocity], header=_header(stamp, '')))
         self.awaiting_since = time.monotonic()
-        for frame, theta in zip(c.WIRE_FRAMES, self.actuator.temperature_c):
-            self.temp_pub.publish(Temperature(header=_header(stamp, frame),
-                                              temperature=float(theta), variance=0.0))
+        for pub, frame, theta in zip(self.temp_pubs, c.WIRE_FRAMES, self.actuator.temperature_c):
+            pub.publish(Temperature(header=_header(stamp, frame), temperature=float(theta),
+                                    variance=0.0))
         self.steps += 1
         if self.steps % self.steps_per_diag == 0:
             if conflict:

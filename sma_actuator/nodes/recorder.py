@@ -56,11 +56,11 @@ from sma_actuator.bag.ros_interop import (
     WARN,
 )
 from sma_actuator.bag.writer import BagWriter, COMPRESSIONS
-from sma_actuator.nodes.common import init_with_stop_signals, spin_until_stopped
+from sma_actuator.nodes.common import init_with_stop_signals, NAMESPACE, spin_until_stopped
 
 PARAMETERS = {
-    'topics': (list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also matches /)',
-               None),
+    'topics': (list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also matches /; '
+               'relative ones are in the node namespace)', None),
     'bag_path': ('', 'Bag directory to write; empty: output_dir/<name from name_template>',
                  None),
     'output_dir': ('runs', 'Directory in which the bag directory is created', None),
@@ -92,19 +92,21 @@ class RecorderNode(Node):
     Record matching topics into a bag; see module doc.
 
     :param context: rclpy context (tests, embedding); default: the global one.
+    :param namespace: Node namespace; relative ``topics`` patterns resolve in it (a
+        ``__ns`` remap on the command line overrides it).
     :param params: Parameter values by name (same names as config/recorder.yaml).
     :raises BagError: The bag cannot be created (exists and not overwrite, bad name...).
     :raises ValueError: An unknown parameter name or a bad value.
     """
 
-    def __init__(self, *, context=None, node_name='recorder', **params):
-        super().__init__(node_name, context=context,
+    def __init__(self, *, context=None, node_name='recorder', namespace=NAMESPACE, **params):
+        super().__init__(node_name, context=context, namespace=namespace,
                          parameter_overrides=parameter_overrides(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
         if p['compression'] not in COMPRESSIONS:
             raise ValueError(f"compression '{p['compression']}' is not one of "
                              f'{sorted(COMPRESSIONS)}')
-        self._selector = TopicSelector(p['topics'])
+        self._selector = TopicSelector(p['topics'], self.get_namespace())
         path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
                                               p['name_template'])
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)

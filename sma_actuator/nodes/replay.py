@@ -26,6 +26,7 @@ the node publishes duty ``[0, 0]`` on it, so a replay never leaves a wire heated
 Run: ``replay --ros-args -p bag_path:=runs/step1/bag -p rate:=2.0
 -p "remap:=['/sma/joint_states:=/measured/joint_states']"``
 """
+import queue
 import sys
 import threading
 import time
@@ -63,9 +64,17 @@ PARAMETERS = {
     'topics': (Parameter.Type.STRING_ARRAY, 'Topics to play; unset: all in the bag', None),
     'remap': (Parameter.Type.STRING_ARRAY, "Topic remappings, entries '/from:=/to'", None),
     'clock': (False, 'Publish /clock (rosgraph_msgs/Clock) with the bag time', None),
+    'follow_clock': (False, 'Lockstep with a node that owns /clock (plant_sim accelerated '
+                     'lockstep): on each /clock tick publish what is due by then (bag time '
+                     'counted from the first tick) and the last duty again if none is, '
+                     'instead of playing on the wall clock', None),
     'clock_frequency_hz': (100.0, 'Rate of /clock messages [Hz]', (1.0, 1000.0)),
-    'wait_for_subscribers_s': (2.0, 'Before the first message, wait until every played '
-                               'topic has a subscriber, at most this long [s]', (0.0, 600.0)),
+    'wait_for_subscribers_s': (10.0, 'Before the first message, wait at most this long for '
+                               'the required_subscribers (else every played topic) [s]',
+                               (0.0, 600.0)),
+    'required_subscribers': (Parameter.Type.STRING_ARRAY, 'Published topics that must be '
+                             'matched before playback starts, else no playback and exit 1; '
+                             'unset: the duty topic when played, and /clock with clock', None),
     'zero_duty_on_stop': (True, 'On end/stop publish duty [0, 0] on the (remapped) duty topic',
                           None),
     'duty_topic': ('/sma/duty', 'Bag topic that carries the duty commands', None),
@@ -73,6 +82,9 @@ PARAMETERS = {
                              (0.1, 60.0)),
 }
 DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
+# hold after the required subscribers matched, before the first message [s] (discovery
+# matches the two ends one after the other: see _wait_for_subscribers)
+SETTLE_S = 0.5
 
 
 class ReplayNode(Node):
@@ -107,6 +119,15 @@ class ReplayNode(Node):
                 self._reader.topics[self._duty_topic].type != DUTY_TYPE:
             raise UnknownTypeError(self._reader.path, f"duty topic '{self._duty_topic}' is not "
                                                       f'{DUTY_TYPE}; cannot zero it on stop')
+        self._follow = p['follow_clock']
+        if self._follow and (p['clock'] or p['loop'] or p['rate'] != 1.0):
+            raise ValueError('follow_clock takes the time from /clock: it excludes clock, loop '
+                             'and rate')
+        self._ticks = queue.Queue()
+        if self._follow:
+            self.create_subscription(Clock, '/clock', lambda m: self._ticks.put(
+                m.clock.sec * 1_000_000_000 + m.clock.nanosec),
+                QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
         options = PlaybackOptions(
             rate=p['rate'], loop=p['loop'], start_offset_s=p['start_offset_s'],
             clock_period_s=1.0 / p['clock_frequency_hz'] if p['clock'] else None)
@@ -118,6 +139,7 @@ class ReplayNode(Node):
             raise BagError(self._reader.path, 'nothing to play: no topic with messages of an '
                                               f'installed type (bag topics: '
                                               f'{sorted(self._reader.topics)})')
+        self._topics = topics
         messages = self._reader.messages(topics)
         first = next(messages)  # the timeline (and start_offset_s) starts at the first played
         messages.close()
@@ -125,6 +147,20 @@ class ReplayNode(Node):
                               first.log_time_ns, self._publish, options,
                               on_clock=self._publish_clock)
         self._wait_s = p['wait_for_subscribers_s']
+        self._start_ns = first.log_time_ns + int(p['start_offset_s'] * 1e9)
+        published = {self._topic_out[t]: pub for t, pub in self._replay_pubs.items()}
+        if self._clock_pub is not None:
+            published['/clock'] = self._clock_pub
+        required = p['required_subscribers']
+        if required is None:
+            required = [self._topic_out[t] for t in (p['duty_topic'],) if t in self._topic_out]
+            required += ['/clock'] if p['clock'] else []
+        unknown = sorted(set(required) - set(published))
+        if unknown:
+            raise ValueError(f'required_subscribers {unknown} are not published (published: '
+                             f'{sorted(published)})')
+        self._required = {name: published[name] for name in required}
+        self._published = published
         self._stop_event = threading.Event()
         self._zeroed = threading.Lock()
         self._zero_sent = False
@@ -190,29 +226,85 @@ class ReplayNode(Node):
             self._worker.start()
 
     def _wait_for_subscribers(self):
-        """Wait until every played topic is matched (or the wait ends); False if stopped."""
+        """
+        Wait until the required topics (else every played topic) are matched.
+
+        Returns False if stopped meanwhile. Raises RuntimeError when a required topic is
+        still unmatched after wait_for_subscribers_s: playing into nothing is not a replay.
+        Once matched it holds SETTLE_S more (publishing the start time on /clock), because
+        our publisher matching the subscriber does not mean the subscriber matched us yet.
+        """
+        waiting = self._required or self._published
         deadline = time.monotonic() + self._wait_s
-        while time.monotonic() < deadline:
-            if all(pub.get_subscription_count() for pub in self._replay_pubs.values()):
-                return True
-            if self._stop_event.wait(0.05):
-                return False
-        lonely = [self._topic_out[t] for t, pub in self._replay_pubs.items()
-                  if not pub.get_subscription_count()]
+        while not all(pub.get_subscription_count() for pub in waiting.values()):
+            if time.monotonic() > deadline or self._stop_event.wait(0.05):
+                break
+        missing = sorted(n for n, pub in self._required.items()
+                         if not pub.get_subscription_count())
+        if missing and not self._stop_event.is_set():
+            raise RuntimeError(f'no subscriber on {missing} within {self._wait_s:g} s '
+                               '(wait_for_subscribers_s): not playing')
+        lonely = sorted(n for n, pub in self._published.items()
+                        if not pub.get_subscription_count())
         if lonely:
             self.get_logger().warning(f'starting with no subscriber on {lonely}')
+        settle_end = time.monotonic() + (SETTLE_S if self._required else 0.0)
+        while time.monotonic() < settle_end:
+            if self._clock_pub is not None:
+                self._publish_clock(self._start_ns)
+            if self._stop_event.wait(0.05):
+                break
         return not self._stop_event.is_set()
 
     def _run(self):
         try:
             if self._wait_for_subscribers():
-                self._player.run(self._stop_event)
+                if self._follow:
+                    self._follow_clock()
+                else:
+                    self._player.run(self._stop_event)
         except Exception as err:  # noqa: BLE001 - report, make safe, never die silently
             self._error = err
             self.get_logger().error(f'playback failed: {err}')
         finally:
             self._send_zero_duty()
             self.finished.set()
+
+    def _follow_clock(self):
+        """Publish on each /clock tick what is due by its bag time; see follow_clock."""
+        deadline = time.monotonic() + self._wait_s
+        while not self.count_publishers('/clock'):
+            if time.monotonic() > deadline:
+                raise RuntimeError(f'no /clock publisher within {self._wait_s:g} s: nothing '
+                                   'to follow')
+            if self._stop_event.wait(0.05):
+                return
+        # of the ticks queued while waiting only the newest is live: the plant in lockstep
+        # waits at it for a reply (one reply per tick, else the steps slip)
+        while self._ticks.qsize() > 1:
+            self._ticks.get_nowait()
+        messages = self._reader.messages(self._topics)
+        pending = next(messages, None)
+        first_tick, last_duty = None, None
+        while pending is not None and not self._stop_event.is_set():
+            try:
+                tick = self._ticks.get(timeout=0.05)
+            except queue.Empty:
+                continue
+            first_tick = tick if first_tick is None else first_tick
+            due = self._start_ns + (tick - first_tick)
+            duty_sent = False
+            while pending is not None and pending.log_time_ns <= due:
+                self._publish(pending)
+                self._player.stats.published += 1
+                if pending.topic == self._duty_topic:
+                    last_duty, duty_sent = pending, True
+                pending = next(messages, None)
+            if not duty_sent and last_duty is not None:
+                self._publish(last_duty)   # the plant in lockstep waits for a reply per step
+        if first_tick is not None:
+            self.get_logger().info(f'followed /clock from {first_tick * 1e-9:.3f} s = bag time '
+                                   f'{self._start_ns * 1e-9:.3f} s')
 
     def _publish(self, msg):
         self._replay_pubs[msg.topic].publish(msg.data)

@@ -49,7 +49,7 @@ class Setpoint(Node):
     """Setpoint source node (see module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('setpoint', **kwargs)
+        super().__init__('setpoint', **c.node_options(kwargs))
         d = Profile()
         kind = c.declare_str(self, 'profile', d.kind, 'Setpoint profile.', PROFILES)
         values = {name: c.declare_float(self, name, getattr(d, name), desc, lo, hi)

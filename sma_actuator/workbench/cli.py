@@ -18,6 +18,7 @@
     sma-model fit DATA [DATA ...] [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml]
     sma-model compare DATA [DATA ...] --model FITTED.yaml [--report DIR] [--json]
     sma-model diagnose DATA [DATA ...] [--model MODEL.yaml] [--rounds N] [--report DIR]
+    sma-model batch DATA... --out DIR [--model MODEL.yaml] [--rounds N] [--scheduler ADDRESS]
     sma-model effects [--json]        (the catalog, with plug-ins)
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
@@ -498,6 +499,61 @@ def diagnosis_lines(doc, kind):
     return lines
 
 
+# ------------------------------------------------------------------------------ batch
+def cmd_batch(args):
+    """sma-model batch: fit, compare and diagnose every record on a Dask cluster."""
+    from .batch import BatchOptions, BatchProgress, find_records, run_batch, start_client
+    from .fleet import write_index, write_table
+    catalog = setup_effects(args)
+    spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
+    if args.candidates:
+        check_effect_names(args.candidates, catalog, '--candidates')
+    paths = find_records(args.data)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f'--out {out}: exists and is not a directory')
+    if any(out.resolve() == p for p in paths):
+        raise UsageError(f'--out {out} is one of the records; choose another path')
+    out.mkdir(parents=True, exist_ok=True)
+    from .modelfile import is_fitted
+    options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
+                           candidates=tuple(args.candidates) if args.candidates else None,
+                           rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
+                           reference=json_safe(spec) if is_fitted(spec) else None)
+    _note(args, f'batch: {len(paths)} records -> {out}')
+    results = []
+    client = start_client(args.scheduler, args.workers)
+    try:
+        run_batch(paths, out, options, client, force=args.force,
+                  progress=BatchProgress(len(paths)), results=results)
+    except KeyboardInterrupt:
+        write_table(out, results)
+        write_index(out, results)
+        print(f'{PROG}: interrupted; {out / "batch.parquet"} holds the {len(results)} of '
+              f'{len(paths)} records finished so far (rerun to continue)', file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        _close_client(client)
+    table, _ = write_table(out, results)
+    index = write_index(out, results)
+    failed = sum(1 for r in results if r['error'])
+    if args.json:
+        print_json({'out': str(out), 'records': len(results), 'errors': failed,
+                    'table': str(table), 'index': str(index),
+                    'named': {Path(r['record']).name: r['effects_added'] for r in results}})
+    else:
+        print(f'{len(results)} records, {failed} errors; table {table}; index {index}')
+    return 0
+
+
+def _close_client(client):
+    """Close the client and, if it started one, its local cluster."""
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
 # ------------------------------------------------------------------------------ effects
 def cmd_effects(args):
     """sma-model effects: list the catalog (with plug-ins): parameters, signature, physics."""
@@ -573,6 +629,33 @@ def build_parser():
                      help='add the missing effect, refit and diagnose again, up to N rounds, '
                      'stopping when nothing is significant (default 1)')
     dia.set_defaults(func=cmd_diagnose)
+    bat = sub.add_parser('batch', help='fit, compare and diagnose many records (Dask)',
+                         description='Run fit, compare and diagnose on every record, on a '
+                         'Dask cluster; write a table (Parquet, CSV) and an HTML index.')
+    bat.add_argument('data', nargs='+', metavar='DATA',
+                     help='CSV files, MCAP bags, directories or globs')
+    bat.add_argument('--out', required=True, metavar='DIR',
+                     help='output directory (results are resumed from it)')
+    bat.add_argument('--model', metavar='MODEL.yaml',
+                     help='effects (and kind) to start from; a fitted model (fit --out) is '
+                     'also compared with every record (column reference_nrmse)')
+    bat.add_argument('--kind', choices=('classical', 'modified'),
+                     help='hysteresis base (default: from MODEL.yaml, else modified)')
+    bat.add_argument('--candidates', nargs='+', action='extend', metavar='EFFECT',
+                     help='only try these effects (default: every catalog effect)')
+    bat.add_argument('--rounds', type=_positive_int, default=1, metavar='N',
+                     help='diagnose rounds: add the named effect and diagnose again (default 1)')
+    bat.add_argument('--scheduler', metavar='ADDRESS',
+                     help='a running Dask scheduler, e.g. tcp://10.0.0.5:8786 '
+                     '(default: a local cluster on every core)')
+    bat.add_argument('--workers', type=_positive_int, metavar='N',
+                     help='local cluster size in processes (default: every core)')
+    bat.add_argument('--rate', type=_positive_float, metavar='HZ',
+                     help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
+    bat.add_argument('--no-reports', action='store_true', help='skip the per-record reports')
+    bat.add_argument('--force', action='store_true', help='recompute finished records')
+    bat.add_argument('--json', action='store_true', help='print a JSON summary')
+    bat.set_defaults(func=cmd_batch, plugin=None)
     eff = sub.add_parser('effects', help='list the effect catalog (with plug-ins)',
                          description='List every effect: parameters, physics, signature.')
     eff.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
@@ -589,6 +672,13 @@ def _positive_float(text):
         raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
     if not np.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
+    return value
+
+
+def _positive_int(text):
+    value = _non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a positive integer')
     return value
 
 

@@ -411,10 +411,8 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     """
     if base is None:
         base = fit_model(data, (), kind=kind)
-    names = [n for n in (candidates or CATALOG) if n not in base.effects]
-    n_eff = max(len(base.residual) / correlation_length(base.residual), 2.0)
-    bic0 = bic(base.residual, _free_count(base), n_eff)
-    tasks = [(data, base, name, n_eff, bic0, min_improvement) for name in names]
+    tasks = candidate_tasks(data, base, candidates, min_improvement)
+    names = [t[2] for t in tasks]
     builtin = all(is_builtin(e) for e in base.effects)
 
     def poolable(name):   # a dynamic refit (worth a process) of an effect every process has
@@ -437,15 +435,33 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     if progress:
         progress(0, len(names), 'candidates')
     for task in local + (pooled if workers <= 1 else []):
-        done(_candidate(task))
+        done(judge_candidate(task))
     if workers > 1:
-        for _, entry in imap_on_cores(_candidate, pooled, workers):
+        for _, entry in imap_on_cores(judge_candidate, pooled, workers):
             done(entry)
     if progress:
         progress(len(names), len(names), 'done')
-    out.sort(key=lambda c: (c['significant'],
-                            -np.inf if c['improvement'] is None else c['improvement']),
-             reverse=True)
+    return rank_candidates(base, out)
+
+
+def candidate_tasks(data, base, candidates=None, min_improvement=MIN_IMPROVEMENT):
+    """
+    One `judge_candidate` task per candidate effect not already in `base`.
+
+    A task is (data, base, name, n_eff, bic0, min_improvement): n_eff is the number of
+    effectively independent training residual samples (n / correlation length) and bic0
+    the base model's BIC on them, the reference every candidate is judged against.
+    """
+    names = [n for n in (candidates or CATALOG) if n not in base.effects]
+    n_eff = max(len(base.residual) / correlation_length(base.residual), 2.0)
+    bic0 = bic(base.residual, _free_count(base), n_eff)
+    return [(data, base, name, n_eff, bic0, min_improvement) for name in names]
+
+
+def rank_candidates(base, entries):
+    """Return the `Diagnosis` of judged entries: significant first, by held-out gain."""
+    out = sorted(entries, key=lambda c: (c['significant'], -np.inf if c['improvement'] is None
+                                         else c['improvement']), reverse=True)
     _settle_near_ties(out)
     best = next((c['effect'] for c in out if c['significant']), None)
     return Diagnosis(base, out, best)
@@ -473,7 +489,7 @@ def diagnose_rounds(data, base, rounds, **kw):
     return diags, added, base
 
 
-def _candidate(task):
+def judge_candidate(task):
     """
     Refit with one candidate effect and judge it (see the module docstring).
 

@@ -95,6 +95,29 @@ def write_report(directory, comparison, title, *, data_line='', model=None, diag
     return index
 
 
+def write_diagnosis_report(directory, data, diagnosis, title, data_line, force=False):
+    """
+    Write the report of a `engine.Diagnosis` on `data`; returns the path of index.html.
+
+    The base model is compared with the data, and the model with the missing effect added
+    (if one was named) is drawn beside it.
+    """
+    from .compare import compare, flat_static_prediction
+    from .data import is_static
+    base = diagnosis.baseline
+    best = next((c for c in diagnosis.candidates if c['effect'] == diagnosis.missing_effect),
+                None)
+    alternative = None
+    if best:
+        pred = best['fit'].prediction
+        alternative = (f'model + {best["effect"]}',
+                       flat_static_prediction(data, pred) if is_static(data) else pred)
+    result = compare(data, base.prediction, base.signals, split=base.split)
+    model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.values}
+    return write_report(directory, result, title, data_line=data_line, model=model,
+                        diagnosis=diagnosis.to_json(), alternative=alternative, force=force)
+
+
 def save(fig, path):
     """Render a matplotlib Figure to PNG with the Agg canvas."""
     FigureCanvasAgg(fig)

@@ -1,0 +1,90 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+ROS-free closed loop: a `ControllerCore` against a plant, sample by sample.
+
+The plant is any object with `measure()` -> reading [rad] now and `step(duty_a, duty_b)`
+-> reading one control period later (duties held over it), optionally `ambient_c()` ->
+measured ambient [°C]. `CorePlant` is the package's own plant, the core actuator with the
+plant node's potentiometer (`core.sensor.Potentiometer`: noise, 12-bit ADC), as plant_sim
+steps it. Used by the tracking benchmark and the controller tests.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .metrics import summarize
+from ..core.actuator import AntagonisticActuator
+from ..core.sensor import Potentiometer
+
+
+class CorePlant:
+    """`core.AntagonisticActuator` + plant_sim's potentiometer, stepped every dt_s."""
+
+    def __init__(self, params, dt_s=0.025, noise_rad=0.001, seed=7, bits=12):
+        self.actuator = AntagonisticActuator(params)
+        self.pot = Potentiometer(bits, -1.2, 1.2, noise_rad)
+        self.rng = np.random.default_rng(seed)
+        self.dt_s = dt_s
+        self.reading = self._read(self.actuator.reading_now)
+
+    def _read(self, angle):
+        return self.pot.angle(self.pot.counts(angle, self.rng))
+
+    def measure(self):
+        """Return the reading [rad] now."""
+        return self.reading
+
+    def ambient_c(self):
+        """Measured ambient [°C]: the model's constant ambient."""
+        return self.actuator.params.ambient_c
+
+    def step(self, duty_a, duty_b):
+        """Hold the duties for dt_s; return the reading then [rad]."""
+        self.reading = self._read(self.actuator.step(duty_a, duty_b, self.dt_s))
+        return self.reading
+
+
+@dataclass
+class TrackingRun:
+    """Time [s], setpoint and reading [rad], duties (n, 2) of one closed-loop run."""
+
+    time_s: np.ndarray
+    setpoint: np.ndarray
+    position: np.ndarray
+    duty: np.ndarray
+
+    def summary(self, t_start, tolerance_rad=0.025):
+        """`metrics.summarize` from t_start [s]: rms_error, max_error, settling_time."""
+        return summarize(self.time_s, self.setpoint, self.position, tolerance_rad, t_start)
+
+
+def run_tracking(controller, plant, reference, seconds, dt_s=0.025):
+    """
+    Run `controller` against `plant` for `seconds`; reference(t) -> setpoint [rad].
+
+    The setpoint and the reading at t_k give the duties held over [t_k, t_k + dt_s).
+    """
+    n = int(round(seconds / dt_s))
+    rows = np.empty((n, 5))
+    y = plant.measure()
+    ambient = getattr(plant, 'ambient_c', None)
+    for k in range(n):
+        t = k * dt_s
+        r = reference(t)
+        out = controller.step(r, y, dt_s, ambient() if ambient else None)
+        rows[k] = (t, r, y, out.duty_a, out.duty_b)
+        y = plant.step(out.duty_a, out.duty_b)
+    return TrackingRun(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3:5])

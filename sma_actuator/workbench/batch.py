@@ -1,0 +1,426 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+"""
+Fit, compare and diagnose many recordings at once on a Dask cluster (`sma-model batch`).
+
+Each record is a small task graph, so a large cluster spreads one record's candidate
+refits over its workers, not only whole records:
+
+    base fit (round r) -> one refit per candidate effect -> rank -> [round r + 1] -> report
+
+A round adds the named effect and diagnoses again (`--rounds`). Workers read each record
+by its path and write its report under ``OUT/records/<key>/``; only the per-record result
+(scores, named effects, fitted parameters, a few kB) travels back to the client, which
+keeps one ``result.json`` per record and rebuilds the fleet table from them. The table
+therefore always holds exactly the records finished so far, also after Ctrl-C, and a
+rerun skips every record whose result matches the file and the options.
+"""
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+import glob
+import hashlib
+import json
+import logging
+import os
+from pathlib import Path
+import sys
+import time
+
+import numpy as np
+
+RESULT_FILE = 'result.json'
+TABLE_NAME = 'batch'
+RECORD_SUFFIXES = ('.csv', '.mcap')
+# thermal and shaft parameters of the fitted base model put in the table [units in names]
+BASE_PARAMETERS = ('stroke_rad', 'offset_rad')
+RECORD_COLUMNS = ('samples', 'duration_s', 'rate_hz', 'layout', 'position_unit',
+                  'reference_nrmse')
+
+
+class BatchError(ValueError):
+    """A batch cannot start as asked (no records, bad output directory); one line."""
+
+
+@dataclass(frozen=True)
+class BatchOptions:
+    """What is done to every record (part of each result's fingerprint)."""
+
+    effects: tuple = ()          # effects of the starting model (from --model)
+    kind: str = None             # hysteresis base: 'classical' | 'modified' | None (default)
+    candidates: tuple = None     # candidate effects for diagnose (None: the whole catalog)
+    rounds: int = 1              # diagnose rounds: add the named effect and diagnose again
+    rate_hz: float = None        # resampling rate for bags [Hz] (None: joint-state rate)
+    reports: bool = True         # write an HTML report per record
+    reference: dict = None       # a fitted model (from fit --out) compared with every record
+
+    def fingerprint(self):
+        """Short hash of the options; a result made with other options is recomputed."""
+        return hashlib.sha1(json.dumps(asdict(self), sort_keys=True).encode()).hexdigest()[:12]
+
+
+# ------------------------------------------------------------------------------ records
+def find_records(specs):
+    """
+    Expand DATA arguments (files, bag directories, directories, globs) into record paths.
+
+    A directory is a bag if it holds a metadata.yaml or an .mcap file; otherwise it is
+    searched recursively for CSV files, .mcap files and bag directories. Raises
+    `BatchError` for an argument that matches nothing.
+    """
+    from .data import is_bag
+    found = []
+    for spec in specs:
+        matches = sorted(glob.glob(spec, recursive=True)) if glob.has_magic(spec) else [spec]
+        if not matches or not all(Path(m).exists() for m in matches):
+            raise BatchError(f'{spec}: no such file, directory or matching path')
+        for match in map(Path, matches):
+            found += [match] if match.is_file() or is_bag(match) else _records_in(match)
+    unique = list(dict.fromkeys(p.resolve() for p in found))
+    if not unique:
+        raise BatchError(f'no records (CSV files or MCAP bags) in {", ".join(specs)}')
+    return unique
+
+
+def _records_in(directory):
+    from .data import is_bag
+    out = []
+    for root, dirs, files in os.walk(directory):
+        root = Path(root)
+        bags = [d for d in dirs if is_bag(root / d)]
+        out += [root / d for d in bags]
+        dirs[:] = sorted(d for d in dirs if d not in bags)
+        out += [root / f for f in sorted(files) if f.lower().endswith(RECORD_SUFFIXES)]
+    return out
+
+
+def record_key(path):
+    """Directory name of a record's results: its stem and a hash of its absolute path."""
+    path = Path(path).resolve()
+    stem = ''.join(c if c.isalnum() or c in '-_' else '_' for c in path.stem)[:40]
+    return f'{stem}-{hashlib.sha1(str(path).encode()).hexdigest()[:8]}'
+
+
+def file_fingerprint(path):
+    """Size and modification time of a record (every file of a bag directory)."""
+    path = Path(path)
+    files = sorted(p for p in path.rglob('*') if p.is_file()) if path.is_dir() else [path]
+    h = hashlib.sha1()
+    for f in files:
+        st = f.stat()
+        h.update(f'{f.name}:{st.st_size}:{st.st_mtime_ns};'.encode())
+    return h.hexdigest()[:12]
+
+
+# ------------------------------------------------------------------------------ worker tasks
+@lru_cache(maxsize=4)
+def _load(path, rate_hz, stamp):
+    """
+    Load and check one record on a worker.
+
+    Cached, since every candidate task of a record reads it; `stamp` is the file
+    fingerprint, so a changed file is read again.
+    """
+    from .data import check_excitation, load_data
+    data = load_data(path, rate_hz=rate_hz)
+    check_excitation(data, path)
+    return data
+
+
+def task_base(path, stamp, options, effects):
+    """Worker: fit the model with `effects` to the record; returns (fit, seconds, record)."""
+    from .engine import fit_model
+    started = time.perf_counter()
+    data = _load(path, options.rate_hz, stamp)
+    fit = fit_model(data, effects=tuple(effects), kind=options.kind)
+    record = describe_record(data)
+    if options.reference is not None and not effects[len(options.effects):]:
+        record['reference_nrmse'] = compare_reference(options.reference, data)
+    return fit, time.perf_counter() - started, record
+
+
+def compare_reference(spec, data):
+    """NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
+    from .engine import load_fit
+    return float(load_fit(spec, data=data).validation['nrmse'])
+
+
+def describe_record(data):
+    """Table columns that say what a record is: size, rate, rig layout, position unit."""
+    from .data import is_static
+    if is_static(data):
+        return {'samples': len(data), 'duration_s': None, 'rate_hz': None,
+                'layout': 'static curves', 'position_unit': getattr(data, 'unit', None)}
+    single = not np.any(data.duty_b)
+    return {'samples': len(data), 'duration_s': float(data.time[-1] - data.time[0]),
+            'rate_hz': float(1.0 / data.dt),
+            'layout': getattr(data, 'layout', None) or ('single' if single else 'antagonistic'),
+            'position_unit': getattr(data, 'position_unit', None) or 'rad'}
+
+
+def task_candidate(path, stamp, options, base, name):
+    """Worker: refit with one candidate effect and judge it (`engine.judge_candidate`)."""
+    from .engine import candidate_tasks, judge_candidate
+    data = _load(path, options.rate_hz, stamp)
+    started = time.perf_counter()
+    entry = judge_candidate(candidate_tasks(data, base[0], [name])[0])
+    entry['seconds'] = time.perf_counter() - started
+    return entry
+
+
+def task_rank(base, *entries):
+    """Worker: rank the candidates of one round; returns the round's summary dict."""
+    from .engine import rank_candidates
+    fit, seconds, record = base
+    diag = rank_candidates(fit, list(entries))
+    best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
+    return {'effects': list(fit.effects), 'named': diag.missing_effect,
+            'validation_nrmse': fit.validation['nrmse'], 'train_nrmse': fit.train['nrmse'],
+            'improvement': best['improvement'] if best else None,
+            'named_validation_nrmse': best['validation_nrmse'] if best else None,
+            'best_candidate': diag.candidates[0]['effect'] if diag.candidates else None,
+            'best_improvement': diag.candidates[0]['improvement'] if diag.candidates else None,
+            'seconds': seconds + sum(c.get('seconds', 0.0) for c in entries),
+            'record': record}
+
+
+def task_finish(path, stamp, options, report_dir, base, *entries):
+    """
+    Worker: write the record's report (the last round's diagnosis).
+
+    Returns the parameters of the final model, the last round's base plus the effect it
+    named (if any), as {name: value} with units in the names.
+    """
+    from .data import describe
+    from .engine import rank_candidates
+    from .report import write_diagnosis_report
+    diag = rank_candidates(base[0], list(entries))
+    best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
+    fit = best['fit'] if best else base[0]
+    if options.reports:
+        data = _load(path, options.rate_hz, stamp)
+        Path(report_dir).mkdir(parents=True, exist_ok=True)
+        write_diagnosis_report(report_dir, data, diag, f'sma-model batch: {Path(path).name}',
+                               describe(data), force=True)
+    values = {k: float(v) for k, v in fit.values.items()}
+    params = getattr(fit, 'params', None)
+    for name in BASE_PARAMETERS:
+        if hasattr(params, name):
+            values[name] = float(getattr(params, name))
+    if hasattr(params, 'heat_capacity_j_per_k'):
+        values['tau_s'] = float(params.heat_capacity_j_per_k / params.conductance_w_per_k)
+    return values
+
+
+# ------------------------------------------------------------------------------ client
+class RecordRun:
+    """The client's state of one record: its rounds so far and its futures."""
+
+    def __init__(self, path, options, out_dir):
+        self.path = Path(path)
+        self.key = record_key(path)
+        self.dir = Path(out_dir) / 'records' / self.key
+        self.stamp = file_fingerprint(path)
+        self.options = options
+        self.rounds = []
+        self.started = time.perf_counter()
+        self.base = None
+        self.entries = []
+
+    def submit_round(self, client):
+        """Submit the base fit, the candidate refits and the ranking of the next round."""
+        effects = list(self.options.effects) + [r['named'] for r in self.rounds]
+        args = (str(self.path), self.stamp, self.options)
+        label = f'{self.key}-r{len(self.rounds) + 1}'
+        self.base = client.submit(task_base, *args, effects, key=f'base-{label}', pure=False)
+        names = _candidates(self.options, effects)
+        self.entries = [client.submit(task_candidate, *args, self.base, name,
+                                      key=f'refit-{label}-{name}', pure=False)
+                        for name in names]
+        return client.submit(task_rank, self.base, *self.entries, key=f'rank-{label}',
+                             pure=False)
+
+    def submit_finish(self, client):
+        """Submit the report of the last round."""
+        return client.submit(task_finish, str(self.path), self.stamp, self.options,
+                             str(self.dir / 'report'), self.base, *self.entries,
+                             key=f'finish-{self.key}', pure=False)
+
+    def wants_another_round(self, summary):
+        """Keep the round; True if its named effect is to be added and diagnosed again."""
+        self.rounds.append(summary)
+        return bool(summary['named']) and len(self.rounds) < self.options.rounds
+
+    def result(self, parameters=None, error=None):
+        """Return the record's result document (one table row plus its rounds)."""
+        first = self.rounds[0] if self.rounds else {}
+        named = [r['named'] for r in self.rounds if r['named']]
+        return {'record': str(self.path), 'key': self.key,
+                'file_fingerprint': self.stamp, 'options': self.options.fingerprint(),
+                'error': error,
+                'base_effects': ' '.join(self.options.effects),
+                'base_train_nrmse': first.get('train_nrmse'),
+                'base_validation_nrmse': first.get('validation_nrmse'),
+                'named_effect': named[0] if named else None,
+                'improvement': first.get('improvement'),
+                'effects_added': ' '.join(named),
+                'final_validation_nrmse': _final_nrmse(self.rounds),
+                'task_time_s': sum(r['seconds'] for r in self.rounds),
+                'wall_time_s': time.perf_counter() - self.started,
+                'report': (str(Path('records') / self.key / 'report' / 'index.html')
+                           if parameters is not None and self.options.reports else None),
+                'parameters': parameters or {},
+                'rounds': [{k: v for k, v in r.items() if k != 'record'} for r in self.rounds],
+                **{k: first.get('record', {}).get(k) for k in RECORD_COLUMNS}}
+
+
+def _final_nrmse(rounds):
+    """
+    Return the validation NRMSE of the final model.
+
+    The final model is the last round's refit with the effect it named, or its base if
+    it named none.
+    """
+    if not rounds:
+        return None
+    last = rounds[-1]
+    return last['named_validation_nrmse'] if last['named'] else last['validation_nrmse']
+
+
+def _candidates(options, effects):
+    from .effects import CATALOG
+    return [n for n in (options.candidates or CATALOG) if n not in effects]
+
+
+def load_result(directory, stamp, options):
+    """Return a finished record's result from a previous run, or None (missing, stale, failed)."""
+    path = Path(directory) / RESULT_FILE
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if (doc.get('error') or doc.get('file_fingerprint') != stamp
+            or doc.get('options') != options.fingerprint()):
+        return None
+    return doc
+
+
+def save_result(directory, doc):
+    """Write a record's result atomically (a reader never sees half a file)."""
+    from .cli import json_safe
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    tmp = directory / (RESULT_FILE + '.tmp')
+    tmp.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
+    tmp.replace(directory / RESULT_FILE)
+
+
+def error_line(err):
+    """One line for a record's failure: the exception's type and message."""
+    text = ' '.join(str(err).split()) or type(err).__name__
+    return text if isinstance(err, ValueError) else f'{type(err).__name__}: {text}'
+
+
+class BatchProgress:
+    """
+    Records done, errors and the time left, on stderr.
+
+    A bar on a terminal, else a line per finished record (so it shows in a log).
+    """
+
+    def __init__(self, total, stream=None):
+        self.total, self.done, self.errors = total, 0, 0
+        self.stream = stream or sys.stderr
+        self.tty = bool(getattr(self.stream, 'isatty', lambda: False)())
+        self.started = time.perf_counter()
+
+    def record_done(self, name, error=None, skipped=False):
+        """Count one record and draw the progress."""
+        self.done += 1
+        self.errors += bool(error)
+        elapsed = time.perf_counter() - self.started
+        left = elapsed / self.done * (self.total - self.done)
+        status = 'skipped (done before)' if skipped else ('error' if error else 'done')
+        text = (f'batch: {self.done}/{self.total} records, {self.errors} errors, '
+                f'{_duration(elapsed)} elapsed, about {_duration(left)} left; {name}: {status}')
+        if self.tty:
+            self.stream.write('\r\033[K' + text + ('\n' if self.done == self.total else ''))
+        else:
+            self.stream.write(text + '\n')
+        self.stream.flush()
+
+
+def _duration(seconds):
+    seconds = int(round(seconds))
+    return f'{seconds // 60} min {seconds % 60:02d} s' if seconds >= 60 else f'{seconds} s'
+
+
+def start_client(scheduler=None, workers=None):
+    """
+    Return a `dask.distributed.Client`.
+
+    The client is on a running scheduler, or on a local cluster of `workers`
+    single-threaded processes (default: every core).
+    """
+    from dask.distributed import Client, LocalCluster
+    from .parallel import available_cores
+    if scheduler:
+        return Client(scheduler, timeout='30s')
+    cluster = LocalCluster(n_workers=workers or available_cores(), threads_per_worker=1,
+                           processes=True, dashboard_address=None,
+                           silence_logs=logging.CRITICAL)
+    return Client(cluster)
+
+
+def run_batch(paths, out_dir, options, client, force=False, progress=None, results=None):
+    """
+    Run every record through its rounds on `client`; returns the result documents.
+
+    Results already in `out_dir` are kept unless `force`. `results`: a list the documents
+    are appended to as each record ends (after its result.json is written), so that a
+    caller interrupted by Ctrl-C still holds every finished record.
+    """
+    from dask.distributed import as_completed
+    runs = {}
+    results = [] if results is None else results
+    pending = as_completed()
+    for path in paths:
+        run = RecordRun(path, options, out_dir)
+        done = None if force else load_result(run.dir, run.stamp, options)
+        if done is not None:
+            results.append(done)
+            if progress:
+                progress.record_done(run.path.name, skipped=True)
+            continue
+        fut = run.submit_round(client)
+        runs[fut.key] = (run, 'rank')
+        pending.add(fut)
+    for fut in pending:
+        run, stage = runs.pop(fut.key)
+        try:
+            value = fut.result()
+        except Exception as err:   # any failure of one record is that record's error row
+            doc = run.result(error=error_line(err))
+        else:
+            if stage == 'rank':
+                nxt = (run.submit_round(client) if run.wants_another_round(value)
+                       else run.submit_finish(client))
+                runs[nxt.key] = (run, 'rank' if nxt.key.startswith('rank-') else 'finish')
+                pending.add(nxt)
+                continue
+            doc = run.result(parameters=value)
+        save_result(run.dir, doc)
+        results.append(doc)
+        if progress:
+            progress.record_done(run.path.name, error=doc['error'])
+    return results

@@ -1,0 +1,204 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+"""
+The launch files, run by the real launch system (launch.LaunchService).
+
+Each test includes launch/<file> as `ros2 launch` would, watches the actuator's topics from
+a probe node until the shaft reaches a step setpoint (judged from the messages), then shuts
+the launch down and checks that every process exited with 0, collected from OnProcessExit
+events. Waits are bounded only to stop a broken build from hanging.
+"""
+import os
+from pathlib import Path
+import sys
+import threading
+import time
+
+import pytest
+
+pytest.importorskip('launch')
+pytest.importorskip('launch_ros')
+
+ROOT = Path(__file__).resolve().parents[1]
+STEP_RAD = 0.3
+TOLERANCE_RAD = 0.03
+BOUND_S = 240.0
+
+
+@pytest.fixture(autouse=True)
+def ament_prefix(monkeypatch):
+    """Make the venv an ament prefix, as scripts/bootstrap.sh does (needed by launch_ros)."""
+    from ament_index_python.packages import get_package_prefix, PackageNotFoundError
+    paths = [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
+    if sys.prefix not in paths:
+        monkeypatch.setenv('AMENT_PREFIX_PATH', os.pathsep.join([sys.prefix] + paths))
+    try:
+        prefix = Path(get_package_prefix('sma_actuator'))
+    except PackageNotFoundError:
+        pytest.skip('sma_actuator is not on an ament index (source scripts/bootstrap.sh)')
+    if not (prefix / 'share' / 'sma_actuator' / 'launch' / 'sim.launch.py').is_file():
+        pytest.skip(f'{prefix} has no installed launch files (source scripts/bootstrap.sh)')
+
+
+def _step_params(tmp_path, steps):
+    """Write a params file: setpoint of each namespace a step to `steps[ns]` [rad]."""
+    text = ''
+    for ns, target in steps.items():
+        text += (f'/{ns}/setpoint:\n  ros__parameters:\n    profile: step\n'
+                 f'    amplitude: {target}\n    offset: 0.0\n    delay_s: 1.0\n')
+    path = tmp_path / 'step.yaml'
+    path.write_text(text)
+    return str(path)
+
+
+class Watcher:
+    """Probe node: the latest setpoint and shaft angle of each namespace, from the topics."""
+
+    def __init__(self, domain_id, namespaces):
+        import rclpy
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64
+
+        from sma_actuator.nodes import common as c
+        self.rclpy = rclpy
+        self.context = rclpy.context.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.node = rclpy.create_node('launch_watcher', context=self.context)
+        self.setpoint = dict.fromkeys(namespaces)
+        self.reached = dict.fromkeys(namespaces, False)
+        self.positions = {ns: [] for ns in namespaces}
+        for ns in namespaces:
+            self.node.create_subscription(
+                Float64, f'/{ns}/{c.SETPOINT}', lambda m, ns=ns: self._setpoint(ns, m.data),
+                c.COMMAND_QOS)
+            self.node.create_subscription(
+                JointState, f'/{ns}/{c.JOINT_STATES}',
+                lambda m, ns=ns: self._joint_state(ns, m.position[0]), c.SENSOR_QOS)
+
+    def _setpoint(self, ns, value):
+        self.setpoint[ns] = value
+
+    def _joint_state(self, ns, position):
+        self.positions[ns].append(position)
+        target = self.setpoint[ns]
+        if target is not None and target != 0.0 and abs(position - target) < TOLERANCE_RAD:
+            self.reached[ns] = True
+
+    def done(self):
+        return all(self.reached.values())
+
+    def close(self):
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.context)
+
+
+def run_launch(file, arguments, domain_id, namespaces, extra_check=None):
+    """
+    Run launch/<file> until every namespace's shaft reached its step setpoint.
+
+    Returns (watcher, [(process name, exit code)], what extra_check(node) returned while
+    the loop was running).
+    """
+    from ament_index_python.packages import get_package_share_directory
+    from launch import LaunchDescription, LaunchService
+    from launch.actions import (IncludeLaunchDescription, RegisterEventHandler,
+                                SetLaunchConfiguration)
+    from launch.event_handlers import OnProcessExit
+    from launch.launch_description_sources import PythonLaunchDescriptionSource
+
+    path = Path(get_package_share_directory('sma_actuator')) / 'launch' / file
+    exits = []
+    includes = [IncludeLaunchDescription(PythonLaunchDescriptionSource(str(path)),
+                                         launch_arguments=list(args.items()))
+                for args in arguments]
+    description = LaunchDescription([
+        # a loaded machine may need longer than the default 5 s to stop a Python node
+        SetLaunchConfiguration('sigterm_timeout', '30'),
+        SetLaunchConfiguration('sigkill_timeout', '30'),
+        RegisterEventHandler(OnProcessExit(on_exit=lambda event, _: exits.append(
+            (event.action.name.rsplit('-', 1)[0], event.returncode)))),
+        *includes])
+    service = LaunchService()
+    service.include_launch_description(description)
+    watcher = Watcher(domain_id, namespaces)
+    extra = {}
+
+    def watch():
+        from rclpy.executors import SingleThreadedExecutor
+        executor = SingleThreadedExecutor(context=watcher.context)
+        executor.add_node(watcher.node)
+        deadline = time.monotonic() + BOUND_S
+        while not watcher.done() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        if extra_check and watcher.done():
+            extra['result'] = extra_check(watcher.node)
+        service.shutdown()
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    try:
+        code = service.run()   # the main thread: LaunchService refuses any other
+    finally:
+        thread.join(BOUND_S)
+        watcher.close()
+    assert code == 0, f'launch returned {code}'
+    return watcher, exits, extra.get('result')
+
+
+def test_sim_launch_closes_the_loop_records_and_stops_cleanly(tmp_path, ros_domain_id):
+    from sma_actuator.bag.arrays import load_run
+    bag = tmp_path / 'bag'
+    watcher, exits, _ = run_launch('sim.launch.py', [{
+        'params_file': _step_params(tmp_path, {'sma': STEP_RAD}), 'mode': 'pi',
+        'record': 'true', 'bag_path': str(bag), 'real_time_factor': '5.0'}],
+        ros_domain_id, ['sma'])
+    assert watcher.reached == {'sma': True}, watcher.positions['sma'][-5:]
+    assert sorted(exits) == [('controller', 0), ('plant_sim', 0), ('recorder', 0),
+                             ('setpoint', 0)]
+    run = load_run(bag)
+    assert run['setpoint'][-1] == pytest.approx(STEP_RAD)
+    assert abs(run['position'] - STEP_RAD).min() < TOLERANCE_RAD
+
+
+def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
+    params = _step_params(tmp_path, {'left': STEP_RAD, 'right': -STEP_RAD})
+    # two plants cannot both own /clock: the pair runs on the wall clock
+    common = {'params_file': params, 'use_sim_time': 'false', 'mode': 'pi'}
+
+    def graph(node):
+        return {topic: sorted({(i.node_namespace, i.node_name) for i in (
+            node.get_publishers_info_by_topic(topic)
+            + node.get_subscriptions_info_by_topic(topic))})
+            for ns in ('left', 'right') for topic in (f'/{ns}/duty', f'/{ns}/joint_states')}
+
+    watcher, exits, seen = run_launch(
+        'sim.launch.py', [{'namespace': 'left', **common}, {'namespace': 'right', **common}],
+        ros_domain_id, ['left', 'right'], extra_check=graph)
+    assert watcher.reached == {'left': True, 'right': True}
+    assert max(watcher.positions['left']) > STEP_RAD - TOLERANCE_RAD
+    assert max(watcher.positions['right']) < 0.05    # the right shaft never went left
+    for topic, endpoints in seen.items():
+        ns = topic.split('/')[1]
+        assert {n for n, _ in endpoints} - {'/'} == {f'/{ns}'}, (topic, endpoints)
+        assert {'controller', 'plant_sim'} <= {name for _, name in endpoints}, topic
+    assert sorted(exits) == sorted([('controller', 0), ('plant_sim', 0), ('setpoint', 0)] * 2)
+
+
+def test_emulator_launch_closes_the_loop_through_bridge_and_emulator(tmp_path, ros_domain_id):
+    watcher, exits, _ = run_launch('emulator.launch.py', [{
+        'params_file': _step_params(tmp_path, {'sma': STEP_RAD}), 'mode': 'pi',
+        'link': str(tmp_path / 'mcu'), 'baud': '1000000'}], ros_domain_id, ['sma'])
+    assert watcher.reached == {'sma': True}, watcher.positions['sma'][-5:]
+    assert sorted(exits) == [('controller', 0), ('hardware_bridge', 0), ('mcu_emulator', 0),
+                             ('setpoint', 0)]

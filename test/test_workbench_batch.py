@@ -1,0 +1,255 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+"""`sma-model batch`: a fleet of records on a Dask cluster, error rows, resumption."""
+import csv
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from sma_actuator.bag.synthetic import cdr_encoder, stamp
+from sma_actuator.bag.writer import BagWriter
+from sma_actuator.control.excitation import multilevel
+from sma_actuator.core.actuator import ActuatorParams, simulate
+from sma_actuator.workbench import batch, cli
+from sma_actuator.workbench.fleet import effect_recurrence, table_rows
+
+N_DELAY, N_NONE = 23, 23
+DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
+COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
+T0_NS = 1_700_000_000_000_000_000
+
+
+def _record(effect, seed):
+    """
+    Return a short identification run of the package's plant model.
+
+    Multilevel excitation, as the controller's model is identified from, and 2 mrad noise;
+    `effect` 'delay' is a 0.8 s transport delay.
+    """
+    dt = 1.0 / RATE_HZ
+    duty_a, duty_b = multilevel(DURATION_S, dt, seed=seed)
+    params = ActuatorParams(delay_s=DELAY_S if effect == 'delay' else 0.0)
+    position = simulate(params, duty_a, duty_b, dt).position_rad
+    rng = np.random.default_rng(seed)
+    return {'time': np.arange(len(duty_a)) * dt, 'duty_a': duty_a, 'duty_b': duty_b,
+            'position': position + rng.normal(0.0, 0.002, len(duty_a))}
+
+
+def _write_csv(path, rec):
+    np.savetxt(path, np.column_stack([rec[c] for c in COLUMNS]), delimiter=',',
+               header=','.join(COLUMNS), comments='', fmt='%.6g')
+
+
+def _write_bag(path, rec):
+    """Return the record as the recorder would store it: joint states and duty commands."""
+    js, duty = cdr_encoder('sensor_msgs/msg/JointState'), cdr_encoder(
+        'std_msgs/msg/Float64MultiArray')
+    with BagWriter(path) as bag:
+        bag.add_topic('/sma/joint_states', 'sensor_msgs/msg/JointState')
+        bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
+        for t, da, db, pos in zip(*(rec[c] for c in COLUMNS)):
+            ns = T0_NS + int(round(t * 1e9))
+            bag.write('/sma/duty', duty({'data': [float(da), float(db)]}), ns - 1000)
+            bag.write('/sma/joint_states', js({'header': {'stamp': stamp(ns)}, 'name': ['shaft'],
+                                               'position': [float(pos)], 'velocity': [0.0]}), ns)
+    return path
+
+
+@pytest.fixture(scope='module')
+def fleet(tmp_path_factory):
+    """
+    49 records.
+
+    Delay (0.8 s) and effect-free CSVs, one good and one corrupt bag, one malformed CSV. Returns
+    (directory, {file name: hidden effect or 'error'}).
+    """
+    root = tmp_path_factory.mktemp('fleet')
+    truth = {}
+    for i in range(N_DELAY):
+        _write_csv(root / f'delay_{i:02d}.csv', _record('delay', i))
+        truth[f'delay_{i:02d}.csv'] = 'delay'
+    for i in range(N_NONE):
+        _write_csv(root / f'none_{i:02d}.csv', _record('none', 100 + i))
+        truth[f'none_{i:02d}.csv'] = None
+    bags = root / 'bags'
+    bags.mkdir()
+    _write_bag(bags / 'delay_bag', _record('delay', 50))
+    truth['delay_bag'] = 'delay'
+    corrupt = _write_bag(bags / 'corrupt_bag', _record('none', 51))
+    mcap = next(corrupt.glob('*.mcap'))
+    mcap.write_bytes(mcap.read_bytes()[:300])
+    truth['corrupt_bag'] = 'error'
+    (root / 'malformed.csv').write_text('time,duty_a,duty_b,position\n0,0,0,0\n0.1,0.5,x,0\n')
+    truth['malformed.csv'] = 'error'
+    return root, truth
+
+
+@pytest.fixture(scope='module')
+def scheduler():
+    """Return a running two-worker Dask cluster, used through --scheduler ADDRESS."""
+    from dask.distributed import LocalCluster
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=50)
+    yield cluster.scheduler_address
+    cluster.close()
+
+
+def _name(record):
+    parts = record.split('/')
+    return parts[-1] if parts[-1] in ('delay_bag', 'corrupt_bag') or '.' in parts[-1] \
+        else parts[-2]
+
+
+class _StopAfter(batch.BatchProgress):
+    """Progress that presses Ctrl-C after a number of records."""
+
+    limit = 10
+
+    def record_done(self, name, error=None, skipped=False):
+        super().record_done(name, error, skipped)
+        if self.done >= self.limit:
+            raise KeyboardInterrupt
+
+
+@pytest.mark.slow
+def test_batch_names_the_hidden_effects_keeps_errors_and_resumes(fleet, scheduler, tmp_path,
+                                                                 monkeypatch, capsys):
+    root, truth = fleet
+    out = tmp_path / 'out'
+    argv = ['batch', str(root), '--out', str(out), '--candidates', 'delay', '--no-reports',
+            '--scheduler', scheduler]
+    monkeypatch.setattr(batch, 'BatchProgress', _StopAfter)
+    assert cli.main(argv) == cli.EXIT_INTERRUPTED
+    first = pq.read_table(out / 'batch.parquet').to_pylist()
+    on_disk = list(out.glob('records/*/result.json'))
+    # the table holds exactly the records finished before Ctrl-C, each complete
+    assert len(first) == len(on_disk) >= _StopAfter.limit
+    assert all(r['record'] and (r['error'] or r['base_validation_nrmse'] is not None)
+               for r in first)
+    capsys.readouterr()
+
+    monkeypatch.undo()
+    assert cli.main(argv + ['--json']) == 0
+    captured = capsys.readouterr()
+    rows = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert len(rows) == len(truth) == 49
+    assert {_name(r['record']) for r in rows} == set(truth)
+    # finished records were skipped, not recomputed (errors are retried)
+    done_before = sum(1 for r in first if not r['error'])
+    assert captured.err.count('skipped (done before)') == done_before
+    errors = {_name(r['record']): r['error'] for r in rows if r['error']}
+    assert set(errors) == {'corrupt_bag', 'malformed.csv'}
+    assert all('\n' not in e and _name_in(e, n) for n, e in errors.items())
+    named = {_name(r['record']): r['named_effect'] for r in rows if not r['error']}
+    wrong = {n: e for n, e in named.items() if e != truth[n]}
+    assert not wrong, f'named effects differ from the hidden ones: {wrong}'
+    with open(out / 'batch.csv', newline='') as fh:
+        assert len(list(csv.DictReader(fh))) == 49
+    fitted = [r for r in rows if r['named_effect'] == 'delay']
+    assert all(0.6 < r['param.delay_s'] < 1.0 for r in fitted)
+    assert all(r['final_validation_nrmse'] < r['base_validation_nrmse'] for r in fitted)
+    summary = json.loads(captured.out)
+    assert summary['records'] == 49 and summary['errors'] == 2
+    index = (out / 'index.html').read_text()
+    assert 'delay' in index and 'malformed.csv' in index and 'parameters.png' in index
+
+
+def _name_in(error, name):
+    return name.split('.')[0] in error
+
+
+@pytest.mark.slow
+def test_batch_rounds_write_reports_linked_from_the_index(fleet, scheduler, tmp_path):
+    root, _ = fleet
+    out = tmp_path / 'out'
+    argv = ['batch', str(root / 'delay_00.csv'), str(root / 'none_0[01].csv'),
+            '--out', str(out),
+            '--candidates', 'delay', 'asymmetric_wires', '--rounds', '2',
+            '--scheduler', scheduler]
+    assert cli.main(argv) == 0
+    rows = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert len(rows) == 3
+    delay = next(r for r in rows if r['record'].endswith('delay_00.csv'))
+    doc = json.loads((out / 'records' / batch.record_key(delay['record']) /
+                      'result.json').read_text())
+    # round 1 names delay; round 2 starts from the model with delay and names nothing more
+    assert [r['named'] for r in doc['rounds']] == ['delay', None]
+    assert doc['rounds'][1]['effects'] == ['delay']
+    assert doc['rounds'][1]['validation_nrmse'] < doc['rounds'][0]['validation_nrmse']
+    index = (out / 'index.html').read_text()
+    for r in rows:
+        assert (out / r['report']).is_file()
+        assert r['report'] in index
+
+
+def test_records_are_found_in_files_directories_and_globs(fleet):
+    root, truth = fleet
+    found = batch.find_records([str(root)])
+    assert {p.name for p in found} == set(truth)
+    globbed = batch.find_records([str(root / 'delay_0*.csv'), str(root / 'bags')])
+    assert {p.name for p in globbed} == {f'delay_0{i}.csv' for i in range(10)} | {
+        'delay_bag', 'corrupt_bag'}
+    assert len(batch.find_records([str(root / 'none_00.csv')] * 2)) == 1
+
+
+def _exit_code(argv):
+    """cli.main's exit code, also for argparse errors (which exit through SystemExit)."""
+    try:
+        return cli.main(argv)
+    except SystemExit as stop:
+        return stop.code
+
+
+def test_missing_data_and_bad_options_are_one_line_errors(fleet, tmp_path, capsys):
+    root, _ = fleet
+    for argv in (['batch', str(tmp_path / 'nothing*.csv'), '--out', str(tmp_path / 'o')],
+                 ['batch', str(root), '--out', str(root / 'none_00.csv')],
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--rounds', '0'],
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--candidates', 'bogus']):
+        assert _exit_code(argv) == cli.EXIT_BAD_INPUT
+        err = capsys.readouterr().err
+        assert err.count('\n') == 1 and err.startswith('sma-model'), err
+    assert not (tmp_path / 'o').exists()
+
+
+def test_table_and_recurrence_from_results():
+    results = [{'record': '/d/b.csv', 'effects_added': 'delay convection', 'error': None,
+                'parameters': {'delay_s': 0.3}},
+               {'record': '/d/a.csv', 'effects_added': 'delay', 'error': None,
+                'parameters': {'tau_s': 2.0}},
+               {'record': '/d/c.csv', 'effects_added': '', 'error': 'bad', 'parameters': {}}]
+    rows = table_rows(results)
+    assert [r['record'] for r in rows] == ['/d/a.csv', '/d/b.csv', '/d/c.csv']
+    assert rows[0]['param.delay_s'] is None and rows[1]['param.delay_s'] == 0.3
+    assert effect_recurrence(rows) == {'delay': ['/d/a.csv', '/d/b.csv'],
+                                       'convection': ['/d/b.csv']}
+
+
+@pytest.mark.slow
+def test_a_fitted_model_is_compared_with_every_record(fleet, scheduler, tmp_path):
+    root, _ = fleet
+    model = tmp_path / 'delay.yaml'
+    assert cli.main(['fit', str(root / 'delay_00.csv'), '--add', 'delay', '--out',
+                     str(model)]) == 0
+    out = tmp_path / 'out'
+    assert cli.main(['batch', str(root / 'delay_00.csv'), str(root / 'none_00.csv'),
+                     '--model', str(model), '--candidates', 'delay', '--no-reports',
+                     '--out', str(out), '--scheduler', scheduler]) == 0
+    rows = {_name(r['record']): r for r in pq.read_table(out / 'batch.parquet').to_pylist()}
+    # the model fitted on delay_00 predicts its own record well, and misses the plant
+    # without the delay by far more
+    assert rows['delay_00.csv']['reference_nrmse'] < 0.02
+    assert rows['none_00.csv']['reference_nrmse'] > 5 * rows['delay_00.csv']['reference_nrmse']
+    assert rows['delay_00.csv']['base_effects'] == 'delay'
