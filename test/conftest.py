@@ -93,3 +93,8 @@ def ros_context(ros_domain_id):
     yield context
     if context.ok():
         rclpy.shutdown(context=context)
+
+
+def pytest_configure(config):
+    """Register the `slow` marker (tests of a minute or more; deselect with -m 'not slow')."""
+    config.addinivalue_line('markers', 'slow: takes a minute or more (-m "not slow" skips it)')

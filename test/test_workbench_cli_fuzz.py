@@ -149,6 +149,7 @@ def stub_fit(monkeypatch):
         seen.append(data)
         return SimpleNamespace(effects=tuple(effects), kind=kind or 'modified', n_parameters=0,
                                values={}, train=None, validation=None, signals={},
+                               prediction=getattr(data, 'position', None), split=None,
                                to_dict=lambda: {})
     monkeypatch.setattr(engine, 'fit_model', fake_fit)
     return seen

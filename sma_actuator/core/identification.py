@@ -65,12 +65,18 @@ OUTER_TOL = 1e-4
 RIDGE = 1e-10
 
 
-def scores(y, y_hat):
-    """Error figures of a prediction y_hat of measured y: rmse, nrmse, fit_percent, max_error."""
+def scores(y, y_hat, span=None):
+    """
+    Return the error figures of a prediction y_hat of measured y.
+
+    rmse, nrmse = rmse / span, fit_percent, max_error; span defaults to the range of y
+    (pass the range of the whole record set so a quiet window is not scored as a huge
+    relative error).
+    """
     y = np.asarray(y, float)
     e = y - np.asarray(y_hat, float)
     rmse = float(np.sqrt(np.mean(e ** 2)))
-    span = float(np.ptp(y))
+    span = float(np.ptp(y)) if span is None else float(span)
     dev = float(np.linalg.norm(y - y.mean()))
     return {'rmse': rmse,
             'nrmse': rmse / span if span > 0 else float('inf'),
@@ -236,6 +242,16 @@ class DynamicData:
     position: np.ndarray
     ambient: np.ndarray = None
     setpoint: np.ndarray = None
+    # unit of position and setpoint as read from the data ('rad' for the package's bags)
+    position_unit: str = 'rad'
+    # 'antagonistic' (two wires) or 'single' (one wire against a bias spring, duty_b = 0)
+    layout: str = 'antagonistic'
+    # several records joined at rest: ((name, start, stop), ...) sample ranges of the
+    # records; `scored` marks the measured samples (False on the rest gaps between
+    # records); `split` is where the held-out records start (None: the time split)
+    segments: tuple = ()
+    scored: np.ndarray = None
+    split: int = None
 
     def __post_init__(self):
         self.time = finite_array('time', self.time, min_len=10)
@@ -314,6 +330,7 @@ class _Problem:
         self.linear_term = not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all())
         self.amb = (data.ambient if data.ambient is not None
                     else np.full(len(data), base.ambient_c))
+        self.keep = None if data.scored is None else np.asarray(data.scored, bool)
 
     def regressors(self, params, n, rows=slice(None)):
         """
@@ -381,7 +398,8 @@ class _Problem:
         da, db, amb = self.inputs(values)
         pos = act.simulate(params, da[:n], db[:n], self.data.dt, ambient_c=amb[:n]).position_rad
         sl = slice(self.burn_in, n, step)
-        return pos[sl] - self.data.position[sl]
+        err = pos[sl] - self.data.position[sl]
+        return err if self.keep is None else err[self.keep[sl]]
 
     def fatigued(self, params):
         """Return True when the regressors carry functional fatigue (see `regressors`)."""
@@ -401,6 +419,8 @@ class _Problem:
         sl = slice(self.burn_in, n, self.stride)
         X = self.regressors(params, n, sl)
         y = self.data.position[sl]
+        if self.keep is not None:   # the rest gaps between records carry no measurement
+            X, y = X[self.keep[sl]], y[self.keep[sl]]
         # regress the angle before the sensor, p⁻¹(y); the residual is the forward one,
         # p(X b) − y, which the outer search minimises
         target = act.sensor_inverse(params, y)
@@ -599,7 +619,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     if np.ptp(data.position) <= 0:
         raise ValueError('too little excitation: the measured position is constant')
     n = len(data)
-    n_train = int(round(train_fraction * n))
+    n_train = int(data.split) if data.split else int(round(train_fraction * n))
     burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
     values = {k: v[2] for k, v in free.items()}
     feedback = any(k in FEEDBACK_PARAMS for k in free)
@@ -610,8 +630,9 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
         amb = data.ambient if data.ambient is not None else np.full(n, base.ambient_c)
         u_lo = float(np.min(amb)) - 2.0
         u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
-        prob = _Problem(data, base, play_grid(u_lo, u_hi, kind, *coarse), free, n_train, burn_in,
-                        input_hook, values)
+        u_rest = float(np.max(amb))
+        prob = _Problem(data, base, close_major_loop(play_grid(u_lo, u_hi, kind, *coarse), u_rest),
+                        free, n_train, burn_in, input_hook, values)
         if feedback:   # a first reference, so the search sees the feedback at all
             _settle(prob, base, values)
         best = None
@@ -636,6 +657,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
                 h = prob.with_linear(set_values(base, values), b).hysteresis
                 grid, shape = _adaptive_grid(h, prob.state_hi - prob.state_lo, u_lo, u_hi,
                                              *fine)
+                grid = close_major_loop(grid, u_rest)
             else:
                 grid = play_grid(u_lo, u_hi, kind, *fine)
             prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
@@ -671,9 +693,43 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7,
     traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
     pred, y = traj.position_rad, data.position
     n_par = int(np.count_nonzero(params.hysteresis.w)) + 3 + len(free)
-    return DynamicFit(params, values, scores(y[burn_in:n_train], pred[burn_in:n_train]),
-                      scores(y[n_train:], pred[n_train:]), pred, traj, n_train, burn_in, n_par,
-                      prob.grid)
+    train, val = np.zeros(n, bool), np.zeros(n, bool)
+    train[burn_in:n_train], val[n_train:] = True, True
+    train &= scored_mask(data)
+    val &= scored_mask(data)
+    span = record_span(data)
+    return DynamicFit(params, values, scores(y[train], pred[train], span),
+                      scores(y[val], pred[val], span) if val.any() else None, pred, traj,
+                      n_train, burn_in, n_par, prob.grid)
+
+
+def scored_mask(data):
+    """Return the samples of `data` that are measured (not the rest gaps between records)."""
+    return np.ones(len(data), bool) if data.scored is None else np.asarray(data.scored, bool)
+
+
+def record_span(data):
+    """Return the range of the measured position over the whole record set (NRMSE scale)."""
+    return float(np.ptp(data.position[scored_mask(data)]))
+
+
+def close_major_loop(grid, u_rest):
+    """
+    Return the saturated `grid` with every element fully cold at the rest temperature.
+
+    An element of half-width r and band [lo, hi] falls back to lo on cooling only once
+    its input is below lo − r; with lo < u_rest + r it would stay partly transformed at
+    rest after any heating, and a model fitted on a record that never cooled fully would
+    freeze above the measured rest. The material's major loop closes there (Mf above
+    ambient), so lo is raised to u_rest + r (hi kept, an empty band is a constant):
+    beyond the temperatures seen in training the model then saturates at the ends of the
+    major loop instead of where the training stopped. Unsaturated (classical) elements
+    are returned as they are.
+    """
+    if not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
+        return grid
+    lo = np.minimum(np.maximum(grid.lo, u_rest + grid.r), grid.hi)
+    return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
 
 
 def _settle(prob, base, values, steps=FIXED_POINT_STEPS):

@@ -15,14 +15,15 @@
 """
 `sma-model`: fit, compare and diagnose actuator models on recorded data.
 
-    sma-model fit DATA [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml] [--json]
-    sma-model compare DATA --model FITTED.yaml [--report DIR] [--json]
-    sma-model diagnose DATA [--model MODEL.yaml] [--report DIR] [--json]
+    sma-model fit DATA [DATA ...] [--model MODEL.yaml] [--add EFFECT ...] [--out FITTED.yaml]
+    sma-model compare DATA [DATA ...] --model FITTED.yaml [--report DIR] [--json]
+    sma-model diagnose DATA [DATA ...] [--model MODEL.yaml] [--rounds N] [--report DIR]
     sma-model batch DATA... --out DIR [--model MODEL.yaml] [--rounds N] [--scheduler ADDRESS]
     sma-model effects [--json]        (the catalog, with plug-ins)
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
---force to overwrite existing output files. Bad input ends with exit code 2 and one line
+--force to overwrite existing output files; DATA commands take --validate-on DATA ...,
+--layout single|antagonistic and --position-unit UNIT. Bad input ends with exit code 2 and one line
 ``sma-model: error: ...`` on stderr, before any output file is written. Progress goes to
 stderr: a bar on a terminal, otherwise plain lines for long stages and large files. See
 docs/workbench.md.
@@ -120,11 +121,17 @@ def setup_effects(args):
 
 def check_outputs_spare_data(args):
     """Raise UsageError if --out or --report would write over DATA itself (even with --force)."""
-    data = Path(args.data).resolve()
+    inputs = {Path(d).resolve() for d in all_data(args)}
     for option, target in (('--out', getattr(args, 'out', None)),
                            ('--report', getattr(args, 'report', None))):
-        if target and Path(target).resolve() == data:
+        if target and Path(target).resolve() in inputs:
             raise UsageError(f'{option} {target} is DATA itself; choose another path')
+
+
+def all_data(args):
+    """Return every DATA path of the command line: DATA, then --validate-on ones not in it."""
+    extra = [v for v in (getattr(args, 'validate_on', None) or []) if v not in args.data]
+    return list(args.data) + extra
 
 
 def check_effect_names(names, catalog, what='--add'):
@@ -136,11 +143,63 @@ def check_effect_names(names, catalog, what='--add'):
 
 
 def load_checked_data(args):
-    """Load DATA and require enough excitation; returns the data object."""
-    from .data import check_excitation, load_data
-    data = load_data(args.data, rate_hz=args.rate)
-    check_excitation(data, args.data)
+    """
+    Load every DATA record, check each and join them; return the data object.
+
+    One record: as it is (the time split applies). Several dynamic records: joined at
+    rest by `records.join`, the last one (or the --validate-on ones) held out. Mixed static
+    and dynamic records, several static files, and records that cannot be fitted together
+    are bad input.
+    """
+    from .data import check_excitation, is_static, load_data
+    from .records import join
+    paths = all_data(args)
+    unit = getattr(args, 'position_unit', None)
+    loaded = []
+    for path in paths:
+        d = load_data(path, rate_hz=args.rate, position_unit=unit)
+        check_excitation(d, path)
+        loaded.append((path, d))
+    static = [p for p, d in loaded if is_static(d)]
+    if static and len(static) < len(loaded):
+        dyn = next(p for p, d in loaded if not is_static(d))
+        raise UsageError(f'{static[0]} holds static curves but {dyn} is a dynamic record; '
+                         'fit static and dynamic data separately')
+    if static:
+        if len(loaded) > 1:
+            raise UsageError(f'{static[1]}: give static curves as one file (curve ids in a '
+                             'curve column)')
+        return loaded[0][1]
+    layout = getattr(args, 'layout', None)
+    for path, d in loaded:
+        if layout == 'single' and np.any(d.duty_b):
+            raise UsageError(f'{path}: --layout single, but duty_b is used (up to '
+                             f'{np.max(d.duty_b):.3g})')
+        if layout:
+            d.layout = layout
+    held = list(getattr(args, 'validate_on', None) or [])
+    if not held and len(loaded) > 1 and getattr(args, 'command', '') != 'compare':
+        held = [loaded[-1][0]]
+    notes = []
+    data = join(loaded, held_out=tuple(held), notes=notes)
+    for line in notes:
+        _note(args, line)
     return data
+
+
+def data_lines(data):
+    """Return one line per record of `data`: 'NAME: dynamic record: ...' (role if joined)."""
+    from .data import describe, is_static
+    from .records import segment_view
+    if is_static(data) or not data.segments:
+        return [describe(data)]
+    if len(data.segments) == 1:
+        return [f'{data.segments[0][0]}: {describe(data)}']
+    out = []
+    for name, a, b in data.segments:
+        role = 'validation' if data.split is not None and a >= data.split else 'train'
+        out.append(f'{name} ({role}): {describe(segment_view(data, a, b))}')
+    return out
 
 
 def read_model_spec(path, catalog):
@@ -183,12 +242,22 @@ def _pct(x):
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
-def score_line(part, s):
-    """Return 'validation: NRMSE 1.23 %  RMSE ...' for a scores dict (or n/a)."""
+def score_line(part, s, unit='', width=10):
+    """
+    Return 'validation: NRMSE 1.23 %  RMSE 0.1 mm ...' for a scores dict (or n/a).
+
+    A held-out part whose measured range covers less than MIN_COVERAGE of the whole set's
+    is reported as uninformative, not scored.
+    """
     if not s:
-        return f'{part:>10}: n/a'
-    return (f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}  fit '
-            f'{s["fit_percent"]:.1f} %  max error {s["max_error"]:.4g}')
+        return f'{part:>{width}}: n/a'
+    u = f' {unit}' if unit else ''
+    if part == 'validation' and s.get('informative') is False:
+        return (f'{part:>{width}}: uninformative: the held-out part covers '
+                f'{100 * s["coverage"]:.0f} % of the measured range (hold out another record; '
+                f'RMSE {s["rmse"]:.4g}{u})')
+    return (f'{part:>{width}}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  fit '
+            f'{s["fit_percent"]:.1f} %  max error {s["max_error"]:.4g}{u}')
 
 
 def model_line(effects, kind):
@@ -201,7 +270,6 @@ def model_line(effects, kind):
 # ------------------------------------------------------------------------------ fit
 def cmd_fit(args):
     """sma-model fit: fit the base model plus effects; print scores; write FITTED.yaml."""
-    from .data import describe
     from .engine import fit_model
     from .modelfile import check_writable, write_model
     catalog = setup_effects(args)
@@ -214,7 +282,8 @@ def cmd_fit(args):
     effects = list(dict.fromkeys(spec['effects'] + add))
     kind = args.kind or spec.get('kind')
     data = load_checked_data(args)
-    _note(args, f'{args.data}: {describe(data)}')
+    for line in data_lines(data):
+        _note(args, line)
     progress = Progress('fit')
     try:
         fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
@@ -222,36 +291,59 @@ def cmd_fit(args):
         progress.close()
     if args.out:
         write_model(args.out, fit.to_dict(), force=args.force)
+    records = per_record(fit, data)
     if args.json:
-        print_json(fit_json(fit, args.out))
+        print_json(fit_json(fit, args.out, records))
     else:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
             print('fitted: ' + ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()))
-        print(score_line('train', fit.train))
-        print(score_line('validation', fit.validation))
+        unit = unit_of(data)
+        for r in records if len(records) > 1 else []:
+            print(score_line(f'{r["data"]} ({r["role"]})', r['scores']['all'], unit, 0))
+        print(score_line('train', fit.train, unit))
+        print(score_line('validation', fit.validation, unit))
     if args.out:
         _note(args, f'wrote {args.out}')
     return 0
 
 
-def fit_json(fit, out):
+def unit_of(data):
+    """Return the output unit of `data` ('' for static curves, whose unit is not known)."""
+    return getattr(data, 'position_unit', '') or ''
+
+
+def per_record(fit, data):
+    """Return the per-record scores of a dynamic fit ([] for static curves)."""
+    from .data import is_static
+    from .engine import record_scores
+    if is_static(data):
+        return []
+    return record_scores(data, fit.prediction, fit.split)
+
+
+def fit_json(fit, out, records=()):
     """Return the `fit --json` document."""
     val = fit.validation or {}
-    return {'effects': list(fit.effects), 'kind': fit.kind,
-            'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
-            'parameters': dict(fit.values), 'n_parameters': fit.n_parameters,
-            'train': fit.train, 'validation': fit.validation,
-            'out': str(out) if out else None}
+    doc = {'effects': list(fit.effects), 'kind': fit.kind,
+           'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
+           'parameters': dict(fit.values), 'n_parameters': fit.n_parameters,
+           'train': fit.train, 'validation': fit.validation,
+           'out': str(out) if out else None}
+    if records:
+        doc['records'] = list(records)
+    doc.update(fit.rig)
+    return doc
 
 
 # ------------------------------------------------------------------------------ compare
 def cmd_compare(args):
     """sma-model compare: score a fitted model on DATA, break the error down, test residual."""
     from .compare import compare, summary_lines
-    from .data import describe, is_static
-    from .engine import load_fit
+    from .data import is_static
+    from .engine import load_fit, record_scores
     from .modelfile import is_fitted, is_static_model
+    from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
@@ -262,32 +354,61 @@ def cmd_compare(args):
         raise UsageError(f'{args.model}: holds no fitted model (no "model" section); run '
                          f'{PROG} fit DATA --out FITTED.yaml first')
     data = load_checked_data(args)
+    names = ' '.join(all_data(args))
     if is_static_model(spec) != is_static(data):
         kinds = ('static curves', 'a dynamic record')
         raise UsageError(f'{args.model} was fitted on {kinds[not is_static_model(spec)]} but '
-                         f'{args.data} is {kinds[not is_static(data)]}')
+                         f'{names} is {kinds[not is_static(data)]}')
+    if not is_static(data):
+        check_rig(spec, data, args.model)
     try:
         fit = load_fit(spec, data=data)
     except (KeyError, TypeError, ValueError) as err:
         what = f'missing {err}' if isinstance(err, KeyError) else str(err)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
-    result = compare(data, fit.prediction, model_signals(fit, data))
-    title = f'{PROG} compare: {args.data} with {args.model}'
-    if args.report:
-        _write_report(args, result, title, describe(data), spec)
-    if args.json:
-        print_json({'data': str(args.data), 'model': {'effects': spec['effects'],
-                                                      'kind': spec.get('kind')}}
-                   | result.to_json())
+    records = []
+    if is_static(data):
+        result = compare(data, fit.prediction, model_signals(fit, data))
     else:
-        print(f'{args.data}: {describe(data)}')
+        records = record_scores(data, fit.prediction)
+        view, pred, sig = scored_view(data, fit.prediction, model_signals(fit, data))
+        result = compare(view, pred, sig, split=0 if len(records) > 1 else None)
+    title = f'{PROG} compare: {names} with {args.model}'
+    lines = data_lines(data)
+    if args.report:
+        _write_report(args, result, title, '; '.join(lines), spec, unit=unit_of(data))
+    if args.json:
+        doc = {'data': str(args.data[0]) if len(all_data(args)) == 1 else all_data(args),
+               'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
+        doc |= result.to_json()
+        if not is_static(data):
+            doc |= {'records': records, 'position_unit': data.position_unit,
+                    'layout': data.layout}
+        print_json(doc)
+    else:
+        print('\n'.join(lines))
         print(f'model: {model_line(spec["effects"], spec.get("kind") or "modified")}')
+        unit = unit_of(data)
+        for r in records if len(records) > 1 else []:
+            print(score_line(r['data'], r['scores']['all'], unit, 0))
+        result.unit = unit
         print('\n'.join(summary_lines(result)))
     return 0
 
 
-def _write_report(args, comparison, title, data_line, model, diagnosis=None, alternative=None):
+def check_rig(spec, data, source):
+    """Raise UsageError if the model file's position unit or layout differ from the data's."""
+    for key, value in (('position_unit', data.position_unit), ('layout', data.layout)):
+        want = spec.get(key)
+        if want is not None and want != value:
+            raise UsageError(f'{source}: fitted with {key} {want}, but the data has {value} '
+                             f'(give --{key.replace("_", "-")} {want} if that is wrong)')
+
+
+def _write_report(args, comparison, title, data_line, model, diagnosis=None, alternative=None,
+                  unit=''):
     from .report import write_report
+    comparison.unit = unit
     index = write_report(args.report, comparison, title, data_line=data_line, model=model,
                          diagnosis=diagnosis, alternative=alternative, force=args.force)
     _note(args, f'report: {index}')
@@ -296,8 +417,10 @@ def _write_report(args, comparison, title, data_line, model, diagnosis=None, alt
 # ------------------------------------------------------------------------------ diagnose
 def cmd_diagnose(args):
     """sma-model diagnose: refit with each candidate effect, rank by held-out improvement."""
-    from .data import describe
-    from .engine import diagnose, fit_model
+    from .compare import compare
+    from .data import is_static
+    from .engine import diagnose_rounds, fit_model
+    from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
@@ -308,26 +431,71 @@ def cmd_diagnose(args):
         check_effect_names(args.candidates, catalog, '--candidates')
     kind = args.kind or spec.get('kind')
     data = load_checked_data(args)
-    _note(args, f'{args.data}: {describe(data)}')
+    for line in data_lines(data):
+        _note(args, line)
     progress = Progress('base fit')
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
         progress.stage = 'diagnose'
-        diag = diagnose(data, base=base, candidates=args.candidates, progress=progress,
-                        jobs=args.jobs)
+        diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
+                                              progress=progress, jobs=args.jobs)
     finally:
         progress.close()
-    doc = diag.to_json()
+    first = diags[0]
+    doc = first.to_json()
+    if args.rounds > 1:
+        doc['rounds'] = rounds
+        doc['final'] = {'effects': list(base.effects),
+                        'validation_nrmse': base.validation['nrmse']}
     if args.report:
-        from .report import write_diagnosis_report
-        index = write_diagnosis_report(args.report, data, diag, f'{PROG} diagnose: {args.data}',
-                                       describe(data), force=args.force)
-        _note(args, f'report: {index}')
+        b0 = first.baseline
+        best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
+        pred0, alt_pred = b0.prediction, (best['fit'].prediction if best else None)
+        if is_static(data):
+            view, sig, alt = data, b0.signals, alt_pred
+            result = compare(data, pred0, sig, split=b0.split)
+        else:
+            view, pred0, sig = scored_view(data, pred0, b0.signals)
+            alt = None if alt_pred is None else scored_view(data, alt_pred, {})[1]
+            split = int(np.count_nonzero(data.scored[:b0.split])) if data.scored is not None \
+                else b0.split
+            result = compare(view, pred0, sig, split=split)
+        alternative = (f'model + {best["effect"]}', _flat(data, alt)) if best else None
+        model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.values}
+        _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
+                      '; '.join(data_lines(data)), model, doc, alternative, unit=unit_of(data))
+        if args.rounds > 1 and rounds:
+            from .report import save_rounds_plot
+            _note(args, f'rounds: {save_rounds_plot(args.report, doc)}')
     if args.json:
         print_json(doc)
     else:
-        print('\n'.join(diagnosis_lines(doc, base.kind)))
+        print('\n'.join(diagnosis_lines(doc, first.baseline.kind)))
+        val = first.baseline.validation or {}
+        if val.get('informative') is False:
+            print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
+                  'measured range, too little to rank effects reliably (hold out another '
+                  'record: give two or more records, or --validate-on)')
+        if args.rounds > 1:
+            print('\n'.join(rounds_lines(doc, args.rounds)))
     return 0
+
+
+def rounds_lines(doc, limit):
+    """Return the text of the add-and-refit rounds: the validation error falling."""
+    lines = [f'rounds: baseline validation NRMSE {_pct(doc["baseline"]["validation_nrmse"])}']
+    for i, r in enumerate(doc['rounds'], 1):
+        lines.append(f'  round {i}: + {r["added"]:<20} validation NRMSE '
+                     f'{_pct(r["validation_nrmse"])}')
+    lines.append(f'  stopped after {limit} rounds (--rounds)' if len(doc['rounds']) >= limit
+                 else '  then nothing is significant')
+    return lines
+
+
+def _flat(data, prediction):
+    from .compare import flat_static_prediction
+    from .data import is_static
+    return flat_static_prediction(data, prediction) if is_static(data) else prediction
 
 
 def diagnosis_lines(doc, kind):
@@ -427,8 +595,18 @@ def cmd_effects(args):
 def build_parser():
     """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument('data', metavar='DATA',
-                        help='CSV (dynamic or static curves) or MCAP bag (file or directory)')
+    common.add_argument('data', metavar='DATA', nargs='+',
+                        help='CSVs (dynamic or static curves) or MCAP bags (file or '
+                        'directory); several dynamic records of one rig are fitted together')
+    common.add_argument('--validate-on', nargs='+', action='extend', metavar='DATA',
+                        help='hold these records out for validation (default: the last of '
+                        'several records; one record: the last 30 %% of time)')
+    common.add_argument('--layout', choices=('single', 'antagonistic'),
+                        help='rig layout (default: from the data; single = one wire against '
+                        'a bias spring, duty_b absent or always 0)')
+    common.add_argument('--position-unit', metavar='UNIT',
+                        help='unit of position and setpoint (default: from the header, e.g. '
+                        'position[mm], or a "# ... position in mm" comment; else rad)')
     common.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
                         help='load user effects from a Python file or module (repeatable)')
     common.add_argument('--json', action='store_true', help='print the result as JSON')
@@ -466,6 +644,9 @@ def build_parser():
     dia.add_argument('--report', metavar='DIR', help='write an HTML report with figures')
     dia.add_argument('--jobs', type=_non_negative_int, default=0, metavar='N',
                      help='processes for the candidate refits (default 0: every core)')
+    dia.add_argument('--rounds', type=_non_negative_int, default=1, metavar='N',
+                     help='add the missing effect, refit and diagnose again, up to N rounds, '
+                     'stopping when nothing is significant (default 1)')
     dia.set_defaults(func=cmd_diagnose)
     bat = sub.add_parser('batch', help='fit, compare and diagnose many records (Dask)',
                          description='Run fit, compare and diagnose on every record, on a '

@@ -15,7 +15,7 @@
 """
 Where the model fails: error by regime and residual correlation tests.
 
-The residual is e = measured − model [rad for dynamic data, output units for static].
+The residual is e = measured − model, in the unit of the measured output.
 
 Regimes (dynamic record), each a partition of the samples:
 
@@ -82,6 +82,7 @@ class Comparison:
     train_mask: np.ndarray = None
     signals: dict = field(default_factory=dict)   # for plots: dynamic theta_a, theta_b,
     #   proxy, duty_diff; static input, curve
+    unit: str = ''                  # unit of the measured output ('' if not known)
 
     @property
     def residual(self):
@@ -152,9 +153,11 @@ def _compare_static(data, prediction, split):
 
 def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
     span = float(np.ptp(y))
-    sc = {'all': scores(y, y_hat),
-          'train': scores(y[train], y_hat[train]) if train.any() else None,
-          'validation': scores(y[~train], y_hat[~train]) if (~train).any() else None}
+    # every part is normalised by the range over the whole record set (a quiet window
+    # would otherwise look like a huge relative error)
+    sc = {'all': scores(y, y_hat, span),
+          'train': scores(y[train], y_hat[train], span) if train.any() else None,
+          'validation': scores(y[~train], y_hat[~train], span) if (~train).any() else None}
     rows = breakdown(y - y_hat, masks, span)
     return Comparison(kind, y, y_hat, _finite(sc), rows, concentrations(rows, sc['all']['rmse']),
                       tests, axis, train, signals)
@@ -447,8 +450,9 @@ def summary_lines(comparison, top=5):
     for part in ('train', 'validation', 'all'):
         s = sc.get(part)
         if s:
-            lines.append(f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}  '
-                         f'fit {_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}')
+            u = f' {comparison.unit}' if comparison.unit else ''
+            lines.append(f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  '
+                         f'fit {_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}{u}')
     if comparison.concentrated:
         lines.append('error concentrates in: ' + ', '.join(
             f"{r['group']} {r['label']} (RMSE x{r['rmse'] / sc['all']['rmse']:.1f})"

@@ -18,9 +18,12 @@ Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
 names are case-insensitive, column order is free, extra columns are ignored):
 
-* dynamic CSV  ``time,duty_a,duty_b,position[,ambient_temperature][,setpoint]``
+* dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
   time [s] strictly increasing at a steady rate (steps within 1 % of the median),
-  duties [0, 1], position [rad], ambient temperature [°C], setpoint [rad];
+  duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
+  comment (``# ... position in mm``) or the caller names (default rad), ambient
+  temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
+  a bias spring (layout 'single');
 * static CSV   ``input,output[,curve]`` or ``curve,voltage,deflection`` (quasi-static
   loops, e.g. the morphing-wing data: voltage [V] -> deflection [mm]); curve ids are
   integers, all rows belong to curve 0 without a curve column;
@@ -32,14 +35,24 @@ there is one, the line (1-based, as an editor shows it) and the column.
 """
 import csv
 from pathlib import Path
+import re
 
 import numpy as np
 
 from . import limits
 from ..core.identification import DynamicData
 
-DYNAMIC_REQUIRED = ('time', 'duty_a', 'duty_b', 'position')
-DYNAMIC_OPTIONAL = ('ambient_temperature', 'setpoint')
+DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
+# without duty_b (or with duty_b always 0) the rig is one wire against a bias spring
+DYNAMIC_OPTIONAL = ('duty_b', 'ambient_temperature', 'setpoint')
+#: position units the workbench knows (lower-case spelling -> how it is shown)
+UNITS = {'rad': 'rad', 'mrad': 'mrad', 'deg': 'deg', 'degree': 'deg', 'degrees': 'deg',
+         'm': 'm', 'cm': 'cm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'in': 'in', 'v': 'V',
+         'mv': 'mV', 'counts': 'counts', '%': '%'}
+# a unit in a column name: position[mm], position [mm], position (mm)
+_UNIT_IN_NAME = re.compile(r'^(position|setpoint)\s*[\[(]\s*([^\])]*?)\s*[\])]$')
+# a unit in a comment line: '# ... Position in mm ...'
+_UNIT_IN_COMMENT = re.compile(r'\bposition\s+in\s+([^\s,;.()]+)', re.IGNORECASE)
 #: accepted static layouts: file column -> StaticData field
 STATIC_LAYOUTS = ({'input': 'input', 'output': 'output'},
                   {'voltage': 'input', 'deflection': 'output'})
@@ -55,24 +68,54 @@ class DataError(ValueError):
     """DATA cannot be used as given; the message names file, line and column."""
 
 
-def load_data(path, rate_hz=None):
+def parse_unit(text, source):
+    """Return the canonical spelling of position unit `text`; `DataError` if unknown."""
+    unit = UNITS.get(str(text).strip().lower())
+    if unit is None:
+        raise DataError(f'{source}: unknown position unit {text!r}; known: '
+                        f'{", ".join(sorted(set(UNITS.values())))}')
+    return unit
+
+
+def comment_unit(path):
+    """Return the unit named by a '# ... position in UNIT' comment of a CSV file, or None."""
+    try:
+        with open(path, encoding='utf-8-sig', errors='replace') as fh:
+            for line in fh:
+                if line.lstrip().startswith('#'):
+                    m = _UNIT_IN_COMMENT.search(line)
+                    if m:
+                        return m.group(1)
+    except OSError:
+        return None
+    return None
+
+
+def load_data(path, rate_hz=None, position_unit=None):
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or an engine `StaticData`.
 
     rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
-    Raises `DataError` with a clear message on any problem.
+    position_unit: overrides the unit the data names (header ``position[mm]``, a comment
+    ``# ... position in mm``; default rad). Raises `DataError` with a clear message on any
+    problem.
     """
     path = Path(path)
     if not path.exists():
         raise DataError(f'{path}: no such file or directory')
     if is_bag(path):
-        return load_bag(path, rate_hz)
+        data = load_bag(path, rate_hz)
+        if position_unit:
+            data.position_unit = parse_unit(position_unit, path)
+        return data
     if path.is_dir():
         raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
                         'or an MCAP bag)')
     header, rows, lines = read_csv_table(path)
     if 'time' in header:
-        return dynamic_from_table(path, header, rows, lines)
+        header, named = _units_from_header(path, header)
+        unit = position_unit or named or comment_unit(path) or 'rad'
+        return dynamic_from_table(path, header, rows, lines, parse_unit(unit, path))
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
         return static_from_table(path, header, rows, lines)
     raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
@@ -189,9 +232,26 @@ def _columns(path, header, rows, needed, optional=()):
     return {c: rows[:, header.index(c)] for c in (*needed, *optional) if c in header}
 
 
-def dynamic_from_table(path, header, rows, lines):
+def _units_from_header(path, header):
+    """Return (header with units stripped from position/setpoint names, the unit or None)."""
+    out, unit = [], None
+    for h in header:
+        m = _UNIT_IN_NAME.match(h)
+        if m:
+            if unit is not None and m.group(2) != unit:
+                raise DataError(f'{path}: position and setpoint columns name different units '
+                                f'({unit}, {m.group(2)})')
+            unit = m.group(2)
+            h = m.group(1)
+        out.append(h)
+    return out, unit
+
+
+def dynamic_from_table(path, header, rows, lines, unit='rad'):
     """`DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line."""
     cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
+    if 'duty_b' not in cols:   # one wire against a bias spring
+        cols['duty_b'] = np.zeros(len(rows))
     if len(rows) < MIN_SAMPLES:
         raise DataError(f'{path}: {len(rows)} data row(s); a dynamic record needs at least '
                         f'{MIN_SAMPLES}')
@@ -202,7 +262,7 @@ def dynamic_from_table(path, header, rows, lines):
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
                             'outside [0, 1] (duty is a fraction, not a percentage)')
-    return make_dynamic(path, cols)
+    return make_dynamic(path, cols, unit)
 
 
 def check_time(path, time, lines):
@@ -227,12 +287,17 @@ def check_time(path, time, lines):
                         'steady rate; resample it)')
 
 
-def make_dynamic(source, cols):
-    """`DynamicData` from a dict with the dynamic column names; errors name `source`."""
+def make_dynamic(source, cols, unit='rad'):
+    """
+    Return a `DynamicData` from a dict with the dynamic column names; errors name `source`.
+
+    The layout is 'single' (one wire against a bias spring) when duty_b is always 0.
+    """
+    layout = 'single' if not np.any(cols['duty_b']) else 'antagonistic'
     try:
         return DynamicData(cols['time'], cols['duty_a'], cols['duty_b'], cols['position'],
                            ambient=cols.get('ambient_temperature'),
-                           setpoint=cols.get('setpoint'))
+                           setpoint=cols.get('setpoint'), position_unit=unit, layout=layout)
     except ValueError as err:
         raise DataError(f'{source}: {err}') from None
 
@@ -341,5 +406,8 @@ def describe(data):
     extras = [name for name, v in (('ambient', data.ambient), ('setpoint', data.setpoint))
               if v is not None]
     span = data.time[-1] - data.time[0]
-    return (f'dynamic record: {len(data)} samples at {1.0 / data.dt:.4g} Hz ({span:.4g} s)'
+    rig = ('one wire against a bias spring' if data.layout == 'single'
+           else 'antagonistic pair')
+    return (f'dynamic record: {len(data)} samples at {1.0 / data.dt:.4g} Hz ({span:.4g} s), '
+            f'{rig}, position in {data.position_unit}'
             + (f', with {" and ".join(extras)}' if extras else ''))

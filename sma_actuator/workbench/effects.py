@@ -42,6 +42,8 @@ class Effect:
     # better training fit is kept): for effects that can move the operating temperatures
     # so far that the base grid sits in the wrong place
     own_grid = False
+    # acts between the two wires: not applicable to a single wire against a bias spring
+    needs_two_wires = False
 
     def scratch_start(self, params):
         """
@@ -290,6 +292,7 @@ class StressCoupling(Effect):
 
     name = 'stress_coupling'
     parameters = {'stress_k': (0.0, 50.0, 4.0)}
+    needs_two_wires = True
     signature = ('loop of each wire shifts with the state of the other: error larger when '
                  'the antagonist is contracted (near the ends of travel), depends on history')
 
@@ -304,6 +307,7 @@ class AsymmetricWires(Effect):
     name = 'asymmetric_wires'
     parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
                   'stroke_ratio_b': (0.5, 2.0, 1.0)}
+    needs_two_wires = True
     signature = ('error has opposite character on the two sides: one direction too fast or '
                  'too far, the other too slow or short; residual correlates with sign of position')
 
@@ -380,6 +384,27 @@ class CurrentLimit(Effect):
         return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
+class SensorZero(Effect):
+    """
+    Per-record sensor zero: a potentiometer is not tared between runs.
+
+    Runs of one rig taken on other days rest at other readings, so each record's position
+    is taken relative to its own rest before the first heating (the mean of the first
+    second, or up to the first duty above zero), and the model predicts the departure from
+    that rest. Needs two or more records.
+    """
+
+    name = 'sensor_zero'
+    signature = ('each record is off by its own constant: the residual mean differs from '
+                 'record to record, already at rest before the first heating')
+
+    def applicable(self, data):
+        """Return why not: the zero is per record, so it needs two or more records."""
+        if len(getattr(data, 'segments', ()) or ()) < 2:
+            return 'needs two or more records (a sensor zero per record)'
+        return None
+
+
 CATALOG = {}
 
 
@@ -395,7 +420,7 @@ def register_effect(cls):
 # exist only where they were registered)
 BUILTIN = {c.name: c for c in (Saturation, FastDynamics, Delay, Convection, AmbientDrift,
                                PhaseResistance, StressCoupling, AsymmetricWires,
-                               SensorNonlinearity, FatigueDrift, CurrentLimit)}
+                               SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero)}
 for _cls in BUILTIN.values():
     register_effect(_cls)
 

@@ -53,9 +53,11 @@ import numpy as np
 
 from .effects import CATALOG, Effect, get_effect, is_builtin
 from .parallel import available_cores, imap_on_cores
+from .records import zeros
 from ..core import actuator as act
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import DynamicData, fit_dynamic, fit_static, narrow_bands, scores
+from ..core.identification import (DynamicData, fit_dynamic, fit_static, narrow_bands,
+                                   record_span, scored_mask, scores)
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -94,14 +96,20 @@ class ModelFit:
     params: object = None                 # ActuatorParams (dynamic) or PlayHysteresis (static)
     signals: dict = field(default_factory=dict)
     grid: object = None
+    # rig description for the model file: layout, position_unit, records (name, sensor zero
+    # [position unit], role), sensor_zero_rule
+    rig: dict = field(default_factory=dict)
+    burn_in: int = 0                      # first training sample (dynamic)
 
     def to_dict(self):
         """YAML-able form: effects, kind, fitted values, model parameters, scores."""
         model = (self.params.to_dict() if hasattr(self.params, 'hysteresis')
                  else {'hysteresis': self.params.to_dict()})
-        return {'effects': list(self.effects), 'kind': self.kind,
-                'parameters': {k: float(v) for k, v in self.values.items()},
-                'model': model, 'scores': {'train': self.train, 'validation': self.validation}}
+        d = {'effects': list(self.effects), 'kind': self.kind,
+             'parameters': {k: float(v) for k, v in self.values.items()},
+             'model': model, 'scores': {'train': self.train, 'validation': self.validation}}
+        d.update(self.rig)
+        return d
 
     def simulate(self, data):
         """Prediction of this fitted model on other data (same kind: dynamic or static)."""
@@ -126,7 +134,10 @@ class ModelFit:
     def trajectory(self, data):
         """Free-run `core.actuator.Trajectory` of this model on dynamic data."""
         da, db, amb = self.inputs(data)
-        return act.simulate(self.params, da, db, data.dt, ambient_c=amb)
+        t = act.simulate(self.params, da, db, data.dt, ambient_c=amb)
+        if 'sensor_zero' in self.effects:
+            t.position_rad = t.position_rad + zeros(data)
+        return t
 
 
 def _input_hooks(effects):
@@ -160,7 +171,8 @@ def load_fit(d, data=None):
         else:
             t = fit.trajectory(data)
             pred = t.position_rad
-            fit.validation = scores(data.position, pred)
+            keep = scored_mask(data)
+            fit.validation = scores(data.position[keep], pred[keep], record_span(data))
             fit.signals = {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
                            'y_b': t.y_b, 'time': data.time}
         fit.prediction = pred
@@ -183,7 +195,7 @@ def fit_model(data, effects=(), kind=None, progress=None, base_fit=None):
     """
     effects = list(dict.fromkeys(effects))
     for e in effects:
-        reason = get_effect(e).applicable(data)
+        reason = not_applicable(get_effect(e), data)
         if reason:
             raise ValueError(f'effect {e} cannot be fitted on this data: {reason}')
     kind = _kind(effects, kind)
@@ -209,7 +221,106 @@ def fit_model(data, effects=(), kind=None, progress=None, base_fit=None):
     return fit
 
 
+def not_applicable(eff, data):
+    """Return why effect `eff` cannot be fitted on `data`, or None."""
+    if eff.needs_two_wires and getattr(data, 'layout', None) == 'single':
+        return 'needs two wires (this is a single wire against a bias spring)'
+    return eff.applicable(data)
+
+
+def split_masks(data, n_train, burn_in=0):
+    """Return (train, validation) boolean masks of the scored samples of `data`."""
+    n = len(data)
+    train, val = np.zeros(n, bool), np.zeros(n, bool)
+    train[burn_in:n_train], val[n_train:] = True, True
+    keep = scored_mask(data)
+    return train & keep, val & keep
+
+
+# a held-out window whose measured range is below this fraction of the whole record set's
+# range cannot tell models apart: its NRMSE is reported as uninformative
+MIN_COVERAGE = 0.2
+
+
+def rescore(data, pred, n_train, burn_in=0):
+    """
+    Return (train, validation) scores of `pred`, NRMSE over the whole record set's range.
+
+    Each scores dict also has 'coverage': the range of the measured output in that part
+    over the whole set's range, and 'informative': coverage >= MIN_COVERAGE.
+    """
+    train, val = split_masks(data, n_train, burn_in)
+    return _part_scores(data, pred, train), _part_scores(data, pred, val)
+
+
+def _part_scores(data, pred, mask):
+    if not mask.any():
+        return None
+    span = record_span(data)
+    y = data.position[mask]
+    s = scores(y, pred[mask], span)
+    s['coverage'] = float(np.ptp(y) / span) if span > 0 else 0.0
+    s['informative'] = bool(s['coverage'] >= MIN_COVERAGE)
+    return s
+
+
+def record_scores(data, pred, n_train=None):
+    """
+    Return per-record scores of `pred` on joined `data`, NRMSE over the whole set's range.
+
+    A list of {'data': name, 'role': 'train' | 'validation' | 'time split', 'scores':
+    {'all': ...}}, one per record (whole record, rest gaps excluded).
+    """
+    out = []
+    keep = scored_mask(data)
+    for name, a, b in data.segments or (('DATA', 0, len(data)),):
+        mask = np.zeros(len(data), bool)
+        mask[a:b] = True
+        if len(data.segments) < 2:
+            role = 'time split'
+        else:
+            role = 'validation' if n_train is not None and a >= n_train else 'train'
+        out.append({'data': name, 'role': role,
+                    'scores': {'all': _part_scores(data, pred, mask & keep)}})
+    return out
+
+
+def _tared(data):
+    """Return (`data` with each record's position relative to its start rest, the zeros)."""
+    z = zeros(data)
+    return DynamicData(data.time, data.duty_a, data.duty_b, data.position - z, data.ambient,
+                       data.setpoint, data.position_unit, data.layout, data.segments,
+                       data.scored, data.split), z
+
+
 def _fit_dynamic(data, effects, kind, base_fit):
+    tare = 'sensor_zero' in effects
+    # the residual is the same either way: the tare cancels in model − measured
+    fit = _fit_dynamic_raw(_tared(data)[0] if tare else data, effects, kind, base_fit)
+    if tare:
+        fit.prediction = fit.prediction + zeros(data)
+    fit.train, fit.validation = rescore(data, fit.prediction, fit.split, fit.burn_in)
+    fit.rig = rig_info(data, fit.split)
+    return fit
+
+
+def rig_info(data, n_train=None):
+    """
+    Return the rig keys of a model file fitted on dynamic `data`.
+
+    layout, position_unit and record_zeros: {record: its start rest [position unit]}
+    (the sensor zero `sensor_zero` refers each record to), record_roles {record: train |
+    validation | time split}.
+    """
+    z = zeros(data)
+    segs = data.segments or (('DATA', 0, len(data)),)
+    roles = {r['data']: r['role'] for r in record_scores(data, np.zeros(len(data)), n_train)}
+    return {'layout': data.layout, 'position_unit': data.position_unit,
+            'record_zeros': {name: float(z[a]) for name, a, _ in segs},
+            'record_roles': roles}
+
+
+def _fit_dynamic_raw(data, effects, kind, base_fit):
     free = {}
     start = dict(base_fit.values) if base_fit else {}
     alternatives = []
@@ -237,13 +348,15 @@ def _fit_dynamic(data, effects, kind, base_fit):
                             ref=base_fit.params.hysteresis if warm else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
-    train = slice(res.burn_in, res.n_train)
+    train = split_masks(data, res.n_train, res.burn_in)[0]
     resid = res.prediction[train] - data.position[train]
     t = res.trajectory
-    return ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
-                    res.n_train, res.n_parameters, resid, res.params,
-                    {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
-                     'y_b': t.y_b, 'time': data.time}, res.grid)
+    fit = ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
+                   res.n_train, res.n_parameters, resid, res.params,
+                   {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
+                    'y_b': t.y_b, 'time': data.time}, res.grid)
+    fit.burn_in = res.burn_in
+    return fit
 
 
 def correlation_length(residual):
@@ -304,7 +417,7 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
 
     def poolable(name):   # a dynamic refit (worth a process) of an effect every process has
         return (builtin and is_builtin(name) and isinstance(data, DynamicData)
-                and get_effect(name).applicable(data) is None)
+                and not_applicable(get_effect(name), data) is None)
 
     pooled, local = [], []
     for t in tasks:
@@ -354,6 +467,28 @@ def rank_candidates(base, entries):
     return Diagnosis(base, out, best)
 
 
+def diagnose_rounds(data, base, rounds, **kw):
+    """
+    Diagnose, add the missing effect, refit, diagnose again: up to `rounds` rounds.
+
+    Stops when nothing is significant. The refit of a round is the named candidate's own
+    refit (base grid, warm start, also from scratch for `own_grid` effects). Returns
+    (the Diagnosis of every round, [{'added': name, 'validation_nrmse': x}, ...], the
+    final ModelFit). kw: passed to `diagnose` (candidates, progress, jobs, ...).
+    """
+    diags, added = [], []
+    for _ in range(max(int(rounds), 1)):
+        diag = diagnose(data, base=base, **kw)
+        diags.append(diag)
+        best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
+        if best is None:
+            break
+        added.append({'added': best['effect'],
+                      'validation_nrmse': best['fit'].validation['nrmse']})
+        base = best['fit']
+    return diags, added, base
+
+
 def judge_candidate(task):
     """
     Refit with one candidate effect and judge it (see the module docstring).
@@ -370,7 +505,7 @@ def judge_candidate(task):
 def _judge(data, base, name, n_eff, bic0, min_improvement):
     """Return the candidate entry of `name` (without its time)."""
     eff = get_effect(name)
-    reason = eff.applicable(data)
+    reason = not_applicable(eff, data) if isinstance(data, DynamicData) else eff.applicable(data)
     if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
         reason = 'needs dynamic (time-series) data'
     if reason is None and name == 'saturation' and base.kind == 'modified':
@@ -438,7 +573,7 @@ def _ablated_nrmse(data, base, fit, eff):
     da, db, amb = off.inputs(data)
     off.params = narrow_bands(off.params, da[:n], db[:n], amb[:n], data.dt)
     pred = off.trajectory(data).position_rad
-    return scores(data.position[fit.split:], pred[fit.split:])['nrmse']
+    return rescore(data, pred, fit.split)[1]['nrmse']
 
 
 def _settle_near_ties(ranked):

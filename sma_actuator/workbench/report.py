@@ -124,6 +124,26 @@ def save(fig, path):
     fig.savefig(path, dpi=DPI)
 
 
+def save_rounds_plot(directory, doc):
+    """
+    Write rounds.png: validation NRMSE [%] after each round of `diagnose --rounds`.
+
+    doc: the diagnose JSON document with 'baseline' and 'rounds'; returns the path.
+    """
+    labels = ['base'] + [f'+ {r["added"]}' for r in doc['rounds']]
+    values = [doc['baseline']['validation_nrmse']] + [r['validation_nrmse']
+                                                      for r in doc['rounds']]
+    fig, axes = _figure(w=max(4, 1.6 * len(labels)), h=3.5)
+    ax = axes[0, 0]
+    ax.plot(range(len(values)), 100 * np.asarray(values, float), 'o-', color='tab:red')
+    ax.set_xticks(range(len(values)), labels, fontsize=8)
+    ax.set(ylabel='validation NRMSE [%]', ylim=(0, None),
+           title='held-out error, round by round')
+    path = Path(directory) / 'rounds.png'
+    save(fig, path)
+    return path
+
+
 def _figure(w=10, h=4, rows=1, cols=1, **kw):
     fig = Figure(figsize=(w, h), layout='constrained')
     axes = fig.subplots(rows, cols, squeeze=False, **kw)
@@ -144,6 +164,12 @@ def _mark_split(ax, comparison):
             color='0.3')
 
 
+def _label(name, comparison):
+    """Return an axis label with the output's unit, 'position [mm]' (no unit if unknown)."""
+    unit = getattr(comparison, 'unit', '')
+    return f'{name} [{unit}]' if unit else name
+
+
 def plot_time(comparison, alternative=None):
     """Measured and model position over time [s], validation part shaded."""
     fig, axes = _figure()
@@ -155,7 +181,7 @@ def plot_time(comparison, alternative=None):
         label, pred = alternative
         ax.plot(t, pred, color='tab:blue', lw=0.9, label=label)
     _mark_split(ax, comparison)
-    ax.set(xlabel='time [s]', ylabel='position [rad]')
+    ax.set(xlabel='time [s]', ylabel=_label('position', comparison))
     ax.legend(loc='lower right', fontsize=8)
     return fig
 
@@ -169,7 +195,7 @@ def plot_residual(comparison):
     _mark_split(ax, comparison)
     static = comparison.kind == 'static'
     ax.set(xlabel='sample (curves in file order)' if static else 'time [s]',
-           ylabel='measured − model' + ('' if static else ' [rad]'))
+           ylabel=_label('measured − model', comparison))
     return fig
 
 
@@ -184,7 +210,7 @@ def plot_hysteresis(comparison):
         x, xlabel = sig['duty_diff'], 'duty_a − duty_b'
     ax.plot(x, comparison.measured, color='k', lw=0.5, alpha=0.7, label='measured')
     ax.plot(x, comparison.predicted, color='tab:red', lw=0.6, alpha=0.8, label='model')
-    ax.set(xlabel=xlabel, ylabel='position [rad]')
+    ax.set(xlabel=xlabel, ylabel=_label('position', comparison))
     ax.legend(fontsize=8)
     return fig
 

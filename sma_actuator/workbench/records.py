@@ -1,0 +1,180 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+"""
+Join several dynamic records of one rig into one record set.
+
+Each record is simulated from its own initial state: the records are joined with a rest
+gap of `REST_GAP_S` of zero duty between them, long enough for the model's wires to cool
+to ambient, so every record starts at rest; the gaps are not scored (`DynamicData.scored`)
+and not regressed. Records at another sample rate are resampled to the first record's rate
+(duties held, position and ambient interpolated). Held-out records go last, so the
+training window is one prefix (`DynamicData.split`).
+
+Default train/validation rule: with one record, the first 70 % of time trains and the rest
+validates; with two or more, the last record given is held out (train on the others);
+`validate` names the held-out records instead.
+"""
+import numpy as np
+
+from .data import DataError
+from ..core.identification import DynamicData
+
+# rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
+# constant of 10 s
+REST_GAP_S = 60.0
+# rest at the start of a record used for its sensor zero [s] (or until the duty first rises)
+ZERO_WINDOW_S = 1.0
+
+
+def record_zero(data):
+    """
+    Return the sensor zero of one record: its mean position at rest before the first heating.
+
+    The rest is the first ZERO_WINDOW_S, cut where a duty first exceeds zero (at least
+    the first sample).
+    """
+    n = max(1, int(round(ZERO_WINDOW_S / data.dt)))
+    heated = np.flatnonzero((data.duty_a > 0) | (data.duty_b > 0))
+    if heated.size:
+        n = max(1, min(n, int(heated[0])))
+    return float(np.mean(data.position[:n]))
+
+
+def _resample(data, dt):
+    """Return `data` on a grid of step dt [s]: duties held, other signals interpolated."""
+    t = np.arange(data.time[0], data.time[-1] + 0.5 * dt, dt)
+    t = t[t <= data.time[-1] + 1e-9]
+    idx = np.clip(np.searchsorted(data.time, t, side='right') - 1, 0, len(data) - 1)
+
+    def interp(x):
+        return None if x is None else np.interp(t, data.time, x)
+    return DynamicData(t, data.duty_a[idx], data.duty_b[idx], interp(data.position),
+                       ambient=interp(data.ambient), setpoint=interp(data.setpoint),
+                       position_unit=data.position_unit, layout=data.layout)
+
+
+def check_compatible(records):
+    """
+    Raise `DataError` unless the (name, DynamicData) records can be fitted together.
+
+    They must share the position unit, the rig layout and the optional columns
+    (ambient, setpoint).
+    """
+    name0, d0 = records[0]
+    for name, d in records[1:]:
+        if d.position_unit != d0.position_unit:
+            raise DataError(f'{name}: position in {d.position_unit}, but {name0} has it in '
+                            f'{d0.position_unit} (records fitted together need one unit)')
+        if d.layout != d0.layout:
+            raise DataError(f'{name}: a {d.layout} rig, but {name0} is {d0.layout} (duty_b '
+                            'used in one record only; records fitted together need one layout, '
+                            'or give --layout)')
+        for col in ('ambient', 'setpoint'):
+            if (getattr(d, col) is None) != (getattr(d0, col) is None):
+                has, lacks = (name, name0) if getattr(d, col) is not None else (name0, name)
+                raise DataError(f'{lacks}: has no {col} column but {has} has one (records '
+                                'fitted together need the same columns)')
+
+
+def join(records, held_out=(), notes=None):
+    """
+    Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
+
+    held_out: names of the records to validate on (they go last). With one record and none
+    held out, that record is returned as it is (the time split applies). notes: a list
+    that receives one line per resampled record.
+    """
+    if len(records) == 1 and not held_out:
+        name, d = records[0]
+        return DynamicData(d.time, d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
+                           d.position_unit, d.layout, ((name, 0, len(d)),), None, None)
+    check_compatible(records)
+    dt = records[0][1].dt
+    order = ([r for r in records if r[0] not in held_out]
+             + [r for r in records if r[0] in held_out])
+    if not any(r[0] not in held_out for r in order):
+        raise DataError('every record is held out for validation; keep at least one to fit on')
+    parts, segments, split, at = [], [], None, 0
+    gap = int(round(REST_GAP_S / dt))
+    for i, (name, d) in enumerate(order):
+        if abs(d.dt - dt) > 0.01 * dt:
+            if notes is not None:
+                notes.append(f'{name}: resampled from {1.0 / d.dt:.4g} Hz to {1.0 / dt:.4g} Hz '
+                             f'(the rate of {records[0][0]})')
+            d = _resample(d, dt)
+        if split is None and name in held_out:
+            split = at
+        if i:
+            rest = d.position[0]
+            parts.append((np.zeros(gap), np.zeros(gap), np.full(gap, rest),
+                          None if d.ambient is None else np.full(gap, d.ambient[0]),
+                          None if d.setpoint is None else np.full(gap, d.setpoint[0]),
+                          np.zeros(gap, bool)))
+            at += gap
+        parts.append((d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
+                      np.ones(len(d), bool)))
+        segments.append((name, at, at + len(d)))
+        at += len(d)
+    cols = [np.concatenate([p[k] for p in parts]) if parts[0][k] is not None else None
+            for k in range(6)]
+    d0 = records[0][1]
+    return DynamicData(np.arange(at) * dt, cols[0], cols[1], cols[2], cols[3], cols[4],
+                       d0.position_unit, d0.layout, tuple(segments), cols[5], split)
+
+
+def segment_of(data, name):
+    """Return the (start, stop) sample range of record `name` in joined `data`."""
+    for n, a, b in data.segments:
+        if n == name:
+            return a, b
+    raise KeyError(name)
+
+
+def zeros(data):
+    """Return the per-sample sensor zero of joined `data` (each record's start rest)."""
+    z = np.zeros(len(data))
+    segs = data.segments or (('', 0, len(data)),)
+    for i, (_, a, b) in enumerate(segs):
+        stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
+        z[a:stop] = record_zero(segment_view(data, a, b))
+    return z
+
+
+def segment_view(data, a, b):
+    """Return samples [a, b) of joined `data` as a plain `DynamicData` (one record)."""
+    def cut(x):
+        return None if x is None else x[a:b]
+    return DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b], data.position[a:b],
+                       cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout)
+
+
+def scored_view(data, prediction, signals):
+    """
+    Return (data, prediction, signals) with the rest gaps of joined `data` cut out.
+
+    The records then follow each other on one continuous time axis (for the regime
+    breakdown, residual tests and plots); data without gaps is returned as it is.
+    """
+    if data.scored is None:
+        return data, prediction, signals
+    keep = np.asarray(data.scored, bool)
+
+    def cut(x):
+        return None if x is None else np.asarray(x)[keep]
+    n = int(keep.sum())
+    view = DynamicData(data.time[0] + np.arange(n) * data.dt, cut(data.duty_a),
+                       cut(data.duty_b), cut(data.position), cut(data.ambient),
+                       cut(data.setpoint), data.position_unit, data.layout)
+    sig = {k: (view.time if k == 'time' else cut(v)) for k, v in (signals or {}).items()}
+    return view, cut(prediction), sig
