@@ -75,11 +75,14 @@ def probe(ros_context):
     executor.add_node(node)
     got = {}
     reliable = QoSProfile(depth=100)
+    # best effort as the sensor streams are offered, but deep enough that a starved
+    # executor does not overwrite samples before it takes them
+    sensor = QoSProfile(depth=100, reliability=qos_profile_sensor_data.reliability)
     for topic, ty, qos in [('/sma/duty', Float64MultiArray, reliable),
-                           ('/measured/joint_states', JointState, qos_profile_sensor_data),
-                           ('/sma/joint_states', JointState, qos_profile_sensor_data),
+                           ('/measured/joint_states', JointState, sensor),
+                           ('/sma/joint_states', JointState, sensor),
                            ('/sma/setpoint', Float64, reliable),
-                           ('/clock', Clock, qos_profile_sensor_data)]:
+                           ('/clock', Clock, sensor)]:
         got[topic] = []
         node.create_subscription(ty, topic, lambda d, t=topic: got[t].append(d), qos, raw=True)
     extra = []
@@ -106,7 +109,8 @@ def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
     assert offers == {'/sma/duty': 'RELIABLE', '/measured/joint_states': 'BEST_EFFORT'}
     replay.start()
     assert _spin_until(executor, replay.finished.is_set)
-    _spin_until(executor, lambda: len(got['/sma/duty']) > len(stored['/sma/duty']))
+    _spin_until(executor, lambda: len(got['/sma/duty']) > len(stored['/sma/duty']) and len(
+        got['/measured/joint_states']) >= len(stored['/sma/joint_states']))
 
     assert replay.stats.published == 60
     assert got['/sma/duty'][:-1] == stored['/sma/duty']
