@@ -30,6 +30,9 @@ import time
 from hardware_support import console_command, emulator_thread, stop_process, wait_for
 import pytest
 
+# slow: three SIGSTOP/SIGCONT runs of bridge and emulator (quick run: -m "not slow")
+pytestmark = pytest.mark.slow
+
 pytest.importorskip('rclpy')
 
 CONTROLLER = textwrap.dedent("""

@@ -55,6 +55,7 @@ FLOODER = textwrap.dedent("""
 FLOOD_S = 5.0
 
 
+@pytest.mark.slow
 def test_setpoint_flood_keeps_the_control_period_and_throttles_warnings(ros_context,
                                                                         ros_domain_id):
     env = dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id))

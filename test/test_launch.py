@@ -27,6 +27,9 @@ import time
 
 import pytest
 
+# slow: each launch runs several node processes (quick run: -m "not slow")
+pytestmark = pytest.mark.slow
+
 pytest.importorskip('launch')
 pytest.importorskip('launch_ros')
 

@@ -29,6 +29,9 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+# slow: colcon build and colcon test of the package (quick run: -m "not slow")
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

@@ -25,6 +25,9 @@ import subprocess
 
 import pytest
 
+# slow: a recorded run replayed into a lockstep plant (quick run: -m "not slow")
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

@@ -72,6 +72,7 @@ def test_zero_dead_time_still_refuses_both_at_once():
         DeadTimeInterlock(-0.1)
 
 
+@pytest.mark.slow
 def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
         ros_context, ros_domain_id):
     rclpy = pytest.importorskip('rclpy')
