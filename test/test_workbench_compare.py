@@ -156,7 +156,7 @@ def test_residual_following_an_input_with_delay_peaks_at_that_lag():
 
 
 def _static(curves=4):
-    from sma_actuator.workbench.engine import StaticData
+    from sma_actuator.core.datakinds import StaticData
     u = np.tile(np.concatenate([np.linspace(0, 1, 20), np.linspace(1, 0, 20)]), curves)
     curve = np.repeat(np.arange(curves), 40)
     y = np.tanh(3 * (u - 0.5)) + 0.1 * curve
@@ -166,7 +166,7 @@ def _static(curves=4):
 def test_static_breakdown_per_curve_and_odd_curves_validate():
     data = _static()
     pred = [(c, data.output[data.curve == c] - (0.2 if c == 3 else 0.0)) for c in range(4)]
-    res = compare(data, pred)
+    res = compare(data, data.flat(pred))
     rows = _rows(res, 'curves')
     assert rows['curve 3 (validation)']['error_share'] == pytest.approx(1.0)
     assert rows['curve 2 (train)']['rmse'] == 0.0
@@ -210,7 +210,7 @@ def test_report_writes_html_and_pngs_and_refuses_to_overwrite(tmp_path):
 
 def test_static_report_draws_the_curves(tmp_path):
     data = _static()
-    res = compare(data, [(c, data.output[data.curve == c]) for c in range(4)])
+    res = compare(data, data.flat([(c, data.output[data.curve == c]) for c in range(4)]))
     write_report(tmp_path / 's', res, 'static')
     assert (tmp_path / 's' / 'curves.png').exists()
     assert not (tmp_path / 's' / 'hysteresis.png').exists()

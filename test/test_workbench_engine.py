@@ -203,12 +203,12 @@ def test_regressors_at_the_rows_equal_the_full_rate_columns(delay_s):
     params = act.ActuatorParams(delay_s=delay_s)
     data = record(act.ActuatorParams(), seconds=60.0)
     grid = idn.play_grid(20.0, 120.0, 'modified', 4, 6)
-    prob = idn._Problem(data, params, grid, {'tau_s': None}, 2000, 40)
+    prob = idn._Problem(idn.Setup(data, params, {'tau_s': None}, {}, 2000, 40), grid)
     rows = slice(40, 2000, 3)
-    full = prob.regressors(params.with_changes(delay_s=0.0), 2000)
+    full = prob.regressors(params.with_changes(delay_s=0.0), 2000)[0]
     if delay_s:
         full = np.column_stack([act.delay_signal(c, DT, delay_s) for c in full.T])
-    np.testing.assert_allclose(prob.regressors(params, 2000, rows), full[rows], atol=1e-12)
+    np.testing.assert_allclose(prob.regressors(params, 2000, rows)[0], full[rows], atol=1e-12)
 
 
 class OwnGrid(Effect):
@@ -289,11 +289,13 @@ def test_feedback_weights_are_settled_to_their_fixed_point():
     n = int(0.7 * len(data))
     fixed = {'phase_kappa': (0.2999, 0.3, 0.3), 'tau_s': (1.9999, 2.0, 2.0)}
     fit = idn.fit_dynamic(data, free=fixed)
-    prob = idn._Problem(data, act.ActuatorParams(ambient_gain=0.0), fit.grid, fixed, n, 40)
-    nonlinear = idn.set_values(prob.base, {'phase_kappa': 0.3, 'tau_s': 2.0})
-    once = prob.with_linear(nonlinear, prob.solve(nonlinear)[0])
+    values = {'phase_kappa': 0.3, 'tau_s': 2.0}
+    setup = idn.Setup(data, act.ActuatorParams(ambient_gain=0.0), fixed, values, n, 40)
+    prob = idn._Problem(setup, fit.grid)
+    nonlinear = idn.set_values(prob.base, values)
+    once = prob.with_linear(nonlinear, prob.solve(nonlinear))
     err_once = np.sqrt(np.mean(prob.free_run_error(once, {}) ** 2))
-    err_settled = np.sqrt(idn._settle(prob, prob.base, {'phase_kappa': 0.3, 'tau_s': 2.0})[0])
+    err_settled = np.sqrt(idn._settle(prob, values, fit.grid).mse)
     print(f'feedback fixed point: RMS {err_once:.4f} rad once, {err_settled:.4f} rad settled')
     assert err_settled < 0.5 * err_once
     assert err_settled < 0.004 and fit.train['rmse'] < 0.004       # noise 1 mrad, 2 rad travel

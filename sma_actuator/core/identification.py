@@ -32,15 +32,21 @@ Identification of the hysteresis and thermal parameters (the paper's section 2.2
   output back into the regressors (phase resistance, stress coupling) use the previous
   round's hysteresis in the feedback path, alternating until the weights settle; the
   sensor polynomial is handled by regressing on p^-1(measured position). Train on the
-  first `train_fraction` of time; score the free-run simulation of the rest.
+  first `train_fraction` of time; score the free-run simulation of the rest. The dynamic
+  fit runs as explicit stages (`prepare`, `input_range`, `fit_coarse`, `refine_grid`,
+  `prune_grid`, `fit_final`, `score_fit`), each taking the previous one's frozen result.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field, fields
+from typing import Callable, Optional
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear, nnls
 
 from . import actuator as act
 from . import kernels
+from .datakinds import DynamicData, Split, TRAIN_FRACTION
 from .hysteresis import PlayHysteresis, PreisachModel
 from .validate import finite_array, same_length
 
@@ -233,57 +239,6 @@ def fit_preisach(u, y, n_levels=21, u_range=None):
 
 # ------------------------------------------------------------------------- dynamic data
 @dataclass
-class DynamicData:
-    """A uniformly sampled run: time [s], duties [0, 1], position [rad], optional ambient [°C]."""
-
-    time: np.ndarray
-    duty_a: np.ndarray
-    duty_b: np.ndarray
-    position: np.ndarray
-    ambient: np.ndarray = None
-    setpoint: np.ndarray = None
-    # unit of position and setpoint as read from the data ('rad' for the package's bags)
-    position_unit: str = 'rad'
-    # 'antagonistic' (two wires) or 'single' (one wire against a bias spring, duty_b = 0)
-    layout: str = 'antagonistic'
-    # several records joined at rest: ((name, start, stop), ...) sample ranges of the
-    # records; `scored` marks the measured samples (False on the rest gaps between
-    # records); `split` is where the held-out records start (None: the time split)
-    segments: tuple = ()
-    scored: np.ndarray = None
-    split: int = None
-
-    def __post_init__(self):
-        self.time = finite_array('time', self.time, min_len=10)
-        for name in ('duty_a', 'duty_b', 'position'):
-            setattr(self, name, finite_array(name, getattr(self, name)))
-        same_length(time=self.time, duty_a=self.duty_a, duty_b=self.duty_b, position=self.position)
-        for name in ('ambient', 'setpoint'):
-            if getattr(self, name) is not None:
-                setattr(self, name, finite_array(name, getattr(self, name)))
-                same_length(time=self.time, **{name: getattr(self, name)})
-        steps = np.diff(self.time)
-        if (steps <= 0).any():
-            k = int(np.flatnonzero(steps <= 0)[0])
-            raise ValueError(f'time must be strictly increasing (row {k + 1}: {self.time[k + 1]} '
-                             f'after {self.time[k]})')
-        if np.ptp(steps) > 0.01 * np.median(steps):
-            raise ValueError('time must be uniformly sampled (steps vary by more than 1 %)')
-        for name in ('duty_a', 'duty_b'):
-            d = getattr(self, name)
-            if (d < 0).any() or (d > 1).any():
-                raise ValueError(f'{name} must lie in [0, 1]')
-
-    @property
-    def dt(self):
-        """Sample time [s]."""
-        return float(np.median(np.diff(self.time)))
-
-    def __len__(self):
-        return len(self.time)
-
-
-@dataclass
 class DynamicFit:
     """Result of `fit_dynamic`: fitted parameters, scores and the free-run prediction."""
 
@@ -297,6 +252,11 @@ class DynamicFit:
     burn_in: int
     n_parameters: int
     grid: PlayHysteresis    # the threshold grid of the hysteresis (weights = fitted)
+
+    @property
+    def split(self) -> Split:
+        """Return the train/validation split the fit was scored on."""
+        return Split(self.n_train, self.burn_in)
 
 
 _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
@@ -315,31 +275,44 @@ def set_values(params, values):
 
 
 class _Problem:
-    """One variable-projection problem: data, split, grid, feedback reference, free layout."""
+    """
+    One variable-projection problem on a threshold grid: data, split, grid, free layout.
 
-    def __init__(self, data, base, grid, names, n_train, burn_in, input_hook=None, values=None):
-        self.data, self.base, self.grid = data, base, grid
-        self.input_hook = input_hook
-        self.values = dict(values or {})   # current nonlinear values (plug-in hooks read them)
-        self.names = list(names)
-        self.n_train, self.burn_in = n_train, burn_in
-        self.ref = grid          # hysteresis in the feedback path (normalised weights)
+    Immutable after construction: everything a call depends on beyond the problem (the
+    nonlinear `values` plug-in hooks read, the hysteresis `ref` in the feedback path) is an
+    argument, and every result (the linear solution with the state range it was regressed
+    on) is returned.
+    """
+
+    def __init__(self, setup: 'Setup', grid: PlayHysteresis) -> None:
+        """Build the problem of `setup` on the threshold `grid`."""
+        data = setup.data
+        self.setup, self.grid = setup, grid
+        self.data, self.base = data, setup.base
+        self.names = list(setup.free)
+        self.n_train, self.burn_in = setup.n_train, setup.burn_in
         self.stride = max(1, int(round(1.0 / (data.dt * REGRESSION_RATE_HZ))))
         # the saturated (modified) operator stays bounded outside the trained temperature
         # range; a linear k1 (θ_a − θ_b) term would extrapolate without limit
         self.linear_term = not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all())
         self.amb = (data.ambient if data.ambient is not None
-                    else np.full(len(data), base.ambient_c))
+                    else np.full(len(data), setup.base.ambient_c))
         self.keep = None if data.scored is None else np.asarray(data.scored, bool)
 
-    def regressors(self, params, n, rows=slice(None)):
+    def regressors(self, params: act.ActuatorParams, n: int, rows: slice = slice(None),
+                   values: Optional[dict] = None,
+                   ref: Optional[PlayHysteresis] = None) -> tuple:
         """
-        Return the linear-part columns over the first n samples, at `rows` of them.
+        Return (X, state_lo, state_hi): the linear-part columns over the first n samples.
 
-        [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1] (element states scaled by each wire's
-        fatigue stroke loss; g_j its fatigue drift).
+        X is taken at `rows` of them: [s^a − s_b s^b, u_a − s_b u_b, (g_a, g_b), 1] (element
+        states scaled by each wire's fatigue stroke loss; g_j its fatigue drift).
+        state_lo/state_hi: the range each element's state covers at these rows (either
+        wire). values: nonlinear values the input hook reads (default none); ref: the
+        hysteresis in the feedback path (default: the grid with zero weights).
         """
-        d, g, ref = self.data, self.grid, self.ref
+        d, g = self.data, self.grid
+        ref = g if ref is None else ref
         m = g.n_operators
         # the kernel records the (large) element arrays at the regression rows only; a
         # delay interpolates in time, so it needs them whole
@@ -347,7 +320,7 @@ class _Problem:
         fa, fb = np.empty((len(at), m)), np.empty((len(at), m))
         ua, ub = np.empty(len(at)), np.empty(len(at))
         st = act.initial_state(params.with_changes(hysteresis=ref))
-        da, db, amb = self.inputs(self.values)
+        da, db, amb = self.inputs(values or {})
         ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
                                           params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
                                           ref.k1, ref.y0, st, fa, fb, ua, ub,
@@ -362,11 +335,11 @@ class _Problem:
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
         # the range each element's state covers in the training window (either wire, at
         # these rows): the contraction fraction is normalised over it (see `with_linear`)
-        self.state_lo, self.state_hi = _state_range(fa, fb)
+        state_lo, state_hi = _state_range(fa, fb)
         if self.fatigued(params):
             g_a, g_b = g_a[at.start:at.stop:at.step], g_b[at.start:at.stop:at.step]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
-            cold = np.where(np.isfinite(g.lo), self.state_lo, 0.0)
+            cold = np.where(np.isfinite(g.lo), state_lo, 0.0)
             fa = (fa - cold) * keep_a[:, None]
             fb = (fb - cold) * keep_b[:, None]
             ua, ub = ua * keep_a, ub * keep_b
@@ -385,9 +358,10 @@ class _Problem:
             i0 = np.floor(f).astype(int)
             a = (f - i0)[:, None]
             X = (1.0 - a) * X[i0] + a * X[np.minimum(i0 + 1, n - 1)]
-        return X
+        return X, state_lo, state_hi
 
-    def free_run_error(self, params, values, step=1):
+    def free_run_error(self, params: act.ActuatorParams, values: dict,
+                       step: int = 1) -> np.ndarray:
         """
         Return the free-run simulation minus measurement on the training window.
 
@@ -401,23 +375,28 @@ class _Problem:
         err = pos[sl] - self.data.position[sl]
         return err if self.keep is None else err[self.keep[sl]]
 
-    def fatigued(self, params):
+    def fatigued(self, params: act.ActuatorParams) -> bool:
         """Return True when the regressors carry functional fatigue (see `regressors`)."""
         return any(k in self.names for k in LINEAR_PARAMS) or params.fatigue_stroke != 0.0
 
-    def inputs(self, values):
+    def inputs(self, values: dict) -> tuple:
         """(duty_a, duty_b, ambient) seen by the thermal model (after a plug-in hook)."""
         d = self.data
-        if self.input_hook is None:
+        if self.setup.input_hook is None:
             return d.duty_a, d.duty_b, self.amb
-        da, db, amb = self.input_hook(d.duty_a, d.duty_b, self.amb, values)
+        da, db, amb = self.setup.input_hook(d.duty_a, d.duty_b, self.amb, values)
         return np.clip(da, 0.0, 1.0), np.clip(db, 0.0, 1.0), amb
 
-    def solve(self, params):
-        """NNLS weights on the training window; returns (coefficients, training residual)."""
+    def solve(self, params: act.ActuatorParams, values: Optional[dict] = None,
+              ref: Optional[PlayHysteresis] = None) -> 'LinearSolution':
+        """
+        Return the NNLS weights on the training window (a `LinearSolution`).
+
+        values, ref: as in `regressors`. The residual is the forward one, p(X b) − y.
+        """
         n = self.n_train
         sl = slice(self.burn_in, n, self.stride)
-        X = self.regressors(params, n, sl)
+        X, state_lo, state_hi = self.regressors(params, n, sl, values, ref)
         y = self.data.position[sl]
         if self.keep is not None:   # the rest gaps between records carry no measurement
             X, y = X[self.keep[sl]], y[self.keep[sl]]
@@ -434,11 +413,13 @@ class _Problem:
             b = _box_ls(X, target, lower, upper)
         else:
             b = _nnls_with_offset(X, target, free_cols=1)
-        return b, act.sensor_polynomial(params, X @ b) - y
+        return LinearSolution(b, act.sensor_polynomial(params, X @ b) - y, state_lo, state_hi)
 
-    def with_linear(self, params, b):
-        """Return ActuatorParams with the NNLS solution as normalised hysteresis + shaft gain."""
+    def with_linear(self, params: act.ActuatorParams,
+                    solution: 'LinearSolution') -> act.ActuatorParams:
+        """Return ActuatorParams with the solution as normalised hysteresis + shaft gain."""
         g, m = self.grid, self.grid.n_operators
+        b = solution.coef
         w, k1 = b[:m], b[m]
         if not np.all(np.isfinite(b)):
             raise ValueError('the fit diverged (non-finite weights); check the data and bounds')
@@ -447,7 +428,7 @@ class _Problem:
         else:   # normalise so the contraction fraction spans [0, 1] over the states the
             # training window shows (over the whole bands, a large weight on an element that
             # barely moved in training would set a stroke far beyond the measured travel)
-            y_lo, y_hi = PlayHysteresis(g.r, self.state_lo, self.state_hi, w, k1,
+            y_lo, y_hi = PlayHysteresis(g.r, solution.state_lo, solution.state_hi, w, k1,
                                         0.0).output_range()
             stroke = max(y_hi - y_lo, 1e-9)
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
@@ -461,8 +442,14 @@ class _Problem:
             drift = {'fatigue_offset_rad': b[m + 1], 'fatigue_offset_b_rad': b[m + 2]}
         return params.with_changes(hysteresis=h, stroke_rad=stroke, offset_rad=offset, **drift)
 
-    def optimise(self, free, x0, max_nfev):
-        """Outer nonlinear least squares over the free parameters (linear part projected out)."""
+    def optimise(self, x0: dict, max_nfev: int, ref: Optional[PlayHysteresis] = None) -> tuple:
+        """
+        Return (values, cost) of the outer nonlinear least squares over the free parameters.
+
+        The linear part is projected out at every trial; x0 holds the start values, `ref`
+        is the hysteresis in the feedback path.
+        """
+        free = self.setup.free
         names = [k for k in self.names if k not in LINEAR_PARAMS]
         if not names:
             return {}, None
@@ -473,14 +460,14 @@ class _Problem:
         feedback = any(k in FEEDBACK_PARAMS for k in names)
 
         def residual(x):
-            self.values = dict(zip(names, x))
-            params = set_values(self.base, self.values)
-            b, res = self.solve(params)
+            trial = dict(zip(names, x))
+            params = set_values(self.base, trial)
+            sol = self.solve(params, trial, ref)
             if not feedback:
-                return res
+                return sol.residual
             # feedback effects: the regression saw the previous round's hysteresis in the
             # loop; score the model's own free-run simulation instead (thinned like the rows)
-            return self.free_run_error(self.with_linear(params, b), self.values, self.stride)
+            return self.free_run_error(self.with_linear(params, sol), trial, self.stride)
 
         span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1.0))
         sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=span, diff_step=1e-3,
@@ -575,144 +562,6 @@ def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
     return PlayHysteresis(r, lo, hi, np.zeros(r.size)), (len(widths), len(e))
 
 
-def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=0.7, grid=None,
-                start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
-                rounds=3, input_hook=None, ref=None, refine=2):
-    """
-    Fit the actuator model to a dynamic run by free-run simulation error.
-
-    data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
-    of nonlinear parameters to fit besides the hysteresis weights (by default only the
-    thermal time constant tau_s). kind: 'modified' (eq. 6) or 'classical' (eq. 5) PI.
-    base: starting ActuatorParams (Flexinol defaults; its G and ambient stay fixed, the
-    ambient defaulting to the first measured ambient values, ambient_gain 0 (constant
-    ambient) unless freed). grid/start: reuse a previous fit's threshold grid and warm
-    start values (diagnose does, so candidates are compared on equal terms). starts: the
-    coarse multi-start, time constants as multiples of base.tau_s / 2, unless `start`
-    gives tau_s (a previous fit's), which is then the one start.
-    input_hook(duty_a, duty_b, ambient, values) -> (duty_a, duty_b, ambient): plug-in
-    transform of the inputs with its own free parameters (names not in ActuatorParams).
-    ref: hysteresis on `grid` used in the feedback path of the first round (default: the
-    grid with zero weights, i.e. no feedback until the first weights are known).
-    refine: passes of the adaptive fine grid (modified PI, no `grid` given), each placed
-    where the previous pass's weights are. The fitted elements' bands are narrowed to the
-    states they took in the training window (`narrow_bands`).
-    Returns a `DynamicFit` scored by free-run error on training and held-out data.
-    """
-    if not isinstance(data, DynamicData):
-        raise TypeError('data must be a DynamicData')
-    if not 0.2 <= train_fraction < 1.0:
-        raise ValueError(f'train_fraction must be in [0.2, 1), got {train_fraction}')
-    base = act.ActuatorParams() if base is None else base
-    free = dict(free or {})
-    if data.ambient is not None and 'ambient_c' not in free:
-        base = base.with_changes(ambient_c=float(np.mean(data.ambient[: max(1, len(data) // 50)])))
-    if 'ambient_gain' not in free:   # the paper's model: constant ambient temperature
-        base = base.with_changes(ambient_gain=0.0)
-    free.setdefault('tau_s', (0.2, 20.0, base.tau_s))
-    for k, (lo, hi, x0) in free.items():
-        if not lo <= x0 <= hi:
-            raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
-    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
-        raise ValueError('too little excitation: the duties hardly vary, so the thermal and '
-                         'hysteresis parameters cannot be identified')
-    if np.ptp(data.position) <= 0:
-        raise ValueError('too little excitation: the measured position is constant')
-    n = len(data)
-    n_train = int(data.split) if data.split else int(round(train_fraction * n))
-    burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
-    values = {k: v[2] for k, v in free.items()}
-    feedback = any(k in FEEDBACK_PARAMS for k in free)
-    if start:
-        values.update({k: v for k, v in start.items() if k in values})
-
-    if grid is None:
-        amb = data.ambient if data.ambient is not None else np.full(n, base.ambient_c)
-        u_lo = float(np.min(amb)) - 2.0
-        u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
-        u_rest = float(np.max(amb))
-        prob = _Problem(data, base, close_major_loop(play_grid(u_lo, u_hi, kind, *coarse), u_rest),
-                        free, n_train, burn_in, input_hook, values)
-        if feedback:   # a first reference, so the search sees the feedback at all
-            _settle(prob, base, values)
-        best = None
-        # a given start time constant (a previous fit's) replaces the multi-start
-        taus = ([values['tau_s']] if start and 'tau_s' in start else
-                [float(np.clip(s * base.tau_s / 2.0, *free['tau_s'][:2])) for s in starts])
-        for tau in taus:
-            trial = dict(values, tau_s=tau)
-            v, cost = prob.optimise(free, {k: trial[k] for k in free}, max_nfev)
-            if best is None or cost < best[1]:
-                best = (v, cost)
-        values.update(best[0])
-        prob.values = values
-        b, _ = prob.solve(set_values(base, values))
-        shape = None
-        # refine twice: the fine grid follows the coarse fit's weight, then its own fit's
-        # (the coarse weights sit at a lag-distorted temperature when the dynamics are off,
-        # e.g. with unmodelled fast dynamics); each pass re-scans τ and re-searches on the
-        # whole fine grid, whose optimum can lie in another basin than the coarse one
-        for _ in range(refine if kind == 'modified' else 1):
-            if kind == 'modified':
-                h = prob.with_linear(set_values(base, values), b).hysteresis
-                grid, shape = _adaptive_grid(h, prob.state_hi - prob.state_lo, u_lo, u_hi,
-                                             *fine)
-                grid = close_major_loop(grid, u_rest)
-            else:
-                grid = play_grid(u_lo, u_hi, kind, *fine)
-            prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
-            if feedback:
-                _settle(prob, base, values)
-            values['tau_s'] = _scan_tau(prob, base, values, free['tau_s'])
-            values.update(prob.optimise(free, values, max_nfev)[0])
-            prob.values = values
-            b, _ = prob.solve(set_values(base, values))
-        # keep the elements the fine solution uses, and their grid neighbours, so the
-        # nonlinear search (and every candidate effect after it) works on a small basis
-        grid = _prune(grid, b[:grid.n_operators], shape)
-    prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
-    if ref is not None:
-        prob.ref = ref
-    best = None
-    for _ in range(rounds if feedback else 1):
-        if feedback:
-            best = min(best or (np.inf,), _settle(prob, base, values), key=lambda r: r[0])
-        v, _ = prob.optimise(free, values, max_nfev)
-        values.update(v)
-        prob.values = values
-        if feedback:
-            best = min(best, _settle(prob, base, values), key=lambda r: r[0])
-        else:
-            params = set_values(base, values)
-            best = (0.0, prob.with_linear(params, prob.solve(params)[0]), dict(values))
-    _, params, values = best
-    values.update({k: getattr(params, k) for k in LINEAR_PARAMS})
-    values = {k: float(values[k]) for k in free}
-    da, db, amb = prob.inputs(values)
-    params = narrow_bands(params, da[:n_train], db[:n_train], amb[:n_train], data.dt)
-    traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
-    pred, y = traj.position_rad, data.position
-    n_par = int(np.count_nonzero(params.hysteresis.w)) + 3 + len(free)
-    train, val = np.zeros(n, bool), np.zeros(n, bool)
-    train[burn_in:n_train], val[n_train:] = True, True
-    train &= scored_mask(data)
-    val &= scored_mask(data)
-    span = record_span(data)
-    return DynamicFit(params, values, scores(y[train], pred[train], span),
-                      scores(y[val], pred[val], span) if val.any() else None, pred, traj,
-                      n_train, burn_in, n_par, prob.grid)
-
-
-def scored_mask(data):
-    """Return the samples of `data` that are measured (not the rest gaps between records)."""
-    return np.ones(len(data), bool) if data.scored is None else np.asarray(data.scored, bool)
-
-
-def record_span(data):
-    """Return the range of the measured position over the whole record set (NRMSE scale)."""
-    return float(np.ptp(data.position[scored_mask(data)]))
-
-
 def close_major_loop(grid, u_rest):
     """
     Return the saturated `grid` with every element fully cold at the rest temperature.
@@ -732,39 +581,42 @@ def close_major_loop(grid, u_rest):
     return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
 
 
-def _settle(prob, base, values, steps=FIXED_POINT_STEPS):
+def _settle(prob: _Problem, values: dict, ref: PlayHysteresis,
+            steps: int = FIXED_POINT_STEPS) -> Settled:
     """
-    Iterate the feedback fixed point at fixed nonlinear `values`.
+    Iterate the feedback fixed point at fixed nonlinear `values`, from the reference `ref`.
 
-    The regression sees the hysteresis output (phase, stress, fatigue) through `prob.ref`, so the
-    weights it returns are consistent only when they reproduce that reference. Each step is one
-    simulation and one NNLS (far cheaper than a search round); sets `prob.ref` and returns
-    (training free-run MSE, params, values) of the step whose own simulation fits best.
+    The regression sees the hysteresis output (phase, stress, fatigue) through the
+    reference, so the weights it returns are consistent only when they reproduce that
+    reference. Each step is one simulation and one NNLS (far cheaper than a search round)
+    and makes its model the next reference; returns the `Settled` step whose own
+    simulation fits the training window best (its hysteresis is the reference to go on with).
     """
-    prob.values = values
-    nonlinear = set_values(base, values)
-    best = (np.inf,)
+    nonlinear = set_values(prob.base, values)
+    best = None
     for _ in range(steps):
-        params = prob.with_linear(nonlinear, prob.solve(nonlinear)[0])
-        prob.ref = params.hysteresis
+        params = prob.with_linear(nonlinear, prob.solve(nonlinear, values, ref))
+        ref = params.hysteresis
         err = float(np.mean(prob.free_run_error(params, values) ** 2))
-        if err < best[0]:
-            best = (err, params, dict(values))
-    prob.ref = best[1].hysteresis
+        if best is None or err < best.mse:
+            best = Settled(err, params, dict(values), params.hysteresis)
     return best
 
 
-def _scan_tau(prob, base, values, bounds, factors=(0.6, 0.75, 0.9, 1.0, 1.15, 1.35, 1.6)):
+def _scan_tau(prob: _Problem, values: dict, ref: PlayHysteresis,
+              factors: tuple = (0.6, 0.75, 0.9, 1.0, 1.15, 1.35, 1.6)) -> float:
     """
-    Time constant with the lowest training error among `factors` x the current one (within bounds).
+    Time constant with the lowest training error among `factors` x the current one.
 
-    The error surface in τ has several basins on closed-loop data, and the coarse grid's optimum
-    can sit in the wrong one.
+    Within the bounds of tau_s. The error surface in τ has several basins on closed-loop
+    data, and the coarse grid's optimum can sit in the wrong one.
     """
+    bounds = prob.setup.free['tau_s']
     best = (np.inf, values['tau_s'])
     for f in factors:
         tau = float(np.clip(f * values['tau_s'], bounds[0], bounds[1]))
-        cost = float(np.sum(prob.solve(set_values(base, dict(values, tau_s=tau)))[1] ** 2))
+        trial = set_values(prob.base, dict(values, tau_s=tau))
+        cost = float(np.sum(prob.solve(trial, values, ref).residual ** 2))
         best = min(best, (cost, tau))
     return best[1]
 
@@ -788,3 +640,311 @@ def _prune(grid, w, shape, centre_steps=3):
     if not used.any():
         return grid
     return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
+
+
+# ------------------------------------------------------------------------- dynamic stages
+# fit_dynamic runs these stages; each takes the previous one's result as an argument and
+# returns a small frozen record, so no stage depends on state another one left behind:
+#   prepare -> Setup; input_range -> InputRange; fit_coarse -> GridFit;
+#   refine_grid (GridFit -> GridFit, `refine` times); prune_grid -> grid;
+#   fit_final -> Settled; score_fit -> DynamicFit
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """
+    How thoroughly `fit_dynamic` searches.
+
+    coarse/fine: (widths, centres) of the coarse grid and of the adaptive fine grid.
+    starts: the coarse multi-start, time constants as multiples of base.tau_s / 2.
+    max_nfev: evaluations per outer search. rounds: alternations of search and feedback
+    settling in the final stage. refine: passes of the adaptive fine grid (modified PI).
+    """
+
+    train_fraction: float = TRAIN_FRACTION
+    coarse: tuple = (6, 10)
+    fine: tuple = (14, 24)
+    starts: tuple = (0.6, 2.0, 6.0)
+    max_nfev: int = 40
+    rounds: int = 3
+    refine: int = 2
+
+
+@dataclass(frozen=True)
+class Setup:
+    """
+    Stage 1 (`prepare`): the checked problem every later stage reads.
+
+    free: {name: (lower, upper, initial)}; values: the starting values of the free
+    parameters; start_tau: a previous fit's time constant is the one coarse start.
+    """
+
+    data: DynamicData
+    base: act.ActuatorParams
+    free: dict
+    values: dict
+    n_train: int
+    burn_in: int
+    input_hook: Optional[Callable] = None
+    start_tau: bool = False
+
+    @property
+    def feedback(self) -> bool:
+        """Return True when a free parameter feeds the hysteresis back into its regressors."""
+        return any(k in FEEDBACK_PARAMS for k in self.free)
+
+
+@dataclass(frozen=True)
+class InputRange:
+    """Stage 2 (`input_range`): model temperatures the grids cover [°C], and the rest one."""
+
+    lo: float
+    hi: float
+    rest: float
+
+
+@dataclass(frozen=True)
+class LinearSolution:
+    """One regression (`_Problem.solve`): coefficients, residual, states regressed on."""
+
+    coef: np.ndarray
+    residual: np.ndarray
+    state_lo: np.ndarray
+    state_hi: np.ndarray
+
+
+@dataclass(frozen=True)
+class GridFit:
+    """
+    Stages 3-4 (`fit_coarse`, `refine_grid`): a grid with its fitted values.
+
+    solution: the weights at `values`; shape: (widths, centres) of an adaptive grid
+    (None for a regular one).
+    """
+
+    problem: _Problem
+    values: dict
+    solution: LinearSolution
+    shape: Optional[tuple] = None
+
+    @property
+    def grid(self) -> PlayHysteresis:
+        """Return the threshold grid of this stage."""
+        return self.problem.grid
+
+
+@dataclass(frozen=True)
+class Settled:
+    """`_settle` and `fit_final`: training MSE [rad²], model, its values, feedback reference."""
+
+    mse: float
+    params: act.ActuatorParams
+    values: dict
+    ref: PlayHysteresis
+
+
+def prepare(data: DynamicData, free: Optional[dict] = None,
+            base: Optional[act.ActuatorParams] = None, start: Optional[dict] = None,
+            input_hook: Optional[Callable] = None,
+            train_fraction: float = TRAIN_FRACTION) -> Setup:
+    """
+    Check the problem and fix what every stage shares: base model, bounds, split.
+
+    The base's ambient defaults to the first measured ambient values and ambient_gain to 0
+    (constant ambient) unless they are free; tau_s is always free. The first
+    `train_fraction` of time trains (or the samples before `data.split`), after a burn-in
+    of 1 s (at most a tenth of the training window).
+    """
+    if not isinstance(data, DynamicData):
+        raise TypeError('data must be a DynamicData')
+    if not 0.2 <= train_fraction < 1.0:
+        raise ValueError(f'train_fraction must be in [0.2, 1), got {train_fraction}')
+    base = act.ActuatorParams() if base is None else base
+    free = dict(free or {})
+    if data.ambient is not None and 'ambient_c' not in free:
+        base = base.with_changes(ambient_c=float(np.mean(data.ambient[: max(1, len(data) // 50)])))
+    if 'ambient_gain' not in free:   # the paper's model: constant ambient temperature
+        base = base.with_changes(ambient_gain=0.0)
+    free.setdefault('tau_s', (0.2, 20.0, base.tau_s))
+    for k, (lo, hi, x0) in free.items():
+        if not lo <= x0 <= hi:
+            raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
+    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+        raise ValueError('too little excitation: the duties hardly vary, so the thermal and '
+                         'hysteresis parameters cannot be identified')
+    if np.ptp(data.position) <= 0:
+        raise ValueError('too little excitation: the measured position is constant')
+    n_train = data.default_split(train_fraction).start
+    burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
+    values = {k: v[2] for k, v in free.items()}
+    if start:
+        values.update({k: v for k, v in start.items() if k in values})
+    return Setup(data, base, free, values, n_train, burn_in, input_hook,
+                 bool(start) and 'tau_s' in start)
+
+
+def input_range(setup: Setup) -> InputRange:
+    """
+    Return the model temperature range the grids cover.
+
+    From 2 K below the lowest ambient to the highest ambient plus the steady-state rise at
+    the highest duty, gain_k · max duty; the rest temperature is the highest ambient.
+    """
+    data, base = setup.data, setup.base
+    amb = data.ambient if data.ambient is not None else np.full(len(data), base.ambient_c)
+    return InputRange(float(np.min(amb)) - 2.0,
+                      float(np.max(amb)) + base.gain_k * max(data.duty_a.max(),
+                                                              data.duty_b.max()),
+                      float(np.max(amb)))
+
+
+def fit_coarse(setup: Setup, span: InputRange, kind: str, options: SearchOptions) -> GridFit:
+    """
+    Fit on a coarse grid over the whole range: the time constant and where the wire transforms.
+
+    A multi-start over the time constant (`options.starts` x base.tau_s / 2), unless the
+    setup names a previous fit's, which is then the one start.
+    """
+    values = dict(setup.values)
+    prob = _Problem(setup, close_major_loop(play_grid(span.lo, span.hi, kind, *options.coarse),
+                                            span.rest))
+    ref = prob.grid
+    if setup.feedback:   # a first reference, so the search sees the feedback at all
+        ref = _settle(prob, values, ref).ref
+    taus = ([values['tau_s']] if setup.start_tau else
+            [float(np.clip(s * setup.base.tau_s / 2.0, *setup.free['tau_s'][:2]))
+             for s in options.starts])
+    best = None
+    for tau in taus:
+        trial = dict(values, tau_s=tau)
+        v, cost = prob.optimise({k: trial[k] for k in setup.free}, options.max_nfev, ref)
+        if best is None or cost < best[1]:
+            best = (v, cost)
+    values.update(best[0])
+    return GridFit(prob, values, prob.solve(set_values(setup.base, values), values, ref))
+
+
+def refine_grid(setup: Setup, span: InputRange, kind: str, previous: GridFit,
+                options: SearchOptions) -> GridFit:
+    """
+    Fit on a fine grid placed where the `previous` stage's weights are (modified PI).
+
+    The coarse weights sit at a lag-distorted temperature when the dynamics are off (e.g.
+    with unmodelled fast dynamics), so a second pass follows its own fit's weights; each
+    pass re-scans τ and re-searches on the whole fine grid, whose optimum can lie in
+    another basin than the coarse one. Classical PI: a regular fine grid.
+    """
+    values = dict(previous.values)
+    shape = None
+    if kind == 'modified':
+        h = previous.problem.with_linear(set_values(setup.base, values),
+                                         previous.solution).hysteresis
+        grid, shape = _adaptive_grid(h, previous.solution.state_hi - previous.solution.state_lo,
+                                     span.lo, span.hi, *options.fine)
+        grid = close_major_loop(grid, span.rest)
+    else:
+        grid = play_grid(span.lo, span.hi, kind, *options.fine)
+    prob = _Problem(setup, grid)
+    ref = grid
+    if setup.feedback:
+        ref = _settle(prob, values, ref).ref
+    values['tau_s'] = _scan_tau(prob, values, ref)
+    values.update(prob.optimise(values, options.max_nfev, ref)[0])
+    return GridFit(prob, values, prob.solve(set_values(setup.base, values), values, ref), shape)
+
+
+def prune_grid(stage: GridFit) -> PlayHysteresis:
+    """
+    Keep the elements the stage's solution uses, and their grid neighbours.
+
+    The nonlinear search (and every candidate effect after it) then works on a small basis.
+    """
+    return _prune(stage.grid, stage.solution.coef[:stage.grid.n_operators], stage.shape)
+
+
+def fit_final(setup: Setup, grid: PlayHysteresis, values: dict,
+              ref: Optional[PlayHysteresis], rounds: int, max_nfev: int) -> Settled:
+    """
+    Search the free parameters on `grid` from `values`; return the best model.
+
+    With feedback effects the search alternates with settling the feedback fixed point
+    (`rounds` times) and the best settled model wins; ref: the hysteresis in the feedback
+    path at the start (default: the grid with zero weights).
+    """
+    prob = _Problem(setup, grid)
+    ref = grid if ref is None else ref
+    values = dict(values)
+    best = None
+    for _ in range(rounds if setup.feedback else 1):
+        if setup.feedback:
+            settled = _settle(prob, values, ref)
+            ref = settled.ref
+            best = settled if best is None or settled.mse < best.mse else best
+        values.update(prob.optimise(values, max_nfev, ref)[0])
+        if setup.feedback:
+            settled = _settle(prob, values, ref)
+            ref = settled.ref
+            best = settled if settled.mse < best.mse else best
+        else:
+            params = set_values(setup.base, values)
+            best = Settled(0.0, prob.with_linear(params, prob.solve(params, values, ref)),
+                           dict(values), ref)
+    return best
+
+
+def score_fit(setup: Setup, grid: PlayHysteresis, best: Settled) -> DynamicFit:
+    """
+    Narrow the bands of the best model, simulate it free-run and score both windows.
+
+    The linear parameters solved with the weights join the fitted values.
+    """
+    data, n_train = setup.data, setup.n_train
+    params = best.params
+    values = dict(best.values)
+    values.update({k: getattr(params, k) for k in LINEAR_PARAMS})
+    values = {k: float(values[k]) for k in setup.free}
+    da, db, amb = _Problem(setup, grid).inputs(values)
+    params = narrow_bands(params, da[:n_train], db[:n_train], amb[:n_train], data.dt)
+    traj = act.simulate(params, da, db, data.dt, ambient_c=amb)
+    pred, y = traj.position_rad, data.position
+    n_par = int(np.count_nonzero(params.hysteresis.w)) + 3 + len(setup.free)
+    train, val = data.split_masks(Split(n_train, setup.burn_in))
+    span = data.span()
+    return DynamicFit(params, values, scores(y[train], pred[train], span),
+                      scores(y[val], pred[val], span) if val.any() else None, pred, traj,
+                      n_train, setup.burn_in, n_par, grid)
+
+
+def fit_dynamic(data: DynamicData, free: Optional[dict] = None, kind: str = 'modified',
+                base: Optional[act.ActuatorParams] = None,
+                grid: Optional[PlayHysteresis] = None, start: Optional[dict] = None,
+                input_hook: Optional[Callable] = None, ref: Optional[PlayHysteresis] = None,
+                options: SearchOptions = SearchOptions()) -> DynamicFit:
+    """
+    Fit the actuator model to a dynamic run by free-run simulation error.
+
+    data: `DynamicData`. free: {ActuatorParams field or 'tau_s': (lower, upper, initial)}
+    of nonlinear parameters to fit besides the hysteresis weights (by default only the
+    thermal time constant tau_s). kind: 'modified' (eq. 6) or 'classical' (eq. 5) PI.
+    base: starting ActuatorParams (Flexinol defaults; its G and ambient stay fixed, see
+    `prepare`). grid/start: reuse a previous fit's threshold grid and warm start values
+    (diagnose does, so candidates are compared on equal terms); with no grid, the coarse
+    and fine grid stages run first. input_hook(duty_a, duty_b, ambient, values) ->
+    (duty_a, duty_b, ambient): plug-in transform of the inputs with its own free
+    parameters (names not in ActuatorParams). ref: hysteresis on `grid` used in the
+    feedback path of the first round (default: the grid with zero weights, i.e. no
+    feedback until the first weights are known). options: `SearchOptions`. The fitted
+    elements' bands are narrowed to the states they took in the training window
+    (`narrow_bands`). Returns a `DynamicFit` scored by free-run error on training and
+    held-out data.
+    """
+    setup = prepare(data, free, base, start, input_hook, options.train_fraction)
+    values = setup.values
+    if grid is None:
+        span = input_range(setup)
+        stage = fit_coarse(setup, span, kind, options)
+        for _ in range(options.refine if kind == 'modified' else 1):
+            stage = refine_grid(setup, span, kind, stage, options)
+        grid, values = prune_grid(stage), stage.values
+    best = fit_final(setup, grid, values, ref, options.rounds, options.max_nfev)
+    return score_fit(setup, grid, best)

@@ -341,7 +341,7 @@ def cmd_compare(args):
     """sma-model compare: score a fitted model on DATA, break the error down, test residual."""
     from .compare import compare, summary_lines
     from .data import is_static
-    from .engine import load_fit, record_scores
+    from .engine import load_fit, record_scores, Split
     from .modelfile import is_fitted, is_static_model
     from .records import scored_view
     from .report import check_report_dir
@@ -372,7 +372,7 @@ def cmd_compare(args):
     else:
         records = record_scores(data, fit.prediction)
         view, pred, sig = scored_view(data, fit.prediction, model_signals(fit, data))
-        result = compare(view, pred, sig, split=0 if len(records) > 1 else None)
+        result = compare(view, pred, sig, split=Split(0) if len(records) > 1 else None)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data)
     if args.report:
@@ -419,7 +419,7 @@ def cmd_diagnose(args):
     """sma-model diagnose: refit with each candidate effect, rank by held-out improvement."""
     from .compare import compare
     from .data import is_static
-    from .engine import diagnose_rounds, fit_model
+    from .engine import diagnose_rounds, fit_model, Split
     from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -457,10 +457,11 @@ def cmd_diagnose(args):
         else:
             view, pred0, sig = scored_view(data, pred0, b0.signals)
             alt = None if alt_pred is None else scored_view(data, alt_pred, {})[1]
-            split = int(np.count_nonzero(data.scored[:b0.split])) if data.scored is not None \
-                else b0.split
-            result = compare(view, pred0, sig, split=split)
-        alternative = (f'model + {best["effect"]}', _flat(data, alt)) if best else None
+            start = b0.split.start
+            if data.scored is not None:
+                start = int(np.count_nonzero(data.scored[:start]))
+            result = compare(view, pred0, sig, split=Split(start))
+        alternative = (f'model + {best["effect"]}', alt) if best else None
         model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.values}
         _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
                       '; '.join(data_lines(data)), model, doc, alternative, unit=unit_of(data))
@@ -490,12 +491,6 @@ def rounds_lines(doc, limit):
     lines.append(f'  stopped after {limit} rounds (--rounds)' if len(doc['rounds']) >= limit
                  else '  then nothing is significant')
     return lines
-
-
-def _flat(data, prediction):
-    from .compare import flat_static_prediction
-    from .data import is_static
-    return flat_static_prediction(data, prediction) if is_static(data) else prediction
 
 
 def diagnosis_lines(doc, kind):

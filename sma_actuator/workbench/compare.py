@@ -46,12 +46,13 @@ residual: a strongly coloured residual exceeds it on many signals, so the streng
 max|r| / band ranks them.)
 """
 from dataclasses import dataclass, field
+from typing import Any, Optional
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
-from .data import is_static
+from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.identification import scores
 
 Z99 = 2.576
@@ -71,7 +72,7 @@ MIN_SHARE = 0.02               # ... if the regime holds at least this fraction 
 class Comparison:
     """Result of `compare`; `to_json()` gives the plain-data form printed by the CLI."""
 
-    kind: str                       # 'dynamic' | 'static'
+    kind: str                       # 'dynamic' | 'static' (the data's `kind`)
     measured: np.ndarray
     predicted: np.ndarray
     scores: dict                    # 'all', 'train', 'validation' -> scores() dict or None
@@ -83,6 +84,8 @@ class Comparison:
     signals: dict = field(default_factory=dict)   # for plots: dynamic theta_a, theta_b,
     #   proxy, duty_diff; static input, curve
     unit: str = ''                  # unit of the measured output ('' if not known)
+    figures: tuple = ()             # (file, caption) of the data kind's own report figures
+    axis_label: str = ''            # label of the sample axis
 
     @property
     def residual(self):
@@ -108,50 +111,22 @@ def _summary_json(test):
     return {k: v for k, v in test.items() if k not in ('lags', 'r')}
 
 
-def compare(data, prediction, signals=None, split=None):
+def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
+            split: Optional[Split] = None) -> Comparison:
     """
     Compare measured `data` with a model `prediction`: scores, regimes, residual tests.
 
-    data: DynamicData or StaticData. prediction: array over the record (dynamic) or a list of
-    (curve_id, array) (static). signals: model signals (dict with 'theta_a', 'theta_b' [°C]).
-    split: dynamic: index where validation starts (default 70 % of the record); static: list
-    of validation curve ids (default: odd ids).
+    data: DynamicData or StaticData. prediction: the model output at every sample (a
+    `ModelFit.prediction`). signals: model signals (dict with 'theta_a', 'theta_b' [°C]).
+    split: where validation starts (default: the data's `default_split`, 70 % of the
+    record or the odd curves).
     """
-    if is_static(data):
-        return _compare_static(data, prediction, split)
-    return _compare_dynamic(data, prediction, signals or {}, split)
-
-
-def _compare_dynamic(data, prediction, signals, split):
-    y = data.position
+    y = np.asarray(data.output, float)
     y_hat = np.asarray(prediction, float)
     if y_hat.shape != y.shape:
         raise ValueError(f'prediction has {y_hat.size} samples, the record {y.size}')
-    split = int(round(0.7 * len(y))) if split is None else int(split)
-    train = np.arange(len(y)) < split
-    temps = thermal_signals(data, signals)
-    masks = dynamic_regimes(data, temps)
-    tests = residual_tests(y - y_hat, correlation_signals(data, temps), data.dt, 's')
-    plane = dict(temps, duty_diff=data.duty_a - data.duty_b)
-    return _assemble('dynamic', data.time - data.time[0], y, y_hat, train, masks, tests, plane)
-
-
-def _compare_static(data, prediction, split):
-    y = np.asarray(data.output, float)
-    y_hat = flat_static_prediction(data, prediction)
-    ids = np.unique(data.curve)
-    val_ids = [c for c in ids if c % 2 == 1] if split is None else list(split)
-    train = ~np.isin(data.curve, val_ids)
-    masks = static_regimes(data, val_ids)
-    signals = {'input': np.asarray(data.input, float), 'output': y,
-               'end proximity': end_proximity(y)}
-    tests = residual_tests(y - y_hat, signals, 1.0, 'samples')
-    plane = {'input': signals['input'], 'curve': np.asarray(data.curve)}
-    return _assemble('static', np.arange(len(y), dtype=float), y, y_hat, train, masks, tests,
-                     plane)
-
-
-def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
+    train = ~data.held_out(split)
+    axis, masks, tests, plane = _VIEWS[data.kind](data, y, y_hat, signals or {}, split)
     span = float(np.ptp(y))
     # every part is normalised by the range over the whole record set (a quiet window
     # would otherwise look like a huge relative error)
@@ -159,23 +134,34 @@ def _assemble(kind, axis, y, y_hat, train, masks, tests, signals):
           'train': scores(y[train], y_hat[train], span) if train.any() else None,
           'validation': scores(y[~train], y_hat[~train], span) if (~train).any() else None}
     rows = breakdown(y - y_hat, masks, span)
-    return Comparison(kind, y, y_hat, _finite(sc), rows, concentrations(rows, sc['all']['rmse']),
-                      tests, axis, train, signals)
+    return Comparison(data.kind, y, y_hat, _finite(sc), rows,
+                      concentrations(rows, sc['all']['rmse']), tests, axis, train, plane,
+                      figures=data.figures, axis_label=data.axis_label)
 
 
-def flat_static_prediction(data, prediction):
-    """Return a static prediction [(curve_id, array), ...] laid out like data.output."""
-    out = np.full(len(data.output), np.nan)
-    for cid, values in prediction:
-        mask = np.asarray(data.curve) == cid
-        values = np.asarray(values, float)
-        if values.size != mask.sum():
-            raise ValueError(f'prediction for curve {cid} has {values.size} points, the data '
-                             f'{mask.sum()}')
-        out[mask] = values
-    if np.isnan(out).any():
-        raise ValueError('prediction misses some curves of the data')
-    return out
+def _dynamic_view(data: DynamicData, y: np.ndarray, y_hat: np.ndarray, signals: dict,
+                  split: Optional[Split]) -> tuple:
+    """Return (time axis [s], regimes, residual tests, plot signals) of a dynamic record."""
+    temps = thermal_signals(data, signals)
+    masks = dynamic_regimes(data, temps)
+    tests = residual_tests(y - y_hat, correlation_signals(data, temps), data.dt, 's')
+    plane = dict(temps, duty_diff=data.duty_a - data.duty_b)
+    return data.time - data.time[0], masks, tests, plane
+
+
+def _static_view(data: StaticData, y: np.ndarray, y_hat: np.ndarray, signals: dict,
+                 split: Optional[Split]) -> tuple:
+    """Return (sample axis, regimes, residual tests, plot signals) of static curves."""
+    masks = static_regimes(data, list((split or data.default_split()).curves))
+    signals = {'input': np.asarray(data.input, float), 'output': y,
+               'end proximity': end_proximity(y)}
+    tests = residual_tests(y - y_hat, signals, 1.0, 'samples')
+    plane = {'input': signals['input'], 'curve': np.asarray(data.curve)}
+    return np.arange(len(y), dtype=float), masks, tests, plane
+
+
+# the kind-specific part of a comparison, by `data.kind`
+_VIEWS = {DynamicData.kind: _dynamic_view, StaticData.kind: _static_view}
 
 
 # ------------------------------------------------------------------------------ regimes

@@ -40,7 +40,7 @@ import re
 import numpy as np
 
 from . import limits
-from ..core.identification import DynamicData
+from ..core.datakinds import DynamicData, StaticData
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
 # without duty_b (or with duty_b always 0) the rig is one wire against a bias spring
@@ -325,8 +325,7 @@ def static_from_table(path, header, rows, lines):
 
 
 def make_static(source, u, y, curve):
-    """Engine `StaticData(input, output, curve)`; needs an even (training) curve."""
-    from .engine import StaticData
+    """Return `StaticData(input, output, curve)`; needs an even (training) curve."""
     if not (curve % 2 == 0).any():
         raise DataError(f'{source}: no even-numbered curve to train on (curves train on even '
                         'ids and validate on odd ones)')

@@ -48,6 +48,7 @@ explanation) is put first and every explanation in the group says so.
 from dataclasses import dataclass, field, fields
 from functools import partial
 import time
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -55,9 +56,9 @@ from .effects import CATALOG, Effect, get_effect, is_builtin
 from .parallel import available_cores, imap_on_cores
 from .records import zeros
 from ..core import actuator as act
+from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import (DynamicData, fit_dynamic, fit_static, narrow_bands,
-                                   record_span, scored_mask, scores)
+from ..core.identification import fit_dynamic, fit_static, narrow_bands, scores
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -69,39 +70,26 @@ NEAR_TIE = 0.10
 
 
 @dataclass
-class StaticData:
-    """Quasi-static curves: input, output, curve id per sample (curves start from reset)."""
-
-    input: np.ndarray  # noqa: A003 (the pair input/output names the model's two signals)
-    output: np.ndarray
-    curve: np.ndarray
-
-    def __len__(self):
-        return len(self.input)
-
-
-@dataclass
 class ModelFit:
     """A fitted model: effects included, parameters, scores and predictions."""
 
     effects: list
     kind: str
     values: dict
-    train: dict
-    validation: dict
-    prediction: object
-    split: object
+    train: Optional[dict]
+    validation: Optional[dict]
+    prediction: Optional[np.ndarray]      # model output at every sample of the data
+    split: Optional[Split]                # train/validation division it was scored on
     n_parameters: int
-    residual: np.ndarray                  # free-run residual on the training window
-    params: object = None                 # ActuatorParams (dynamic) or PlayHysteresis (static)
+    residual: Optional[np.ndarray]        # free-run residual on the training window
+    params: Any = None                    # ActuatorParams (dynamic) or PlayHysteresis (static)
     signals: dict = field(default_factory=dict)
-    grid: object = None
+    grid: Optional[PlayHysteresis] = None
     # rig description for the model file: layout, position_unit, records (name, sensor zero
     # [position unit], role), sensor_zero_rule
     rig: dict = field(default_factory=dict)
-    burn_in: int = 0                      # first training sample (dynamic)
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         """YAML-able form: effects, kind, fitted values, model parameters, scores."""
         model = (self.params.to_dict() if hasattr(self.params, 'hysteresis')
                  else {'hysteresis': self.params.to_dict()})
@@ -111,16 +99,11 @@ class ModelFit:
         d.update(self.rig)
         return d
 
-    def simulate(self, data):
-        """Prediction of this fitted model on other data (same kind: dynamic or static)."""
-        if isinstance(data, StaticData):
-            h = self.params if isinstance(self.params, PlayHysteresis) else self.params.hysteresis
-            u0 = float(np.min(data.input))
-            return [(c, h.simulate(data.input[data.curve == c], h.initial_state(u0)))
-                    for c in dict.fromkeys(data.curve.tolist())]
-        return self.trajectory(data).position_rad
+    def simulate(self, data: Any) -> np.ndarray:
+        """Prediction of this fitted model at every sample of other data of its kind."""
+        return data.simulate(self)[0]
 
-    def inputs(self, data):
+    def inputs(self, data: DynamicData) -> tuple:
         """
         (duty_a, duty_b, ambient) the thermal model sees on dynamic data.
 
@@ -131,7 +114,7 @@ class ModelFit:
                else np.full(len(data), self.params.ambient_c))
         return _hooked_inputs(self.effects, data.duty_a, data.duty_b, amb, self.values)
 
-    def trajectory(self, data):
+    def trajectory(self, data: DynamicData) -> act.Trajectory:
         """Free-run `core.actuator.Trajectory` of this model on dynamic data."""
         da, db, amb = self.inputs(data)
         t = act.simulate(self.params, da, db, data.dt, ambient_c=amb)
@@ -153,7 +136,7 @@ def _hooked_inputs(effects, duty_a, duty_b, ambient, values):
     return np.clip(duty_a, 0.0, 1.0), np.clip(duty_b, 0.0, 1.0), ambient
 
 
-def load_fit(d, data=None):
+def load_fit(d: dict, data: Any = None) -> ModelFit:
     """Return a ModelFit from `to_dict` output; scores and predictions are recomputed on `data`."""
     model = d.get('model', {})
     if set(model) == {'hysteresis'}:
@@ -165,76 +148,55 @@ def load_fit(d, data=None):
                    dict(d.get('parameters', {})), sc.get('train'), sc.get('validation'),
                    None, None, 0, np.zeros(0), params)
     if data is not None:
-        if isinstance(data, StaticData):
-            pred = fit.simulate(data)
-            fit.validation = scores(data.output, np.concatenate([p for _, p in pred]))
-        else:
-            t = fit.trajectory(data)
-            pred = t.position_rad
-            keep = scored_mask(data)
-            fit.validation = scores(data.position[keep], pred[keep], record_span(data))
-            fit.signals = {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
-                           'y_b': t.y_b, 'time': data.time}
-        fit.prediction = pred
+        fit.prediction, fit.signals = data.simulate(fit)
+        keep = data.scored_mask()
+        fit.validation = scores(data.output[keep], fit.prediction[keep], data.span())
     return fit
 
 
-def _kind(effects, kind):
-    """Hysteresis kind implied by the effects (saturation -> modified)."""
-    if 'saturation' in effects:
-        return 'modified'
+def _kind(effects: list, kind: Optional[str]) -> str:
+    """Hysteresis kind implied by the effects (an effect's `Effect.kind`, e.g. saturation)."""
+    for e in effects:
+        if get_effect(e).kind:
+            return get_effect(e).kind
     return kind or 'modified'
 
 
-def fit_model(data, effects=(), kind=None, progress=None, base_fit=None):
+def fit_model(data: Any, effects: tuple = (), kind: Optional[str] = None,
+              progress: Optional[Callable] = None,
+              base_fit: Optional[ModelFit] = None) -> ModelFit:
     """
     Fit the base model plus `effects` (catalog names) to dynamic or static data.
 
-    kind: 'classical' or 'modified' PI base (default modified; 'saturation' forces
-    modified). base_fit: a previous ModelFit whose grid and values warm-start this one.
+    kind: 'classical' or 'modified' PI base (default modified; an effect with a `kind`,
+    saturation, forces its kind). base_fit: a previous ModelFit whose grid and values
+    warm-start this one.
     """
     effects = list(dict.fromkeys(effects))
     for e in effects:
-        reason = not_applicable(get_effect(e), data)
+        reason = data.unsupported(get_effect(e))
         if reason:
             raise ValueError(f'effect {e} cannot be fitted on this data: {reason}')
     kind = _kind(effects, kind)
     if progress:
         progress(0, 1, 'fit ' + ('+'.join(effects) or 'base'))
-    if isinstance(data, StaticData):
-        extra = [e for e in effects if get_effect(e).needs_dynamic]
-        if extra:
-            raise ValueError(f'effects {extra} need dynamic (time-series) data')
-        # the paper's least-squares tuning; the classical base is plain least squares
-        res = fit_static(data.input, data.output, data.curve, kind=kind,
-                         nonneg=(kind == 'modified'))
-        val_ids = [c for c, _ in res.prediction if c % 2 == 1]
-        pred_train = np.concatenate([p for c, p in res.prediction if c % 2 == 0])
-        y_train = np.concatenate([data.output[data.curve == c] for c, _ in res.prediction
-                                  if c % 2 == 0])
-        fit = ModelFit(effects, kind, {}, res.train, res.validation, res.prediction, val_ids,
-                       int(np.count_nonzero(res.model.w)) + 2, pred_train - y_train, res.model)
-    else:
-        fit = _fit_dynamic(data, effects, kind, base_fit)
+    fit = _FITTERS[data.kind](data, effects, kind, base_fit)
     if progress:
         progress(1, 1, 'fit done')
     return fit
 
 
-def not_applicable(eff, data):
-    """Return why effect `eff` cannot be fitted on `data`, or None."""
-    if eff.needs_two_wires and getattr(data, 'layout', None) == 'single':
-        return 'needs two wires (this is a single wire against a bias spring)'
-    return eff.applicable(data)
-
-
-def split_masks(data, n_train, burn_in=0):
-    """Return (train, validation) boolean masks of the scored samples of `data`."""
-    n = len(data)
-    train, val = np.zeros(n, bool), np.zeros(n, bool)
-    train[burn_in:n_train], val[n_train:] = True, True
-    keep = scored_mask(data)
-    return train & keep, val & keep
+def _fit_static(data: StaticData, effects: list, kind: str,
+                base_fit: Optional[ModelFit]) -> ModelFit:
+    """Fit a PI operator to curves: the paper's least-squares tuning (classical: plain LS)."""
+    res = fit_static(data.input, data.output, data.curve, kind=kind,
+                     nonneg=(kind == 'modified'))
+    split = data.default_split()
+    pred = data.flat(res.prediction)
+    train = ~data.held_out(split)
+    return ModelFit(effects, kind, {}, res.train, res.validation, pred, split,
+                    int(np.count_nonzero(res.model.w)) + 2, pred[train] - data.output[train],
+                    res.model)
 
 
 # a held-out window whose measured range is below this fraction of the whole record set's
@@ -242,50 +204,53 @@ def split_masks(data, n_train, burn_in=0):
 MIN_COVERAGE = 0.2
 
 
-def rescore(data, pred, n_train, burn_in=0):
+def rescore(data: Any, pred: np.ndarray, split: Split) -> tuple:
     """
     Return (train, validation) scores of `pred`, NRMSE over the whole record set's range.
 
     Each scores dict also has 'coverage': the range of the measured output in that part
     over the whole set's range, and 'informative': coverage >= MIN_COVERAGE.
     """
-    train, val = split_masks(data, n_train, burn_in)
+    train, val = data.split_masks(split)
     return _part_scores(data, pred, train), _part_scores(data, pred, val)
 
 
-def _part_scores(data, pred, mask):
+def _part_scores(data: Any, pred: np.ndarray, mask: np.ndarray) -> Optional[dict]:
+    """Return the scores of `pred` on the `mask` samples, with coverage (see `rescore`)."""
     if not mask.any():
         return None
-    span = record_span(data)
-    y = data.position[mask]
+    span = data.span()
+    y = data.output[mask]
     s = scores(y, pred[mask], span)
     s['coverage'] = float(np.ptp(y) / span) if span > 0 else 0.0
     s['informative'] = bool(s['coverage'] >= MIN_COVERAGE)
     return s
 
 
-def record_scores(data, pred, n_train=None):
+def record_scores(data: DynamicData, pred: np.ndarray,
+                  split: Optional[Split] = None) -> list:
     """
     Return per-record scores of `pred` on joined `data`, NRMSE over the whole set's range.
 
     A list of {'data': name, 'role': 'train' | 'validation' | 'time split', 'scores':
-    {'all': ...}}, one per record (whole record, rest gaps excluded).
+    {'all': ...}}, one per record (whole record, rest gaps excluded); a record is held out
+    when it starts at or after the split's start.
     """
     out = []
-    keep = scored_mask(data)
+    keep = data.scored_mask()
     for name, a, b in data.segments or (('DATA', 0, len(data)),):
         mask = np.zeros(len(data), bool)
         mask[a:b] = True
         if len(data.segments) < 2:
             role = 'time split'
         else:
-            role = 'validation' if n_train is not None and a >= n_train else 'train'
+            role = 'validation' if split is not None and a >= split.start else 'train'
         out.append({'data': name, 'role': role,
                     'scores': {'all': _part_scores(data, pred, mask & keep)}})
     return out
 
 
-def _tared(data):
+def _tared(data: DynamicData) -> tuple:
     """Return (`data` with each record's position relative to its start rest, the zeros)."""
     z = zeros(data)
     return DynamicData(data.time, data.duty_a, data.duty_b, data.position - z, data.ambient,
@@ -293,18 +258,23 @@ def _tared(data):
                        data.scored, data.split), z
 
 
-def _fit_dynamic(data, effects, kind, base_fit):
+def _fit_dynamic(data: DynamicData, effects: list, kind: str,
+                 base_fit: Optional[ModelFit]) -> ModelFit:
+    """Fit a dynamic record; a `sensor_zero` model is fitted on the tared positions."""
     tare = 'sensor_zero' in effects
     # the residual is the same either way: the tare cancels in model − measured
     fit = _fit_dynamic_raw(_tared(data)[0] if tare else data, effects, kind, base_fit)
     if tare:
         fit.prediction = fit.prediction + zeros(data)
-    fit.train, fit.validation = rescore(data, fit.prediction, fit.split, fit.burn_in)
+    fit.train, fit.validation = rescore(data, fit.prediction, fit.split)
     fit.rig = rig_info(data, fit.split)
     return fit
 
 
-def rig_info(data, n_train=None):
+_FITTERS = {StaticData.kind: _fit_static, DynamicData.kind: _fit_dynamic}
+
+
+def rig_info(data: DynamicData, split: Optional[Split] = None) -> dict:
     """
     Return the rig keys of a model file fitted on dynamic `data`.
 
@@ -314,18 +284,19 @@ def rig_info(data, n_train=None):
     """
     z = zeros(data)
     segs = data.segments or (('DATA', 0, len(data)),)
-    roles = {r['data']: r['role'] for r in record_scores(data, np.zeros(len(data)), n_train)}
+    roles = {r['data']: r['role'] for r in record_scores(data, np.zeros(len(data)), split)}
     return {'layout': data.layout, 'position_unit': data.position_unit,
             'record_zeros': {name: float(z[a]) for name, a, _ in segs},
             'record_roles': roles}
 
 
-def _fit_dynamic_raw(data, effects, kind, base_fit):
+def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
+                     base_fit: Optional[ModelFit]) -> ModelFit:
+    """Fit the effects' free parameters: warm from `base_fit`, its alternative starts."""
     free = {}
     start = dict(base_fit.values) if base_fit else {}
     alternatives = []
-    params = (base_fit.params if base_fit is not None and hasattr(base_fit.params, 'hysteresis')
-              else act.ActuatorParams())
+    params = base_fit.params if base_fit is not None else act.ActuatorParams()
     for e in effects:
         eff = get_effect(e)
         free.update(eff.bounds(params))
@@ -348,15 +319,13 @@ def _fit_dynamic_raw(data, effects, kind, base_fit):
                             ref=base_fit.params.hysteresis if warm else None)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
-    train = split_masks(data, res.n_train, res.burn_in)[0]
+    train = data.split_masks(res.split)[0]
     resid = res.prediction[train] - data.position[train]
     t = res.trajectory
-    fit = ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
-                   res.n_train, res.n_parameters, resid, res.params,
-                   {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
-                    'y_b': t.y_b, 'time': data.time}, res.grid)
-    fit.burn_in = res.burn_in
-    return fit
+    return ModelFit(effects, kind, res.free, res.train, res.validation, res.prediction,
+                    res.split, res.n_parameters, resid, res.params,
+                    {'theta_a': t.theta_a_c, 'theta_b': t.theta_b_c, 'y_a': t.y_a,
+                     'y_b': t.y_b, 'time': data.time}, res.grid)
 
 
 def correlation_length(residual):
@@ -377,9 +346,10 @@ def bic(residual, n_parameters, n_eff):
     return n_eff * np.log(np.mean(r ** 2) + 1e-300) + n_parameters * np.log(max(n_eff, 2))
 
 
-def _free_count(fit):
-    return sum(len(get_effect(e).parameters) for e in fit.effects) + (
-        1 if 'saturation' in fit.effects else 0)
+def _free_count(fit: ModelFit) -> int:
+    """Return the effects' parameter count; an effect that sets the PI kind counts one."""
+    return sum(len(get_effect(e).parameters) + (1 if get_effect(e).kind else 0)
+               for e in fit.effects)
 
 
 @dataclass
@@ -416,8 +386,8 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     builtin = all(is_builtin(e) for e in base.effects)
 
     def poolable(name):   # a dynamic refit (worth a process) of an effect every process has
-        return (builtin and is_builtin(name) and isinstance(data, DynamicData)
-                and not_applicable(get_effect(name), data) is None)
+        return (builtin and is_builtin(name) and data.costly_fit
+                and data.unsupported(get_effect(name)) is None)
 
     pooled, local = [], []
     for t in tasks:
@@ -505,11 +475,9 @@ def judge_candidate(task):
 def _judge(data, base, name, n_eff, bic0, min_improvement):
     """Return the candidate entry of `name` (without its time)."""
     eff = get_effect(name)
-    reason = not_applicable(eff, data) if isinstance(data, DynamicData) else eff.applicable(data)
-    if reason is None and isinstance(data, StaticData) and eff.needs_dynamic:
-        reason = 'needs dynamic (time-series) data'
-    if reason is None and name == 'saturation' and base.kind == 'modified':
-        reason = 'the base model already saturates (modified PI)'
+    reason = data.unsupported(eff)
+    if reason is None and eff.kind is not None and base.kind == eff.kind:
+        reason = f'the base model already is {eff.kind} PI'
     if reason:
         return {'effect': name, 'validation_nrmse': None, 'improvement': None,
                 'significant': False, 'explanation': f'not applicable: {reason}'}
@@ -551,7 +519,7 @@ def _ablated_nrmse(data, base, fit, eff):
     The re-fitted weights and time constant are kept; None when that cannot be done (static
     data, no parameters, plug-in parameters without a neutral value).
     """
-    if isinstance(data, StaticData) or not eff.parameters or fit.split is None:
+    if not eff.parameters or fit.split is None or fit.split.start is None:
         return None
     names = {f.name for f in fields(act.ActuatorParams)}
     changes, plug = {}, {}
@@ -569,11 +537,11 @@ def _ablated_nrmse(data, base, fit, eff):
         h = PlayHysteresis(g.r, g.lo, g.hi, h.w, h.k1, h.y0)
     off = ModelFit(fit.effects, fit.kind, dict(fit.values, **plug), None, None, None, None, 0,
                    None, fit.params.with_changes(hysteresis=h, **changes))
-    n = fit.split
+    n = fit.split.start
     da, db, amb = off.inputs(data)
     off.params = narrow_bands(off.params, da[:n], db[:n], amb[:n], data.dt)
     pred = off.trajectory(data).position_rad
-    return rescore(data, pred, fit.split)[1]['nrmse']
+    return rescore(data, pred, Split(fit.split.start))[1]['nrmse']
 
 
 def _settle_near_ties(ranked):

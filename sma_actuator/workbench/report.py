@@ -72,17 +72,9 @@ def write_report(directory, comparison, title, *, data_line='', model=None, diag
     check_report_dir(directory, force)
     directory = Path(directory)
     directory.mkdir(exist_ok=True)
-    figures = []
-    if comparison.kind == 'dynamic':
-        figures.append(('time.png', 'Measured vs model over time',
-                        plot_time(comparison, alternative)))
-    else:
-        figures.append(('curves.png', 'Input-output plane per curve (measured dots, model '
-                        'lines; dashed: validation curves)', plot_curves(comparison)))
-    figures.append(('residual.png', 'Residual e = measured − model', plot_residual(comparison)))
-    if comparison.kind == 'dynamic':
-        figures.append(('hysteresis.png', 'Hysteresis plane: measured and model',
-                        plot_hysteresis(comparison)))
+    # the data kind names its own figures (`DynamicData.figures`, `StaticData.figures`)
+    figures = [(name, caption, _PLOTS[name](comparison, alternative))
+               for name, caption in comparison.figures]
     figures.append(('regimes.png', 'Where the error concentrates (NRMSE by regime)',
                     plot_regimes(comparison)))
     figures.append(('correlation.png', 'Residual tests with 99 % bands',
@@ -102,16 +94,11 @@ def write_diagnosis_report(directory, data, diagnosis, title, data_line, force=F
     The base model is compared with the data, and the model with the missing effect added
     (if one was named) is drawn beside it.
     """
-    from .compare import compare, flat_static_prediction
-    from .data import is_static
+    from .compare import compare
     base = diagnosis.baseline
     best = next((c for c in diagnosis.candidates if c['effect'] == diagnosis.missing_effect),
                 None)
-    alternative = None
-    if best:
-        pred = best['fit'].prediction
-        alternative = (f'model + {best["effect"]}',
-                       flat_static_prediction(data, pred) if is_static(data) else pred)
+    alternative = (f'model + {best["effect"]}', best['fit'].prediction) if best else None
     result = compare(data, base.prediction, base.signals, split=base.split)
     model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.values}
     return write_report(directory, result, title, data_line=data_line, model=model,
@@ -193,9 +180,7 @@ def plot_residual(comparison):
     ax.plot(comparison.axis, comparison.residual, color='tab:purple', lw=0.7)
     ax.axhline(0, color='0.5', lw=0.8)
     _mark_split(ax, comparison)
-    static = comparison.kind == 'static'
-    ax.set(xlabel='sample (curves in file order)' if static else 'time [s]',
-           ylabel=_label('measured − model', comparison))
+    ax.set(xlabel=comparison.axis_label, ylabel=_label('measured − model', comparison))
     return fig
 
 
@@ -253,6 +238,13 @@ def plot_regimes(comparison):
     for ax in axes.ravel()[len(groups):]:
         ax.set_visible(False)
     return fig
+
+
+# the figures a data kind can name, by file name: (comparison, alternative) -> Figure
+_PLOTS = {'time.png': plot_time,
+          'curves.png': lambda comparison, alternative: plot_curves(comparison),
+          'residual.png': lambda comparison, alternative: plot_residual(comparison),
+          'hysteresis.png': lambda comparison, alternative: plot_hysteresis(comparison)}
 
 
 def plot_correlations(comparison):
