@@ -71,7 +71,7 @@ OUTER_TOL = 1e-4
 RIDGE = 1e-10
 
 
-def scores(y, y_hat, span=None):
+def scores(y: np.ndarray, y_hat: np.ndarray, span: Optional[float] = None) -> dict:
     """
     Return the error figures of a prediction y_hat of measured y.
 
@@ -90,7 +90,8 @@ def scores(y, y_hat, span=None):
             'max_error': float(np.max(np.abs(e)))}
 
 
-def play_grid(u_min, u_max, kind='modified', n_widths=6, n_centres=8):
+def play_grid(u_min: float, u_max: float, kind: str = 'modified', n_widths: int = 6,
+              n_centres: int = 8) -> PlayHysteresis:
     """
     Threshold grid of play operators covering inputs in [u_min, u_max].
 
@@ -119,7 +120,7 @@ def play_grid(u_min, u_max, kind='modified', n_widths=6, n_centres=8):
     return PlayHysteresis(r, lo, hi, np.zeros(r.size))
 
 
-def _nnls_with_offset(X, y, free_cols=0):
+def _nnls_with_offset(X: np.ndarray, y: np.ndarray, free_cols: int = 0) -> np.ndarray:
     """
     Min ‖X b − y‖ with b >= 0 except the last `free_cols` columns (sign-free, split ±).
 
@@ -135,7 +136,7 @@ def _nnls_with_offset(X, y, free_cols=0):
     return b
 
 
-def _reduced(X, y, negated=0):
+def _reduced(X: np.ndarray, y: np.ndarray, negated: int = 0) -> tuple:
     """
     (R, z, scale).
 
@@ -160,7 +161,8 @@ def _reduced(X, y, negated=0):
     return R, np.linalg.solve(R.T, Xty / scale), scale
 
 
-def _box_ls(X, y, lower, upper):
+def _box_ls(X: np.ndarray, y: np.ndarray, lower: np.ndarray,
+            upper: np.ndarray) -> np.ndarray:
     """
     Solve min ‖X b − y‖ subject to lower <= b <= upper (scipy's bounded-variable LS).
 
@@ -181,7 +183,8 @@ class StaticFit:
     prediction: list = field(default_factory=list)
 
 
-def _curve_list(u, y, curve):
+def _curve_list(u: np.ndarray, y: np.ndarray, curve: Optional[np.ndarray]) -> list:
+    """Return [(curve id, input, output), ...] in file order, after checking the arrays."""
     u = finite_array('input', u)
     y = finite_array('output', y)
     same_length(input=u, output=y)
@@ -191,8 +194,9 @@ def _curve_list(u, y, curve):
     return [(c, u[curve == c], y[curve == c]) for c in ids]
 
 
-def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8, n_centres=10,
-               nonneg=True):
+def fit_static(u: np.ndarray, y: np.ndarray, curve: Optional[np.ndarray] = None,
+               kind: str = 'modified', validate_odd: bool = True, n_widths: int = 8,
+               n_centres: int = 10, nonneg: bool = True) -> StaticFit:
     """
     Fit a (classical or modified) PI operator to quasi-static input/output curves.
 
@@ -217,7 +221,7 @@ def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8,
     pred = [(c, model.simulate(cu, model.initial_state(u_all.min()))) for c, cu, _ in curves]
     by_id = dict(pred)
 
-    def score(cs):
+    def score(cs: list) -> Optional[dict]:
         if not cs:
             return None
         return scores(np.concatenate([cy for _, _, cy in cs]),
@@ -225,7 +229,8 @@ def fit_static(u, y, curve=None, kind='modified', validate_odd=True, n_widths=8,
     return StaticFit(model, score(train), score(val), pred)
 
 
-def fit_preisach(u, y, n_levels=21, u_range=None):
+def fit_preisach(u: np.ndarray, y: np.ndarray, n_levels: int = 21,
+                 u_range: Optional[tuple] = None) -> PreisachModel:
     """Fit a Preisach model, relays on an even grid over the input range, by NNLS (mu >= 0)."""
     u = finite_array('input', u)
     y = finite_array('output', y)
@@ -262,7 +267,7 @@ class DynamicFit:
 _FIELDS = {f.name for f in fields(act.ActuatorParams)} | {'tau_s'}
 
 
-def set_values(params, values):
+def set_values(params: act.ActuatorParams, values: dict) -> act.ActuatorParams:
     """
     Return ActuatorParams with fitted values; 'tau_s' maps to the heat capacity (hA, G fixed).
 
@@ -475,7 +480,8 @@ class _Problem:
         return dict(zip(names, sol.x)), sol.cost
 
 
-def narrow_bands(params, duty_a, duty_b, ambient, dt):
+def narrow_bands(params: act.ActuatorParams, duty_a: np.ndarray, duty_b: np.ndarray,
+                 ambient: np.ndarray, dt: float) -> act.ActuatorParams:
     """
     Return `params` with each element's saturation band [lo, hi] narrowed to its states.
 
@@ -500,12 +506,13 @@ def narrow_bands(params, duty_a, duty_b, ambient, dt):
     return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
 
 
-def _state_range(fa, fb):
+def _state_range(fa: np.ndarray, fb: np.ndarray) -> tuple:
     """(lowest, highest) state of each element over the rows of either wire."""
     return kernels.column_range(fa, fb)
 
 
-def _mass_points(x, mass, cell, lo, hi, n):
+def _mass_points(x: np.ndarray, mass: np.ndarray, cell: float, lo: float, hi: float,
+                 n: int) -> np.ndarray:
     """
     N sorted points in [lo, hi].
 
@@ -533,7 +540,8 @@ def _mass_points(x, mass, cell, lo, hi, n):
     return np.sort(np.concatenate([even, dense]))
 
 
-def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
+def _adaptive_grid(h: PlayHysteresis, span: np.ndarray, u_lo: float, u_hi: float,
+                   n_widths: int, n_centres: int) -> tuple:
     """
     Fine saturated-play grid refined where the coarse fit `h` carries its weight.
 
@@ -562,7 +570,7 @@ def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
     return PlayHysteresis(r, lo, hi, np.zeros(r.size)), (len(widths), len(e))
 
 
-def close_major_loop(grid, u_rest):
+def close_major_loop(grid: PlayHysteresis, u_rest: float) -> PlayHysteresis:
     """
     Return the saturated `grid` with every element fully cold at the rest temperature.
 
@@ -621,7 +629,8 @@ def _scan_tau(prob: _Problem, values: dict, ref: PlayHysteresis,
     return best[1]
 
 
-def _prune(grid, w, shape, centre_steps=3):
+def _prune(grid: PlayHysteresis, w: np.ndarray, shape: Optional[tuple],
+           centre_steps: int = 3) -> PlayHysteresis:
     """
     Elements with non-zero weight, dilated by one step in width and `centre_steps` in centre.
 
@@ -792,9 +801,8 @@ def input_range(setup: Setup) -> InputRange:
     """
     data, base = setup.data, setup.base
     amb = data.ambient if data.ambient is not None else np.full(len(data), base.ambient_c)
-    return InputRange(float(np.min(amb)) - 2.0,
-                      float(np.max(amb)) + base.gain_k * max(data.duty_a.max(),
-                                                              data.duty_b.max()),
+    top_duty = max(data.duty_a.max(), data.duty_b.max())
+    return InputRange(float(np.min(amb)) - 2.0, float(np.max(amb)) + base.gain_k * top_duty,
                       float(np.max(amb)))
 
 

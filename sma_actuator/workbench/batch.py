@@ -14,10 +14,13 @@
 """
 Fit, compare and diagnose many recordings at once on a Dask cluster (`sma-model batch`).
 
-Each record is a small task graph, so a large cluster spreads one record's candidate
-refits over its workers, not only whole records:
+Each record is one task that runs `sma-model diagnose`'s own rounds
+(`engine.diagnose_rounds`) and hands every candidate refit back to the cluster as a task
+of its own, so a large cluster spreads one record's refits over its workers, not only
+whole records:
 
-    base fit (round r) -> one refit per candidate effect -> rank -> [round r + 1] -> report
+    record task: base fit -> [refit per candidate effect, as cluster tasks] -> rank
+                 -> [next round from the named candidate's refit] -> report
 
 A round adds the named effect and diagnoses again (`--rounds`). Workers read each record
 by its path and write its report under ``OUT/records/<key>/``; only the per-record result
@@ -27,7 +30,7 @@ therefore always holds exactly the records finished so far, also after Ctrl-C, a
 rerun skips every record whose result matches the file and the options.
 """
 from dataclasses import asdict, dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 import glob
 import hashlib
 import json
@@ -36,6 +39,7 @@ import os
 from pathlib import Path
 import sys
 import time
+from typing import Any, Iterator, Optional
 
 import numpy as np
 
@@ -137,25 +141,68 @@ def _load(path, rate_hz, stamp):
     return data
 
 
-def task_base(path, stamp, options, effects):
-    """Worker: fit the model with `effects` to the record; returns (fit, seconds, record)."""
-    from .engine import fit_model
+def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -> dict:
+    """
+    Worker: fit the record, diagnose it in rounds, write its report.
+
+    The rounds are `engine.diagnose_rounds` (the one implementation `sma-model diagnose`
+    uses); its candidate refits go back to the cluster as tasks of their own, so one
+    record's refits spread over the workers. Returns {'rounds': [round summary, ...],
+    'parameters': the final model's parameters {name: value}, units in the names}.
+    """
+    from dask.distributed import worker_client
+    from .data import describe
+    from .engine import diagnose_rounds, fit_model
+    from .report import write_diagnosis_report
     started = time.perf_counter()
     data = _load(path, options.rate_hz, stamp)
-    fit = fit_model(data, effects=tuple(effects), kind=options.kind)
+    base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
     record = describe_record(data)
-    if options.reference is not None and not effects[len(options.effects):]:
+    if options.reference is not None:
         record['reference_nrmse'] = compare_reference(options.reference, data)
-    return fit, time.perf_counter() - started, record
+    base_seconds = time.perf_counter() - started
+    # the worker's thread is handed back while this task waits for its refits
+    with worker_client() as client:
+        mapper = partial(_judge_on_cluster, client, path, stamp, options.rate_hz)
+        diags, _, final = diagnose_rounds(data, base, options.rounds,
+                                          candidates=_candidates(options), mapper=mapper)
+    rounds = [round_summary(diag, record, base_seconds if i == 0 else 0.0)
+              for i, diag in enumerate(diags)]
+    if options.reports:
+        Path(report_dir).mkdir(parents=True, exist_ok=True)
+        write_diagnosis_report(report_dir, data, diags[-1],
+                               f'sma-model batch: {Path(path).name}', describe(data),
+                               force=True)
+    return {'rounds': rounds, 'parameters': final_parameters(final)}
 
 
-def compare_reference(spec, data):
+def _judge_on_cluster(client, path: str, stamp: str, rate_hz: Optional[float],
+                      tasks: list) -> Iterator[dict]:
+    """
+    Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
+
+    The tasks travel without the record: each worker reads it by its path (cached).
+    """
+    from dask.distributed import as_completed
+    futures = [client.submit(task_candidate, path, stamp, rate_hz, task[1:], pure=False)
+               for task in tasks]
+    for fut in as_completed(futures):
+        yield fut.result()
+
+
+def task_candidate(path: str, stamp: str, rate_hz: Optional[float], task: tuple) -> dict:
+    """Worker: one `engine.judge_candidate` task (without its data) on the record at `path`."""
+    from .engine import judge_candidate
+    return judge_candidate((_load(path, rate_hz, stamp),) + tuple(task))
+
+
+def compare_reference(spec: dict, data: Any) -> float:
     """NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
     from .engine import load_fit
     return float(load_fit(spec, data=data).validation['nrmse'])
 
 
-def describe_record(data):
+def describe_record(data: Any) -> dict:
     """Table columns that say what a record is: size, rate, rig layout, position unit."""
     from .data import is_static
     if is_static(data):
@@ -168,21 +215,13 @@ def describe_record(data):
             'position_unit': getattr(data, 'position_unit', None) or 'rad'}
 
 
-def task_candidate(path, stamp, options, base, name):
-    """Worker: refit with one candidate effect and judge it (`engine.judge_candidate`)."""
-    from .engine import candidate_tasks, judge_candidate
-    data = _load(path, options.rate_hz, stamp)
-    started = time.perf_counter()
-    entry = judge_candidate(candidate_tasks(data, base[0], [name])[0])
-    entry['seconds'] = time.perf_counter() - started
-    return entry
+def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
+    """
+    Return one round's summary: its model, the effect it named and the best candidate.
 
-
-def task_rank(base, *entries):
-    """Worker: rank the candidates of one round; returns the round's summary dict."""
-    from .engine import rank_candidates
-    fit, seconds, record = base
-    diag = rank_candidates(fit, list(entries))
+    seconds: the base fit's (`base_seconds`, the first round's) plus every refit's.
+    """
+    fit = diag.baseline
     best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
     return {'effects': list(fit.effects), 'named': diag.missing_effect,
             'validation_nrmse': fit.validation['nrmse'], 'train_nrmse': fit.train['nrmse'],
@@ -190,28 +229,12 @@ def task_rank(base, *entries):
             'named_validation_nrmse': best['validation_nrmse'] if best else None,
             'best_candidate': diag.candidates[0]['effect'] if diag.candidates else None,
             'best_improvement': diag.candidates[0]['improvement'] if diag.candidates else None,
-            'seconds': seconds + sum(c.get('seconds', 0.0) for c in entries),
+            'seconds': base_seconds + sum(c.get('seconds', 0.0) for c in diag.candidates),
             'record': record}
 
 
-def task_finish(path, stamp, options, report_dir, base, *entries):
-    """
-    Worker: write the record's report (the last round's diagnosis).
-
-    Returns the parameters of the final model, the last round's base plus the effect it
-    named (if any), as {name: value} with units in the names.
-    """
-    from .data import describe
-    from .engine import rank_candidates
-    from .report import write_diagnosis_report
-    diag = rank_candidates(base[0], list(entries))
-    best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
-    fit = best['fit'] if best else base[0]
-    if options.reports:
-        data = _load(path, options.rate_hz, stamp)
-        Path(report_dir).mkdir(parents=True, exist_ok=True)
-        write_diagnosis_report(report_dir, data, diag, f'sma-model batch: {Path(path).name}',
-                               describe(data), force=True)
+def final_parameters(fit: Any) -> dict:
+    """Return the fitted parameters of `fit` as {name: value}, units in the names."""
     values = {k: float(v) for k, v in fit.values.items()}
     params = getattr(fit, 'params', None)
     for name in BASE_PARAMETERS:
@@ -224,9 +247,10 @@ def task_finish(path, stamp, options, report_dir, base, *entries):
 
 # ------------------------------------------------------------------------------ client
 class RecordRun:
-    """The client's state of one record: its rounds so far and its futures."""
+    """The client's state of one record: its result so far."""
 
-    def __init__(self, path, options, out_dir):
+    def __init__(self, path: Path, options: BatchOptions, out_dir: Path) -> None:
+        """Name the record's result directory and fingerprint its file."""
         self.path = Path(path)
         self.key = record_key(path)
         self.dir = Path(out_dir) / 'records' / self.key
@@ -234,34 +258,13 @@ class RecordRun:
         self.options = options
         self.rounds = []
         self.started = time.perf_counter()
-        self.base = None
-        self.entries = []
 
-    def submit_round(self, client):
-        """Submit the base fit, the candidate refits and the ranking of the next round."""
-        effects = list(self.options.effects) + [r['named'] for r in self.rounds]
-        args = (str(self.path), self.stamp, self.options)
-        label = f'{self.key}-r{len(self.rounds) + 1}'
-        self.base = client.submit(task_base, *args, effects, key=f'base-{label}', pure=False)
-        names = _candidates(self.options, effects)
-        self.entries = [client.submit(task_candidate, *args, self.base, name,
-                                      key=f'refit-{label}-{name}', pure=False)
-                        for name in names]
-        return client.submit(task_rank, self.base, *self.entries, key=f'rank-{label}',
-                             pure=False)
+    def submit(self, client):
+        """Submit the record's task (fit, diagnose rounds, report)."""
+        return client.submit(task_record, str(self.path), self.stamp, self.options,
+                             str(self.dir / 'report'), key=f'record-{self.key}', pure=False)
 
-    def submit_finish(self, client):
-        """Submit the report of the last round."""
-        return client.submit(task_finish, str(self.path), self.stamp, self.options,
-                             str(self.dir / 'report'), self.base, *self.entries,
-                             key=f'finish-{self.key}', pure=False)
-
-    def wants_another_round(self, summary):
-        """Keep the round; True if its named effect is to be added and diagnosed again."""
-        self.rounds.append(summary)
-        return bool(summary['named']) and len(self.rounds) < self.options.rounds
-
-    def result(self, parameters=None, error=None):
+    def result(self, parameters: Optional[dict] = None, error: Optional[str] = None) -> dict:
         """Return the record's result document (one table row plus its rounds)."""
         first = self.rounds[0] if self.rounds else {}
         named = [r['named'] for r in self.rounds if r['named']]
@@ -297,9 +300,9 @@ def _final_nrmse(rounds):
     return last['named_validation_nrmse'] if last['named'] else last['validation_nrmse']
 
 
-def _candidates(options, effects):
-    from .effects import CATALOG
-    return [n for n in (options.candidates or CATALOG) if n not in effects]
+def _candidates(options: BatchOptions) -> Optional[list]:
+    """Return the candidate effects of the options (None: the whole catalog)."""
+    return list(options.candidates) if options.candidates else None
 
 
 def load_result(directory, stamp, options):
@@ -402,23 +405,18 @@ def run_batch(paths, out_dir, options, client, force=False, progress=None, resul
             if progress:
                 progress.record_done(run.path.name, skipped=True)
             continue
-        fut = run.submit_round(client)
-        runs[fut.key] = (run, 'rank')
+        fut = run.submit(client)
+        runs[fut.key] = run
         pending.add(fut)
     for fut in pending:
-        run, stage = runs.pop(fut.key)
+        run = runs.pop(fut.key)
         try:
             value = fut.result()
         except Exception as err:   # any failure of one record is that record's error row
             doc = run.result(error=error_line(err))
         else:
-            if stage == 'rank':
-                nxt = (run.submit_round(client) if run.wants_another_round(value)
-                       else run.submit_finish(client))
-                runs[nxt.key] = (run, 'rank' if nxt.key.startswith('rank-') else 'finish')
-                pending.add(nxt)
-                continue
-            doc = run.result(parameters=value)
+            run.rounds = value['rounds']
+            doc = run.result(parameters=value['parameters'])
         save_result(run.dir, doc)
         results.append(doc)
         if progress:

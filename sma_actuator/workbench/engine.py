@@ -48,7 +48,7 @@ explanation) is put first and every explanation in the group says so.
 from dataclasses import dataclass, field, fields
 from functools import partial
 import time
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
@@ -123,13 +123,14 @@ class ModelFit:
         return t
 
 
-def _input_hooks(effects):
+def _input_hooks(effects: list) -> list:
     """Effects (plug-ins) that transform the inputs."""
     return [get_effect(e) for e in effects
             if type(get_effect(e)).transform_inputs is not Effect.transform_inputs]
 
 
-def _hooked_inputs(effects, duty_a, duty_b, ambient, values):
+def _hooked_inputs(effects: list, duty_a: np.ndarray, duty_b: np.ndarray,
+                   ambient: np.ndarray, values: dict) -> tuple:
     """Input after every plug-in transform, duties clipped to [0, 1]."""
     for eff in _input_hooks(effects):
         duty_a, duty_b, ambient = eff.transform_inputs(duty_a, duty_b, ambient, values)
@@ -328,7 +329,7 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
                      'y_b': t.y_b, 'time': data.time}, res.grid)
 
 
-def correlation_length(residual):
+def correlation_length(residual: np.ndarray) -> int:
     """Lag (samples) where the residual's autocorrelation first drops below 1/e (>= 1)."""
     r = np.asarray(residual, float) - np.mean(residual)
     if len(r) < 4 or not np.any(r):
@@ -340,7 +341,7 @@ def correlation_length(residual):
     return int(below[0]) if below.size else len(r)
 
 
-def bic(residual, n_parameters, n_eff):
+def bic(residual: np.ndarray, n_parameters: int, n_eff: float) -> float:
     """BIC = n_eff ln(RSS/n) + k ln(n_eff) of a residual with k parameters."""
     r = np.asarray(residual, float)
     return n_eff * np.log(np.mean(r ** 2) + 1e-300) + n_parameters * np.log(max(n_eff, 2))
@@ -360,7 +361,7 @@ class Diagnosis:
     candidates: list
     missing_effect: object
 
-    def to_json(self):
+    def to_json(self) -> dict:
         """Return the `sma-model diagnose --json` document."""
         return {'baseline': {'effects': list(self.baseline.effects),
                              'validation_nrmse': self.baseline.validation['nrmse']},
@@ -369,15 +370,19 @@ class Diagnosis:
                 'missing_effect': self.missing_effect}
 
 
-def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MIN_IMPROVEMENT,
-             kind=None, jobs=1):
+def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[list] = None,
+             progress: Optional[Callable] = None, min_improvement: float = MIN_IMPROVEMENT,
+             kind: Optional[str] = None, jobs: int = 1,
+             mapper: Optional[Callable] = None) -> 'Diagnosis':
     """
     Rank candidate effects by held-out error reduction; name the missing one (or None).
 
     base: a ModelFit (or None: fit the paper's base model, `kind` PI). candidates: effect
     names (default: every catalog effect not in the base). jobs: processes for the
-    candidate refits (independent fits; 0 = every core). Plug-in effects are refitted in
-    this process, since a worker process would not have them registered.
+    candidate refits (independent fits; 0 = every core). mapper(tasks) -> the
+    `judge_candidate` entries of the tasks, in any order: runs the refits elsewhere (the
+    batch sends them to its Dask cluster); default: a pool of `jobs` processes. Plug-in
+    effects are refitted in this process, since a worker would not have them registered.
     """
     if base is None:
         base = fit_model(data, (), kind=kind)
@@ -385,7 +390,7 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
     names = [t[2] for t in tasks]
     builtin = all(is_builtin(e) for e in base.effects)
 
-    def poolable(name):   # a dynamic refit (worth a process) of an effect every process has
+    def poolable(name: str) -> bool:   # a dynamic refit (worth a process) of an effect every process has
         return (builtin and is_builtin(name) and data.costly_fit
                 and data.unsupported(get_effect(name)) is None)
 
@@ -394,27 +399,35 @@ def diagnose(data, base=None, candidates=None, progress=None, min_improvement=MI
         (pooled if poolable(t[2]) else local).append(t)
     # the slowest refits (a second one from scratch) first, so no core idles at the end
     pooled.sort(key=lambda t: not get_effect(t[2]).own_grid)
-    workers = min(jobs or available_cores(), len(pooled))
     out = []
 
-    def done(entry):
+    def done(entry: dict) -> None:
         out.append(entry)
         if progress:
             progress(len(out), len(names), entry['effect'])
 
     if progress:
         progress(0, len(names), 'candidates')
-    for task in local + (pooled if workers <= 1 else []):
+    for task in local:
         done(judge_candidate(task))
-    if workers > 1:
-        for _, entry in imap_on_cores(judge_candidate, pooled, workers):
-            done(entry)
+    for entry in (mapper or partial(_judge_on_cores, jobs))(pooled):
+        done(entry)
     if progress:
         progress(len(names), len(names), 'done')
     return rank_candidates(base, out)
 
 
-def candidate_tasks(data, base, candidates=None, min_improvement=MIN_IMPROVEMENT):
+def _judge_on_cores(jobs: int, tasks: list) -> Iterator[dict]:
+    """Yield the `judge_candidate` entries of `tasks`, on `jobs` processes (0: every core)."""
+    workers = min(jobs or available_cores(), len(tasks))
+    if workers <= 1:
+        yield from map(judge_candidate, tasks)
+    else:
+        yield from (entry for _, entry in imap_on_cores(judge_candidate, tasks, workers))
+
+
+def candidate_tasks(data: Any, base: ModelFit, candidates: Optional[list] = None,
+                    min_improvement: float = MIN_IMPROVEMENT) -> list:
     """
     One `judge_candidate` task per candidate effect not already in `base`.
 
@@ -428,7 +441,7 @@ def candidate_tasks(data, base, candidates=None, min_improvement=MIN_IMPROVEMENT
     return [(data, base, name, n_eff, bic0, min_improvement) for name in names]
 
 
-def rank_candidates(base, entries):
+def rank_candidates(base: ModelFit, entries: list) -> 'Diagnosis':
     """Return the `Diagnosis` of judged entries: significant first, by held-out gain."""
     out = sorted(entries, key=lambda c: (c['significant'], -np.inf if c['improvement'] is None
                                          else c['improvement']), reverse=True)
@@ -437,7 +450,7 @@ def rank_candidates(base, entries):
     return Diagnosis(base, out, best)
 
 
-def diagnose_rounds(data, base, rounds, **kw):
+def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
     """
     Diagnose, add the missing effect, refit, diagnose again: up to `rounds` rounds.
 
@@ -459,7 +472,7 @@ def diagnose_rounds(data, base, rounds, **kw):
     return diags, added, base
 
 
-def judge_candidate(task):
+def judge_candidate(task: tuple) -> dict:
     """
     Refit with one candidate effect and judge it (see the module docstring).
 
@@ -472,7 +485,8 @@ def judge_candidate(task):
     return entry
 
 
-def _judge(data, base, name, n_eff, bic0, min_improvement):
+def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
+           min_improvement: float) -> dict:
     """Return the candidate entry of `name` (without its time)."""
     eff = get_effect(name)
     reason = data.unsupported(eff)
@@ -512,7 +526,8 @@ def _judge(data, base, name, n_eff, bic0, min_improvement):
             'fit': fit, 'bic': float(bic1)}
 
 
-def _ablated_nrmse(data, base, fit, eff):
+def _ablated_nrmse(data: DynamicData, base: ModelFit, fit: ModelFit,
+                   eff: Effect) -> Optional[float]:
     """
     Return the held-out NRMSE of `fit` with the effect's parameters back at the base values.
 
@@ -544,7 +559,7 @@ def _ablated_nrmse(data, base, fit, eff):
     return rescore(data, pred, Split(fit.split.start))[1]['nrmse']
 
 
-def _settle_near_ties(ranked):
+def _settle_near_ties(ranked: list) -> None:
     """Among significant candidates within NEAR_TIE of the best gain, lowest BIC first."""
     sig = [c for c in ranked if c['significant']]
     if len(sig) < 2:
