@@ -32,10 +32,10 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
-from . import common as c
-from .controller import Controller
-from .plant_sim import PlantSim
-from .setpoint import Setpoint
+from .nodes import common as c
+from .nodes.controller import Controller
+from .nodes.plant_sim import PlantSim
+from .nodes.setpoint import Setpoint
 
 # a loaded host can stall the controller for tens of ms; only a dead one should make the
 # plant step without its reply (that would change the loop delay and the results)
