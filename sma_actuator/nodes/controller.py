@@ -101,7 +101,13 @@ PARAMETERS = (
 
 
 class Controller(Node):
-    """Controller node (see module docstring)."""
+    """
+    Controller node (see module docstring).
+
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('controller', **c.node_options(kwargs))

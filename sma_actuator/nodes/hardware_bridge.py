@@ -105,7 +105,13 @@ PARAMETERS = (
 
 
 class HardwareBridge(Node):
-    """Bridge node (see module docstring)."""
+    """
+    Bridge node (see module docstring).
+
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('hardware_bridge', **c.node_options(kwargs))

@@ -136,7 +136,13 @@ PARAMETERS = (
 
 
 class PlantSim(Node):
-    """Simulated actuator node (see module docstring)."""
+    """
+    Simulated actuator node (see module docstring).
+
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('plant_sim', **c.node_options(kwargs))

@@ -66,7 +66,13 @@ PARAMETERS = (
 
 
 class Setpoint(Node):
-    """Setpoint source node (see module docstring)."""
+    """
+    Setpoint source node (see module docstring).
+
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('setpoint', **c.node_options(kwargs))
