@@ -135,8 +135,8 @@ class ExcitationSource(Node):
 
 
 def run_excitation(context: Context, duty_a: ArrayLike, duty_b: ArrayLike,
-                   plant: Optional[Dict[str, Any]] = None, real_time_factor: float = 100.0
-                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                   plant: Optional[Dict[str, Any]] = None,
+                   real_time_factor: float = 100.0) -> Tuple[np.ndarray, ...]:
     """
     Drive the plant node open loop with a duty sequence (one entry per 25 ms plant step).
 
