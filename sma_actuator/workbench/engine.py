@@ -390,7 +390,8 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
     names = [t[2] for t in tasks]
     builtin = all(is_builtin(e) for e in base.effects)
 
-    def poolable(name: str) -> bool:   # a dynamic refit (worth a process) of an effect every process has
+    def poolable(name: str) -> bool:
+        """Return True for a costly refit (worth a process) of an effect every process has."""
         return (builtin and is_builtin(name) and data.costly_fit
                 and data.unsupported(get_effect(name)) is None)
 
