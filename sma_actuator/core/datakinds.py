@@ -106,6 +106,22 @@ class _Data:
         """Return why `effect` (a catalog `Effect`) cannot be fitted on this data, or None."""
         raise NotImplementedError
 
+    def excitation_problem(self) -> Optional[str]:
+        """Return why the data cannot identify a model (a constant signal), or None."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """Return one line saying what the data is."""
+        raise NotImplementedError
+
+
+def _constant(pairs: tuple) -> Optional[str]:
+    """Return the problem of the first constant (name, values) pair, or None."""
+    for name, values in pairs:
+        if np.ptp(values) <= 0.0:
+            return f'{name} is constant ({values[0]:g}); nothing to identify'
+    return None
+
 
 @dataclass
 class DynamicData(_Data):
@@ -197,6 +213,25 @@ class DynamicData(_Data):
             return 'needs two wires (this is a single wire against a bias spring)'
         return effect.applicable(self)
 
+    def excitation_problem(self) -> Optional[str]:
+        """Return why the record cannot identify the model: duties or position constant."""
+        if np.ptp(self.duty_a) + np.ptp(self.duty_b) < 0.05:
+            return (f'duty_a and duty_b hardly vary (ranges {np.ptp(self.duty_a):.3g}, '
+                    f'{np.ptp(self.duty_b):.3g}), the thermal and hysteresis parameters '
+                    'cannot be identified')
+        return _constant((('position', self.position),))
+
+    def describe(self) -> str:
+        """Return e.g. 'dynamic record: 2400 samples at 40 Hz (60 s), antagonistic pair, ...'."""
+        extras = [name for name, v in (('ambient', self.ambient), ('setpoint', self.setpoint))
+                  if v is not None]
+        span = self.time[-1] - self.time[0]
+        rig = ('one wire against a bias spring' if self.layout == 'single'
+               else 'antagonistic pair')
+        return (f'dynamic record: {len(self)} samples at {1.0 / self.dt:.4g} Hz ({span:.4g} s), '
+                f'{rig}, position in {self.position_unit}'
+                + (f', with {" and ".join(extras)}' if extras else ''))
+
 
 @dataclass
 class StaticData(_Data):
@@ -260,3 +295,13 @@ class StaticData(_Data):
         if reason is None and effect.needs_dynamic:
             reason = 'needs dynamic (time-series) data'
         return reason
+
+    def excitation_problem(self) -> Optional[str]:
+        """Return why the curves cannot identify the model: output or input constant."""
+        return _constant((('output', self.output), ('input', self.input)))
+
+    def describe(self) -> str:
+        """Return e.g. 'static curves: 400 points on 8 curve(s) (train: even ids, ...)'."""
+        curves = np.unique(self.curve)
+        return (f'static curves: {len(self.input)} points on {curves.size} curve(s) '
+                f'(train: even ids, validate: odd ids)')

@@ -36,6 +36,7 @@ there is one, the line (1-based, as an editor shows it) and the column.
 import csv
 from pathlib import Path
 import re
+from typing import Any
 
 import numpy as np
 
@@ -93,7 +94,7 @@ def comment_unit(path):
 
 def load_data(path, rate_hz=None, position_unit=None):
     """
-    Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or an engine `StaticData`.
+    Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
     rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
@@ -303,7 +304,7 @@ def make_dynamic(source, cols, unit='rad'):
 
 
 def static_from_table(path, header, rows, lines):
-    """Engine `StaticData` from a parsed static CSV (either layout), curve ids checked."""
+    """`StaticData` from a parsed static CSV (either layout), curve ids checked."""
     layout = next((lay for lay in STATIC_LAYOUTS if all(c in header for c in lay)), None)
     if layout is None:
         want = ' or '.join(','.join(lay) for lay in STATIC_LAYOUTS)
@@ -375,38 +376,18 @@ def load_bag(path, rate_hz=None):
 
 
 # ------------------------------------------------------------------------------ checks
-def is_static(data):
+def is_static(data: Any) -> bool:
     """Return True for static curve data (no time axis), False for a `DynamicData`."""
-    return not isinstance(data, DynamicData)
+    return data.kind == StaticData.kind
 
 
-def check_excitation(data, source='DATA'):
+def check_excitation(data: Any, source: str = 'DATA') -> None:
     """Raise `DataError` if the record cannot identify the model: constant output or input."""
-    if is_static(data):
-        pairs = (('output', data.output, 0.0), ('input', data.input, 0.0))
-    else:
-        if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
-            raise DataError(f'{source}: too little excitation: duty_a and duty_b hardly vary '
-                            f'(ranges {np.ptp(data.duty_a):.3g}, {np.ptp(data.duty_b):.3g}), '
-                            'the thermal and hysteresis parameters cannot be identified')
-        pairs = (('position', data.position, 0.0),)
-    for name, values, floor in pairs:
-        if np.ptp(values) <= floor:
-            raise DataError(f'{source}: too little excitation: {name} is constant '
-                            f'({values[0]:g}); nothing to identify')
+    problem = data.excitation_problem()
+    if problem:
+        raise DataError(f'{source}: too little excitation: {problem}')
 
 
-def describe(data):
+def describe(data: Any) -> str:
     """One line saying what was loaded, e.g. 'dynamic record: 2400 samples at 40 Hz (60 s)'."""
-    if is_static(data):
-        curves = np.unique(data.curve)
-        return (f'static curves: {len(data.input)} points on {curves.size} curve(s) '
-                f'(train: even ids, validate: odd ids)')
-    extras = [name for name, v in (('ambient', data.ambient), ('setpoint', data.setpoint))
-              if v is not None]
-    span = data.time[-1] - data.time[0]
-    rig = ('one wire against a bias spring' if data.layout == 'single'
-           else 'antagonistic pair')
-    return (f'dynamic record: {len(data)} samples at {1.0 / data.dt:.4g} Hz ({span:.4g} s), '
-            f'{rig}, position in {data.position_unit}'
-            + (f', with {" and ".join(extras)}' if extras else ''))
+    return data.describe()
