@@ -88,11 +88,11 @@ class Comparison:
     axis_label: str = ''            # label of the sample axis
 
     @property
-    def residual(self):
+    def residual(self) -> np.ndarray:
         """E = measured − model."""
         return self.measured - self.predicted
 
-    def to_json(self):
+    def to_json(self) -> dict:
         """Plain-data (JSON-able) summary without the sample arrays."""
         corr = self.correlations
         return {'kind': self.kind, 'scores': self.scores, 'regimes': self.regimes,
@@ -107,7 +107,8 @@ class Comparison:
                     'flagged': corr['flagged']}}
 
 
-def _summary_json(test):
+def _summary_json(test: dict) -> dict:
+    """Return a lag test without its arrays (lags, r)."""
     return {k: v for k, v in test.items() if k not in ('lags', 'r')}
 
 
@@ -165,7 +166,7 @@ _VIEWS = {DynamicData.kind: _dynamic_view, StaticData.kind: _static_view}
 
 
 # ------------------------------------------------------------------------------ regimes
-def thermal_signals(data, signals):
+def thermal_signals(data: DynamicData, signals: dict) -> dict:
     """Model wire temperatures [°C] {'theta_a', 'theta_b'}, or a duty proxy if absent."""
     if signals.get('theta_a') is not None and signals.get('theta_b') is not None:
         return {'theta_a': np.asarray(signals['theta_a'], float),
@@ -177,12 +178,12 @@ def thermal_signals(data, signals):
     return {k: 100.0 * v for k, v in proxy.items()} | {'proxy': True}
 
 
-def smooth(x, n):
+def smooth(x: np.ndarray, n: float) -> np.ndarray:
     """Centred moving average over n samples (edges: nearest value)."""
     return uniform_filter1d(np.asarray(x, float), max(1, int(n)), mode='nearest')
 
 
-def dynamic_regimes(data, temps):
+def dynamic_regimes(data: DynamicData, temps: dict) -> dict:
     """Group -> {label: boolean mask} for a dynamic record (see module doc)."""
     y, dt = data.position, data.dt
     span = max(float(np.ptp(y)), 1e-12)
@@ -210,7 +211,7 @@ def dynamic_regimes(data, temps):
     }
 
 
-def input_rate(data):
+def input_rate(data: DynamicData) -> np.ndarray:
     """Total variation per second of the setpoint (or duty_a − duty_b) over a 2 s window."""
     sp = data.setpoint
     u = sp if sp is not None and np.ptp(sp) > 0 else data.duty_a - data.duty_b
@@ -218,7 +219,7 @@ def input_rate(data):
     return smooth(du, round(RATE_WINDOW_S / data.dt))
 
 
-def reversals(y, threshold):
+def reversals(y: np.ndarray, threshold: float) -> list:
     """Indicate of the turning points of y: extremes after which y moves back by > threshold."""
     turns, direction, lo, hi, extreme = [], 0, 0, 0, 0
     for k in range(1, len(y)):
@@ -238,7 +239,7 @@ def reversals(y, threshold):
     return turns
 
 
-def loop_masks(ys, span):
+def loop_masks(ys: np.ndarray, span: float) -> dict:
     """{'major', 'minor'}: excursions between reversals spanning >= MAJOR_LOOP_FRACTION of span."""
     turns = [0] + reversals(ys, 0.05 * span) + [len(ys) - 1]
     major = np.zeros(len(ys), bool)
@@ -248,7 +249,7 @@ def loop_masks(ys, span):
     return {'major': major, 'minor': ~major}
 
 
-def travel_masks(y):
+def travel_masks(y: np.ndarray) -> dict:
     """{'low end', 'middle', 'high end'}: outer END_FRACTION of the measured range."""
     lo, hi = float(np.min(y)), float(np.max(y))
     edge = END_FRACTION * (hi - lo)
@@ -256,7 +257,7 @@ def travel_masks(y):
     return {'low end': low, 'middle': ~low & ~high, 'high end': high & ~low}
 
 
-def static_regimes(data, val_ids):
+def static_regimes(data: StaticData, val_ids: list) -> dict:
     """Group -> {label: mask} for static curves (see module doc)."""
     u = np.asarray(data.input, float)
     y = np.asarray(data.output, float)
@@ -283,7 +284,7 @@ def static_regimes(data, val_ids):
     }
 
 
-def breakdown(residual, masks, span):
+def breakdown(residual: np.ndarray, masks: dict, span: float) -> dict:
     """
     Group -> rows {group, label, samples, fraction, rmse, nrmse, bias, error_share}.
 
@@ -310,7 +311,7 @@ def breakdown(residual, masks, span):
     return out
 
 
-def concentrations(rows_by_group, rmse_all):
+def concentrations(rows_by_group: dict, rmse_all: float) -> list:
     """Rows whose RMSE is >= CONCENTRATION_RATIO x overall and hold >= MIN_SHARE of samples."""
     hits = [r for rows in rows_by_group.values() for r in rows
             if r['rmse'] is not None and r['fraction'] >= MIN_SHARE and rmse_all > 0
@@ -319,7 +320,7 @@ def concentrations(rows_by_group, rmse_all):
 
 
 # ------------------------------------------------------------------------------ residual tests
-def correlation_signals(data, temps):
+def correlation_signals(data: DynamicData, temps: dict) -> dict:
     """Signals tested against the residual: inputs, temperatures, ambient, position, rate, time."""
     out = {'duty_a': data.duty_a, 'duty_b': data.duty_b}
     label = ' (proxy)' if temps.get('proxy') else ''
@@ -334,7 +335,7 @@ def correlation_signals(data, temps):
     return out
 
 
-def end_proximity(y):
+def end_proximity(y: np.ndarray) -> np.ndarray:
     """|y − mid-travel| / half the measured range: 0 in the middle, 1 at either end."""
     y = np.asarray(y, float)
     half = 0.5 * float(np.ptp(y))
@@ -342,14 +343,14 @@ def end_proximity(y):
     return np.abs(y - mid) / half if half > 0 else np.zeros_like(y)
 
 
-def standardise(x):
+def standardise(x: np.ndarray) -> Optional[np.ndarray]:
     """(x − mean) / std, or None if x is constant."""
     x = np.asarray(x, float)
     sd = float(np.std(x))
     return None if sd == 0 or not np.isfinite(sd) else (x - x.mean()) / sd
 
 
-def cross_correlation(e, u, max_lag):
+def cross_correlation(e: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
     """r(k) = Σ_t e(t) u(t − k) / N for k = −max_lag..max_lag (inputs standardised)."""
     n = len(e)
     nfft = 1 << int(np.ceil(np.log2(2 * n)))
@@ -357,7 +358,8 @@ def cross_correlation(e, u, max_lag):
     return np.concatenate([c[nfft - max_lag:], c[:max_lag + 1]])
 
 
-def _lag_test(lags, r, band, step, unit):
+def _lag_test(lags: np.ndarray, r: np.ndarray, band: float, step: float, unit: str) -> dict:
+    """Return the figures of one correlation against its ±band (see `residual_tests`)."""
     over = np.abs(r) > band
     k = int(np.argmax(np.abs(r)))
     return {'lags': lags, 'r': r, 'max_abs': float(abs(r[k])), 'at_lag': float(lags[k] * step),
@@ -366,7 +368,7 @@ def _lag_test(lags, r, band, step, unit):
             'unit': unit}
 
 
-def _runs(values, limit=10):
+def _runs(values: np.ndarray, limit: int = 10) -> list:
     """Contiguous runs of flagged lags as [from, to] pairs (at most `limit`)."""
     if values.size == 0:
         return []
@@ -381,7 +383,8 @@ def _runs(values, limit=10):
     return runs[:limit]
 
 
-def residual_tests(residual, signals, dt, unit, max_lag=None):
+def residual_tests(residual: np.ndarray, signals: dict, dt: float, unit: str,
+                   max_lag: Optional[int] = None) -> dict:
     """
     Autocorrelation of the residual and its cross-correlation with each signal.
 
@@ -418,7 +421,7 @@ def residual_tests(residual, signals, dt, unit, max_lag=None):
     return out
 
 
-def _finite(obj):
+def _finite(obj: Any) -> Any:
     """Replace non-finite floats by None (JSON has no NaN/inf), recursively."""
     if isinstance(obj, dict):
         return {k: _finite(v) for k, v in obj.items()}
@@ -429,7 +432,7 @@ def _finite(obj):
     return obj
 
 
-def summary_lines(comparison, top=5):
+def summary_lines(comparison: Comparison, top: int = 5) -> list:
     """Short text summary: scores, where the error concentrates, strongest residual links."""
     sc = comparison.scores
     lines = []
@@ -456,9 +459,11 @@ def summary_lines(comparison, top=5):
     return lines
 
 
-def _pct(x):
+def _pct(x: Optional[float]) -> str:
+    """Return a fraction as a percentage, 'n/a' for None."""
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
-def _num(x):
+def _num(x: Optional[float]) -> str:
+    """Return a number with one decimal, 'n/a' for None."""
     return 'n/a' if x is None else f'{x:.1f}'

@@ -25,10 +25,12 @@ Default train/validation rule: with one record, the first 70 % of time trains an
 validates; with two or more, the last record given is held out (train on the others);
 `validate` names the held-out records instead.
 """
+from typing import Optional
+
 import numpy as np
 
 from .data import DataError
-from ..core.identification import DynamicData
+from ..core.datakinds import DynamicData
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
@@ -37,7 +39,7 @@ REST_GAP_S = 60.0
 ZERO_WINDOW_S = 1.0
 
 
-def record_zero(data):
+def record_zero(data: DynamicData) -> float:
     """
     Return the sensor zero of one record: its mean position at rest before the first heating.
 
@@ -51,20 +53,20 @@ def record_zero(data):
     return float(np.mean(data.position[:n]))
 
 
-def _resample(data, dt):
+def _resample(data: DynamicData, dt: float) -> DynamicData:
     """Return `data` on a grid of step dt [s]: duties held, other signals interpolated."""
     t = np.arange(data.time[0], data.time[-1] + 0.5 * dt, dt)
     t = t[t <= data.time[-1] + 1e-9]
     idx = np.clip(np.searchsorted(data.time, t, side='right') - 1, 0, len(data) - 1)
 
-    def interp(x):
+    def interp(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
         return None if x is None else np.interp(t, data.time, x)
     return DynamicData(t, data.duty_a[idx], data.duty_b[idx], interp(data.position),
                        ambient=interp(data.ambient), setpoint=interp(data.setpoint),
                        position_unit=data.position_unit, layout=data.layout)
 
 
-def check_compatible(records):
+def check_compatible(records: list) -> None:
     """
     Raise `DataError` unless the (name, DynamicData) records can be fitted together.
 
@@ -87,7 +89,8 @@ def check_compatible(records):
                                 'fitted together need the same columns)')
 
 
-def join(records, held_out=(), notes=None):
+def join(records: list, held_out: tuple = (),
+         notes: Optional[list] = None) -> DynamicData:
     """
     Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
 
@@ -133,7 +136,7 @@ def join(records, held_out=(), notes=None):
                        d0.position_unit, d0.layout, tuple(segments), cols[5], split)
 
 
-def segment_of(data, name):
+def segment_of(data: DynamicData, name: str) -> tuple:
     """Return the (start, stop) sample range of record `name` in joined `data`."""
     for n, a, b in data.segments:
         if n == name:
@@ -141,7 +144,7 @@ def segment_of(data, name):
     raise KeyError(name)
 
 
-def zeros(data):
+def zeros(data: DynamicData) -> np.ndarray:
     """Return the per-sample sensor zero of joined `data` (each record's start rest)."""
     z = np.zeros(len(data))
     segs = data.segments or (('', 0, len(data)),)
@@ -151,15 +154,15 @@ def zeros(data):
     return z
 
 
-def segment_view(data, a, b):
+def segment_view(data: DynamicData, a: int, b: int) -> DynamicData:
     """Return samples [a, b) of joined `data` as a plain `DynamicData` (one record)."""
-    def cut(x):
+    def cut(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
         return None if x is None else x[a:b]
     return DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b], data.position[a:b],
                        cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout)
 
 
-def scored_view(data, prediction, signals):
+def scored_view(data: DynamicData, prediction: np.ndarray, signals: dict) -> tuple:
     """
     Return (data, prediction, signals) with the rest gaps of joined `data` cut out.
 
@@ -170,7 +173,7 @@ def scored_view(data, prediction, signals):
         return data, prediction, signals
     keep = np.asarray(data.scored, bool)
 
-    def cut(x):
+    def cut(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
         return None if x is None else np.asarray(x)[keep]
     n = int(keep.sum())
     view = DynamicData(data.time[0] + np.arange(n) * data.dt, cut(data.duty_a),

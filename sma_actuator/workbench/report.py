@@ -27,14 +27,18 @@ Files written into the report directory (nothing else is touched):
 * ``correlation.png`` residual autocorrelation and cross-correlations with 99 % bands
 """
 import html
+import os
 from pathlib import Path
+from typing import Any, Optional, Union
 
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 import numpy as np
 
-from .compare import CONCENTRATION_RATIO, MIN_SHARE
+from .compare import Comparison, CONCENTRATION_RATIO, MIN_SHARE
+
+PathLike = Union[str, os.PathLike]
 
 REPORT_FILES = ('index.html', 'time.png', 'curves.png', 'residual.png', 'hysteresis.png',
                 'regimes.png', 'correlation.png')
@@ -46,7 +50,7 @@ class ReportError(ValueError):
     """The report directory cannot be used; the message names it."""
 
 
-def check_report_dir(directory, force=False):
+def check_report_dir(directory: PathLike, force: bool = False) -> None:
     """Raise `ReportError` if `directory` is a file or already holds report files (no force)."""
     directory = Path(directory)
     if directory.exists() and not directory.is_dir():
@@ -59,8 +63,10 @@ def check_report_dir(directory, force=False):
         raise ReportError(f'{directory}: parent directory {directory.parent} does not exist')
 
 
-def write_report(directory, comparison, title, *, data_line='', model=None, diagnosis=None,
-                 alternative=None, force=False):
+def write_report(directory: PathLike, comparison: Comparison, title: str, *,
+                 data_line: str = '', model: Optional[dict] = None,
+                 diagnosis: Optional[dict] = None, alternative: Optional[tuple] = None,
+                 force: bool = False) -> Path:
     """
     Write the report; returns the path of index.html.
 
@@ -87,7 +93,8 @@ def write_report(directory, comparison, title, *, data_line='', model=None, diag
     return index
 
 
-def write_diagnosis_report(directory, data, diagnosis, title, data_line, force=False):
+def write_diagnosis_report(directory: PathLike, data: Any, diagnosis: Any, title: str,
+                           data_line: str, force: bool = False) -> Path:
     """
     Write the report of a `engine.Diagnosis` on `data`; returns the path of index.html.
 
@@ -105,13 +112,13 @@ def write_diagnosis_report(directory, data, diagnosis, title, data_line, force=F
                         diagnosis=diagnosis.to_json(), alternative=alternative, force=force)
 
 
-def save(fig, path):
+def save(fig: Figure, path: PathLike) -> None:
     """Render a matplotlib Figure to PNG with the Agg canvas."""
     FigureCanvasAgg(fig)
     fig.savefig(path, dpi=DPI)
 
 
-def save_rounds_plot(directory, doc):
+def save_rounds_plot(directory: PathLike, doc: dict) -> Path:
     """
     Write rounds.png: validation NRMSE [%] after each round of `diagnose --rounds`.
 
@@ -131,13 +138,15 @@ def save_rounds_plot(directory, doc):
     return path
 
 
-def _figure(w=10, h=4, rows=1, cols=1, **kw):
+def _figure(w: float = 10, h: float = 4, rows: int = 1, cols: int = 1, **kw: Any) -> tuple:
+    """Return (Figure, 2-D array of axes) of w x h inches [in]."""
     fig = Figure(figsize=(w, h), layout='constrained')
     axes = fig.subplots(rows, cols, squeeze=False, **kw)
     return fig, axes
 
 
-def _mark_split(ax, comparison):
+def _mark_split(ax: Any, comparison: Comparison) -> None:
+    """Shade the validation part of the sample axis."""
     train = comparison.train_mask
     if train is None or train.all() or not train.any():
         return
@@ -151,13 +160,13 @@ def _mark_split(ax, comparison):
             color='0.3')
 
 
-def _label(name, comparison):
+def _label(name: str, comparison: Comparison) -> str:
     """Return an axis label with the output's unit, 'position [mm]' (no unit if unknown)."""
     unit = getattr(comparison, 'unit', '')
     return f'{name} [{unit}]' if unit else name
 
 
-def plot_time(comparison, alternative=None):
+def plot_time(comparison: Comparison, alternative: Optional[tuple] = None) -> Figure:
     """Measured and model position over time [s], validation part shaded."""
     fig, axes = _figure()
     ax = axes[0, 0]
@@ -173,7 +182,7 @@ def plot_time(comparison, alternative=None):
     return fig
 
 
-def plot_residual(comparison):
+def plot_residual(comparison: Comparison) -> Figure:
     """Residual over time (or over the sample index for static curves)."""
     fig, axes = _figure(h=3)
     ax = axes[0, 0]
@@ -184,7 +193,7 @@ def plot_residual(comparison):
     return fig
 
 
-def plot_hysteresis(comparison):
+def plot_hysteresis(comparison: Comparison) -> Figure:
     """Measured and model position vs model temperature difference (or duty difference)."""
     fig, axes = _figure(w=6, h=5)
     ax = axes[0, 0]
@@ -200,7 +209,7 @@ def plot_hysteresis(comparison):
     return fig
 
 
-def plot_curves(comparison):
+def plot_curves(comparison: Comparison) -> Figure:
     """Plot static data: output vs input per curve, measured dots and model lines."""
     fig, axes = _figure(w=7, h=5)
     ax = axes[0, 0]
@@ -218,7 +227,7 @@ def plot_curves(comparison):
     return fig
 
 
-def plot_regimes(comparison):
+def plot_regimes(comparison: Comparison) -> Figure:
     """Bar chart of NRMSE [%] per regime label, one panel per group; dashed: overall."""
     groups = comparison.regimes
     cols = 3
@@ -247,7 +256,7 @@ _PLOTS = {'time.png': plot_time,
           'hysteresis.png': lambda comparison, alternative: plot_hysteresis(comparison)}
 
 
-def plot_correlations(comparison):
+def plot_correlations(comparison: Comparison) -> Figure:
     """Residual autocorrelation and the strongest cross-correlations with ±band."""
     corr = comparison.correlations
     cross = sorted(corr['cross'].items(), key=lambda kv: -kv[1]['strength'])[:MAX_CROSS_PANELS]
@@ -278,15 +287,17 @@ tr.hot td{background:#fde0dc}img{max-width:100%;border:1px solid #ddd}
 .note{color:#555;font-size:90%}"""
 
 
-def _f(x, fmt='{:.4g}'):
+def _f(x: Optional[float], fmt: str = '{:.4g}') -> str:
+    """Return x formatted, 'n/a' for None."""
     return 'n/a' if x is None else fmt.format(x)
 
 
-def _pct(x):
+def _pct(x: Optional[float]) -> str:
+    """Return a fraction as a percentage."""
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
-def _table(header, rows, left=1, hot=None):
+def _table(header: list, rows: list, left: int = 1, hot: Optional[list] = None) -> str:
     head = ''.join(f'<th class="l">{html.escape(h)}</th>' if i < left
                    else f'<th>{html.escape(h)}</th>' for i, h in enumerate(header))
     body = []
@@ -298,13 +309,13 @@ def _table(header, rows, left=1, hot=None):
     return f'<table><tr>{head}</tr>{"".join(body)}</table>'
 
 
-def _scores_html(comparison):
+def _scores_html(comparison: Comparison) -> str:
     rows = [[part, _pct(s['nrmse']), _f(s['rmse']), _f(s['fit_percent'], '{:.1f}'),
              _f(s['max_error'])] for part, s in comparison.scores.items() if s]
     return _table(['part', 'NRMSE', 'RMSE', 'fit %', 'max error'], rows)
 
 
-def _model_html(model):
+def _model_html(model: Optional[dict]) -> str:
     if not model:
         return ''
     effects = ', '.join(model.get('effects') or []) or 'none (paper base model)'
@@ -317,7 +328,7 @@ def _model_html(model):
     return ''.join(out)
 
 
-def _regimes_html(comparison):
+def _regimes_html(comparison: Comparison) -> str:
     out = []
     for group, items in comparison.regimes.items():
         rows = [[r['label'], r['samples'], _pct(r['fraction']), _pct(r['nrmse']), _f(r['rmse']),
@@ -329,7 +340,7 @@ def _regimes_html(comparison):
     return ''.join(out)
 
 
-def _tests_html(comparison):
+def _tests_html(comparison: Comparison) -> str:
     corr = comparison.correlations
     unit = corr['lag_unit']
     tests = [('residual (autocorrelation)', corr['autocorrelation'])] + list(corr['cross'].items())
@@ -345,7 +356,7 @@ def _tests_html(comparison):
                          hot=[t['exceeds'] for _, t in tests])
 
 
-def _diagnosis_html(diagnosis):
+def _diagnosis_html(diagnosis: Optional[dict]) -> str:
     if not diagnosis:
         return ''
     base = diagnosis['baseline']
@@ -362,7 +373,8 @@ def _diagnosis_html(diagnosis):
         hot=[c['significant'] for c in diagnosis['candidates']])
 
 
-def render_html(comparison, title, data_line, model, diagnosis, figures):
+def render_html(comparison: Comparison, title: str, data_line: str, model: Optional[dict],
+                diagnosis: Optional[dict], figures: list) -> str:
     """Return the report page as a string (figures: [(file, caption, fig)])."""
     imgs = ''.join(f'<h3>{html.escape(cap)}</h3><img src="{name}" alt="{html.escape(cap)}">'
                    for name, cap, _ in figures)
