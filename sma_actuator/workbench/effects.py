@@ -405,6 +405,30 @@ class SensorZero(Effect):
         return None
 
 
+class RecordStroke(Effect):
+    """
+    Per-record stroke: a wire's stroke changes from day to day (shakedown, retensioning).
+
+    The contraction of record k is ρ_k times the model's: position = rest_k + ρ_k (φ −
+    φ_rest), with rest_k the record's start rest and φ the model's shaft output. ρ_k is the
+    least-squares factor of a pooled fit's departure from rest onto the measured one,
+    referred to the median training record (ρ = 1 there); the model is then refitted on the
+    records scaled back to that stroke. A held-out or new record's stroke is unknown
+    before it is measured: it is predicted with the median training record's stroke
+    (ρ = 1). Needs two or more records.
+    """
+
+    name = 'record_stroke'
+    signature = ('each record is off by its own factor: the residual follows the position '
+                 'with a slope that differs from record to record, zero at rest')
+
+    def applicable(self, data):
+        """Return why not: the stroke is per record, so it needs two or more records."""
+        if len(getattr(data, 'segments', ()) or ()) < 2:
+            return 'needs two or more records (a stroke per record)'
+        return None
+
+
 CATALOG = {}
 
 
@@ -420,7 +444,8 @@ def register_effect(cls):
 # exist only where they were registered)
 BUILTIN = {c.name: c for c in (Saturation, FastDynamics, Delay, Convection, AmbientDrift,
                                PhaseResistance, StressCoupling, AsymmetricWires,
-                               SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero)}
+                               SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero,
+                               RecordStroke)}
 for _cls in BUILTIN.values():
     register_effect(_cls)
 
