@@ -756,7 +756,7 @@ def flexinol_loop_ratio():
     return float(np.mean(h.r) / (np.mean(centre) - p.ambient_c))
 
 
-def tie_loop_width(grid, u_rest, ratio, edge=None, spread=(0.85, 1.15)):
+def tie_loop_width(grid, u_rest, ratio, edge=None, spread=None):
     """
     Return the saturated `grid` with the elements' half-widths tied to the heating edge.
 
@@ -769,13 +769,17 @@ def tie_loop_width(grid, u_rest, ratio, edge=None, spread=(0.85, 1.15)):
     (e − θ_rest)/(1 + β) above the rest and r = f β (c − θ_rest)), so the cooling branch
     spans as many kelvin as the heating branch, 2 r lower, as As-Af and Ms-Mf do. f spreads
     the widths of one cell over `spread` by their rank in the grid (the datasheet loop
-    spreads them too, so minor loops keep a shape). edge: the heating edge [°C] (the
+    spreads them too, so minor loops keep a shape; default its min and max over mean
+    half-width, 0.85 and 1.15). edge: the heating edge [°C] (the
     weight centre of a previous fit's rising cells, `heating_edge`); None: each element's
     own rising cell (before any fit). The rising cells are kept. ratio None, or
     unsaturated (classical) elements: `grid` is returned as it is.
     """
     if ratio is None or not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
         return grid
+    if spread is None:
+        datasheet = act.flexinol_hysteresis().r
+        spread = (datasheet.min() / datasheet.mean(), datasheet.max() / datasheet.mean())
     cell = 0.5 * (grid.lo + grid.hi) + grid.r
     half = 0.5 * (grid.hi - grid.lo)
     widths = np.unique(grid.r)
