@@ -384,7 +384,19 @@ class CurrentLimit(Effect):
         return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
-class SensorZero(Effect):
+class PerRecordEffect(Effect):
+    """Base of the effects with a value per record of a record set (two or more records)."""
+
+    per_record = ''   # what each record has its own of
+
+    def applicable(self, data):
+        """Return why not: the value is per record, so it needs two or more records."""
+        if len(getattr(data, 'segments', ()) or ()) < 2:
+            return f'needs two or more records (a {self.per_record} per record)'
+        return None
+
+
+class SensorZero(PerRecordEffect):
     """
     Per-record sensor zero: a potentiometer is not tared between runs.
 
@@ -395,17 +407,12 @@ class SensorZero(Effect):
     """
 
     name = 'sensor_zero'
+    per_record = 'sensor zero'
     signature = ('each record is off by its own constant: the residual mean differs from '
                  'record to record, already at rest before the first heating')
 
-    def applicable(self, data):
-        """Return why not: the zero is per record, so it needs two or more records."""
-        if len(getattr(data, 'segments', ()) or ()) < 2:
-            return 'needs two or more records (a sensor zero per record)'
-        return None
 
-
-class RecordStroke(Effect):
+class RecordStroke(PerRecordEffect):
     """
     Per-record stroke: a wire's stroke changes from day to day (shakedown, retensioning).
 
@@ -419,14 +426,9 @@ class RecordStroke(Effect):
     """
 
     name = 'record_stroke'
+    per_record = 'stroke'
     signature = ('each record is off by its own factor: the residual follows the position '
                  'with a slope that differs from record to record, zero at rest')
-
-    def applicable(self, data):
-        """Return why not: the stroke is per record, so it needs two or more records."""
-        if len(getattr(data, 'segments', ()) or ()) < 2:
-            return 'needs two or more records (a stroke per record)'
-        return None
 
 
 CATALOG = {}
