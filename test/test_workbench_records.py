@@ -27,8 +27,8 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.records import join, loop_prior, segment_of
 from sma_actuator.workbench.engine import diagnose, diagnose_rounds, fit_model, record_scores
+from sma_actuator.workbench.records import join, loop_prior, segment_of
 from support.richsim_excitation import open_loop_duty
 import yaml
 
@@ -215,8 +215,8 @@ def test_trained_on_records_that_never_cool_the_cooling_follows_the_datasheet_lo
     assert loop_prior(data) is not None
     assert loop_prior(join(recs, held_out=('ramp_a',))) is None     # square_a trains
     fit = fit_model(data)
-    score = {r['data']: r['scores']['all'] for r in record_scores(data, fit.prediction,
-                                                                   fit.split)}
+    per = record_scores(data, fit.prediction, fit.split)
+    score = {r['data']: r['scores']['all'] for r in per}
     assert score['square_a']['nrmse'] < 0.035
     a, b = segment_of(data, 'square_a')
     t, y, p = data.time[a:b] - data.time[a], data.position[a:b], fit.prediction[a:b]
