@@ -57,10 +57,12 @@ import numpy as np
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
+from .handover import MIN_RATE_RAD_S, Preheat
+from .interlock import DeadTimeInterlock
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
-from .tuning import simc_gains, TAU_C_MIN_S
+from .tuning import simc_gains, TAU_C_MIN_S, transformation_start_c
 from ..core.actuator import sensor_polynomial
 from ..core.validate import finite_scalar
 
@@ -73,6 +75,11 @@ NOMINAL_DT_S = 0.025
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
 # step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
 TAU_C_INVERSE_S = 0.25
+
+
+def _elapsed(now, then):
+    """Elapsed controller time [s], rounded up by 1 µs: n samples of dt count as n dt."""
+    return now - then + 1e-6
 
 
 @dataclass
@@ -96,6 +103,8 @@ class ControllerSettings:
     smith: bool = True              # pi_inverse: predict the measurement over the delay
     drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
+    preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
+    dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
 
     def __post_init__(self):
         if self.mode not in MODES:
@@ -106,13 +115,17 @@ class ControllerSettings:
                 value = finite_scalar(name, value)
                 setattr(self, name, None if value < 0 else value)
         for name in ('duty_max', 'both_threshold', 'max_temp_c', 'guard_horizon_s',
-                     'on_off_band_rad', 'on_off_duty', 'ff_horizon_s', 'drift_time_s'):
+                     'on_off_band_rad', 'on_off_duty', 'ff_horizon_s', 'drift_time_s',
+                     'dead_time_s'):
             setattr(self, name, finite_scalar(name, getattr(self, name)))
         self.smith, self.drift_correction = bool(self.smith), bool(self.drift_correction)
+        self.preheat = bool(self.preheat)
         if not 0.0 <= self.duty_max <= 1.0 or not 0.0 <= self.both_threshold <= 1.0:
             raise ValueError('duty_max and both_threshold must be in [0, 1]')
         if self.ff_horizon_s < 0 or self.guard_horizon_s <= 0 or self.drift_time_s <= 0:
             raise ValueError('ff_horizon_s must be >= 0, guard_horizon_s and drift_time_s > 0')
+        if not 0.0 <= self.dead_time_s <= 1.0:
+            raise ValueError(f'dead_time_s must be in [0, 1] s, got {self.dead_time_s}')
 
 
 @dataclass
@@ -204,6 +217,7 @@ class ControllerCore:
         self.reference = ReferencePredictor()
         self.pi = DiscretePI(0.0, 0.0)
         self.feedforward = InverseFeedforward(self.model)
+        self.handover = Preheat(self.feedforward, transformation_start_c(self.model))
         self._apply(self.settings)
         self.reset()
 
@@ -222,6 +236,7 @@ class ControllerCore:
         self.drift.time_s = s.drift_time_s
         self.guard = ThermalGuard(self.model, s.max_temp_c, s.guard_horizon_s)
         self.relay = OnOffRelay(s.on_off_band_rad, s.on_off_duty)
+        self.handover.dead_time_s = s.dead_time_s
 
     def reset(self):
         """Back to rest: wires estimated cold, integrator and relay cleared, duties zero."""
@@ -231,6 +246,9 @@ class ControllerCore:
         self.reference.reset()
         self.pi.reset()
         self.relay.reset()
+        self.handover.reset()
+        self.interlock = DeadTimeInterlock(self.settings.dead_time_s, _elapsed)
+        self.clock_s = 0.0
         self.last_duty = (0.0, 0.0)
 
     def configure(self, **changes):
@@ -240,6 +258,7 @@ class ControllerCore:
             self.pi.reset()     # the integral of one mode means nothing in another
         state = self.relay.state
         self._apply(new)
+        self.interlock.dead_time = new.dead_time_s
         self.relay.state = state if new.mode == self.settings.mode else 0
         self.settings = new
 
@@ -270,6 +289,7 @@ class ControllerCore:
         if ambient_c is not None and not math.isfinite(ambient_c):
             ambient_c = None
         self._advance(dt, ambient_c)
+        self.clock_s += dt
         self.reference.update(r, dt)
         theta = self.estimator.temperature_c
         g_a, g_b = self.guard.limits(theta, self.last_duty, ambient_c)
@@ -281,8 +301,15 @@ class ControllerCore:
         elif s.mode == 'pi':
             u = self.pi.step(error, dt, -lim_b, lim_a)
         else:
+            integral = self.pi.integral
             u, u_ff = self._inverse_step(r, y, dt, ambient_c, theta, lim_a, lim_b)
         duty_a, duty_b = exclusive(*split(u, lim_a, lim_b), s.both_threshold)
+        if s.mode == 'pi_inverse':
+            shared = self._handover(r, dt, ambient_c, theta) if s.preheat else None
+            if shared is not None:
+                self.pi.integral = integral
+                duty_a, duty_b = min(shared[0], lim_a), min(shared[1], lim_b)
+            (duty_a, duty_b), _ = self.interlock.apply(duty_a, duty_b, self.clock_s)
         self.last_duty = (duty_a, duty_b)
         return ControlStep(duty_a, duty_b, error, u_ff, (lim_a, lim_b), tuple(theta),
                            self.pi.saturated, min(g_a, g_b) < s.duty_max)
@@ -301,7 +328,28 @@ class ControllerCore:
             ff_target, self._ambient(ambient_c), self.estimator.contraction, theta,
             self.drift.offset, self.drift.stroke)
         u_ff = ff_a - ff_b
-        return self.pi.step(target - angle, dt, -lim_b, lim_a, feedforward=u_ff), u_ff
+        lo, hi = -lim_b, lim_a
+        side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
+        if side > 0:
+            lo = 0.0
+        elif side < 0:
+            hi = 0.0
+        return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
+
+    def _handover(self, r, dt, ambient_c, theta):
+        """
+        Return the time-shared (d_a, d_b) of the handover (`handover.Preheat`) or None.
+
+        The crossing is predicted in true angle: t_c = (φ0 − p⁻¹(r)) / ṙ, ṙ the
+        extrapolated rate of p⁻¹(r) over 0.1 s; the incoming wire is a for ṙ > 0.
+        """
+        now = self.sensor.angle(r)
+        rate = (self.sensor.angle(self.reference.ahead(r, 0.1)) - now) / 0.1
+        distance = self.drift.offset - now
+        incoming, t_cross = None, math.inf
+        if abs(rate) >= MIN_RATE_RAD_S and distance * rate > 0:
+            incoming, t_cross = (0 if rate > 0 else 1), distance / rate
+        return self.handover.duties(incoming, t_cross, theta, self._ambient(ambient_c), dt)
 
     def idle(self, dt, ambient_c=None):
         """Fault path (stale feedback): zero duty, integrator cleared, estimate keeps running."""
@@ -309,5 +357,7 @@ class ControllerCore:
         self.pi.reset()
         self.relay.reset()
         self.reference.reset()
+        self.clock_s += finite_scalar('dt', dt)
+        self.interlock.apply(0.0, 0.0, self.clock_s)
         self.last_duty = (0.0, 0.0)
         return ControlStep(0.0, 0.0, theta_est_c=tuple(self.estimator.temperature_c))

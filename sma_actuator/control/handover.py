@@ -1,0 +1,128 @@
+# Copyright 2026 sma_actuator developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Handover at a reversal of the signed contraction target (mode pi_inverse): preheat.
+
+At a zero crossing of Δy* the incoming wire is near ambient and must heat to the start of
+its transformation θs (As, `tuning.transformation_start_c`) before the shaft moves: at
+full duty T ln(G / (G − (θs − θa))), 0.8 s for Flexinol, a lag the PI cannot remove. The
+outgoing wire meanwhile holds its cooling branch with a small duty, and the two wires are
+never heated at once (dead-time interlock, `control.interlock`).
+
+The wires therefore share the heating in frames of N samples before the crossing:
+
+    [ outgoing: k_p samples ][ gap: n_g ][ incoming: N − k_p − 2 n_g ][ gap: n_g ]
+
+* the outgoing (primary) wire gets its whole frame's energy in its slot, duty
+  min(1, d_p N / k_p), k_p = ceil(d_p N), d_p its requested duty. Heated above its cooling
+  branch a wire does not move (a reversal inside the loop leaves the contraction as it
+  is), so the burst is stored and released while it coasts;
+* each gap is the interlock's dead time, n_g = ceil(dead_time / dt) samples at zero;
+* the incoming wire gets the duty that takes its estimate θ̂ to the preheat temperature
+  θpre = θa + f (θs − θa), f = `PREHEAT_FRACTION`, within its slot. Below θs its
+  contraction stays zero, so the preheat moves nothing either.
+
+Sharing starts when the reference, extrapolated at its present rate ṙ, reaches the
+crossing within the time the incoming wire needs to reach θpre at the share it gets:
+
+    t_c = (φ0 − p⁻¹(r)) / ṙ  <=  START_FACTOR t_need + START_MARGIN_S,
+    t_need = T ln((G s − (θ̂ − θa)) / (G s − (θpre − θa))),   s = (N − k_p − 2 n_g) / N
+
+(t_need infinite when G s <= θpre − θa: sharing starts at once, at most `MAX_LEAD_S`
+ahead). A step (ṙ = 0) or a reference that does not cross gets no preheat.
+"""
+import math
+
+
+# preheat temperature as a fraction of the way from ambient to the transformation start
+PREHEAT_FRACTION = 0.85
+# sharing frame [samples] (0.25 s at 25 ms): shorter frames lose more time to the gaps
+FRAME_SAMPLES = 10
+START_FACTOR = 1.25
+START_MARGIN_S = 0.25
+MAX_LEAD_S = 2.0
+LEAD = 0.9
+HOLD = 0.3
+MAX_BURST_K = 8.0
+# slowest reference rate [rad/s] that counts as moving towards a crossing
+MIN_RATE_RAD_S = 0.01
+
+
+class Preheat:
+    """Early handover planner (module docstring), one call per sample."""
+
+    def __init__(self, feedforward, theta_start_c, dead_time_s=0.05):
+        self.feedforward = feedforward
+        self.theta_start_c = float(theta_start_c)
+        self.dead_time_s = float(dead_time_s)
+        self.lead, self.hold = LEAD, HOLD
+        self.reset()
+
+    def reset(self):
+        """Forget a running handover."""
+        self.incoming = None
+        self.burst_c = None     # θ the outgoing wire is heated to before it is let go
+
+    def gap(self, dt):
+        """Return n_g = ceil(dead_time / dt), the interlock's dead time in samples."""
+        return max(1, int(math.ceil(self.dead_time_s / dt - 1e-6))) if self.dead_time_s > 0 else 0
+
+    def time_needed_s(self, j, theta_est, ambient):
+        """
+        Return t_heat = T ln((G − (θ̂ − θa)) / (G − (θs − θa))) [s] of wire j.
+
+        The time wire j needs at full duty to reach θs from θ̂ (inf when it cannot).
+        """
+        ff = self.feedforward
+        gain, tau = ff.wire_gain(j), ff.wire_tau(j)
+        x0, x1 = theta_est - ambient, self.theta_start_c - ambient
+        if x0 >= x1:
+            return 0.0
+        if gain <= x1:
+            return math.inf
+        return tau * math.log((gain - x0) / (gain - x1))
+
+    def duties(self, incoming, t_cross_s, theta_est, ambient, dt):
+        """
+        Return (d_a, d_b) of this sample, or None when the loop drives the wires.
+
+        incoming: wire (0 a, 1 b) the reference is heading for, None if it is not heading
+        for a crossing; t_cross_s: predicted time to the crossing [s]; theta_est: θ̂ [°C].
+        """
+        if incoming is None or (self.incoming is not None and incoming != self.incoming):
+            self.reset()
+            return None
+        if self.incoming is None:
+            need = self.time_needed_s(incoming, float(theta_est[incoming]), ambient)
+            need += self.gap(dt) * dt
+            if not t_cross_s <= min(self.lead * need, MAX_LEAD_S):
+                return None
+            self.incoming = incoming
+            out_est = float(theta_est[1 - incoming])
+            self.burst_c = min(ambient + (out_est - ambient) * math.exp(
+                self.hold * t_cross_s / self.feedforward.wire_tau(1 - incoming)),
+                out_est + MAX_BURST_K)
+        out = [0.0, 0.0]
+        if self.burst_c is not None:
+            j = 1 - incoming
+            if float(theta_est[j]) < self.burst_c - 0.5:
+                out[j] = self.feedforward.thermal_duty(j, self.burst_c, float(theta_est[j]),
+                                                       ambient, horizon_s=dt)
+                return tuple(out)
+            self.burst_c = None
+        out[incoming] = self.feedforward.thermal_duty(
+            incoming, self.theta_start_c, float(theta_est[incoming]), ambient,
+            horizon_s=max(t_cross_s, dt))
+        return tuple(out)
