@@ -57,7 +57,7 @@ import numpy as np
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
-from .handover import MIN_RATE_RAD_S, Preheat
+from .handover import FREE_LEAD_S, MIN_RATE_RAD_S, Preheat
 from .interlock import DeadTimeInterlock
 from .on_off import OnOffRelay
 from .pi import DiscretePI
@@ -247,6 +247,7 @@ class ControllerCore:
         self.pi.reset()
         self.relay.reset()
         self.handover.reset()
+        self.crossing, self.ff_temps = (None, math.inf), None
         self.interlock = DeadTimeInterlock(self.settings.dead_time_s, _elapsed)
         self.clock_s = 0.0
         self.last_duty = (0.0, 0.0)
@@ -305,7 +306,9 @@ class ControllerCore:
             u, u_ff = self._inverse_step(r, y, dt, ambient_c, theta, lim_a, lim_b)
         duty_a, duty_b = exclusive(*split(u, lim_a, lim_b), s.both_threshold)
         if s.mode == 'pi_inverse':
-            shared = self._handover(r, dt, ambient_c, theta) if s.preheat else None
+            shared = self.handover.duties(
+                *self.crossing, theta, self._ambient(ambient_c), dt, self.ff_temps,
+                u) if s.preheat else None
             if shared is not None:
                 self.pi.integral = integral
                 duty_a, duty_b = min(shared[0], lim_a), min(shared[1], lim_b)
@@ -324,24 +327,25 @@ class ControllerCore:
             self.drift.update(self.estimator.contraction, self.sensor.angle(y), dt)
         target = self.sensor.angle(self.reference.ahead(r, delay if s.smith else 0.0))
         ff_target = self.sensor.angle(self.reference.ahead(r, delay + s.ff_horizon_s))
-        (ff_a, ff_b), _ = self.feedforward.duties(
+        (ff_a, ff_b), self.ff_temps = self.feedforward.duties(
             ff_target, self._ambient(ambient_c), self.estimator.contraction, theta,
             self.drift.offset, self.drift.stroke)
         u_ff = ff_a - ff_b
         lo, hi = -lim_b, lim_a
-        side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
-        if side > 0:
-            lo = 0.0
-        elif side < 0:
-            hi = 0.0
+        self.crossing = self._crossing(r)
+        if self.crossing[1] > FREE_LEAD_S:
+            # far from a crossing and far on one side: the antagonist, cold, would only heat
+            side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
+            lo, hi = (0.0 if side > 0 else lo), (0.0 if side < 0 else hi)
         return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
 
-    def _handover(self, r, dt, ambient_c, theta):
+    def _crossing(self, r):
         """
-        Return the time-shared (d_a, d_b) of the handover (`handover.Preheat`) or None.
+        Return (incoming wire or None, t_c [s]) of the next zero crossing of the target.
 
         The crossing is predicted in true angle: t_c = (φ0 − p⁻¹(r)) / ṙ, ṙ the
-        extrapolated rate of p⁻¹(r) over 0.1 s; the incoming wire is a for ṙ > 0.
+        extrapolated rate of p⁻¹(r) over 0.1 s; the incoming wire is a (0) for ṙ > 0, b (1)
+        for ṙ < 0; (None, inf) when the reference does not head for a crossing.
         """
         now = self.sensor.angle(r)
         rate = (self.sensor.angle(self.reference.ahead(r, 0.1)) - now) / 0.1
@@ -349,7 +353,7 @@ class ControllerCore:
         incoming, t_cross = None, math.inf
         if abs(rate) >= MIN_RATE_RAD_S and distance * rate > 0:
             incoming, t_cross = (0 if rate > 0 else 1), distance / rate
-        return self.handover.duties(incoming, t_cross, theta, self._ambient(ambient_c), dt)
+        return incoming, t_cross
 
     def idle(self, dt, ambient_c=None):
         """Fault path (stale feedback): zero duty, integrator cleared, estimate keeps running."""

@@ -46,16 +46,13 @@ ahead). A step (ṙ = 0) or a reference that does not cross gets no preheat.
 import math
 
 
-# preheat temperature as a fraction of the way from ambient to the transformation start
-PREHEAT_FRACTION = 0.85
-# sharing frame [samples] (0.25 s at 25 ms): shorter frames lose more time to the gaps
-FRAME_SAMPLES = 10
-START_FACTOR = 1.25
-START_MARGIN_S = 0.25
 MAX_LEAD_S = 2.0
 LEAD = 0.9
 HOLD = 0.3
 MAX_BURST_K = 8.0
+# free preheat (`Preheat._free_preheat`): fraction of the way from ambient to θs, window [s]
+PREHEAT_FRACTION = 0.85
+FREE_LEAD_S = 3.0
 # slowest reference rate [rad/s] that counts as moving towards a crossing
 MIN_RATE_RAD_S = 0.01
 
@@ -79,6 +76,25 @@ class Preheat:
         """Return n_g = ceil(dead_time / dt), the interlock's dead time in samples."""
         return max(1, int(math.ceil(self.dead_time_s / dt - 1e-6))) if self.dead_time_s > 0 else 0
 
+    def _free_preheat(self, incoming, t_cross_s, theta_est, ambient, dt, u):
+        """
+        Heat the incoming wire towards θpre while the loop lets the outgoing one coast.
+
+        After a reversal the outgoing wire cools through its loop at zero duty; that time
+        costs it nothing, so the incoming wire takes it, up to θpre = θa + f (θs − θa)
+        (f = `PREHEAT_FRACTION`), within `FREE_LEAD_S` of the crossing.
+        """
+        outgoing_duty = u if incoming == 1 else -u
+        if outgoing_duty > 0.0 or not t_cross_s <= FREE_LEAD_S:
+            return None
+        out = [0.0, 0.0]
+        out[incoming] = self.feedforward.thermal_duty(
+            incoming, ambient + PREHEAT_FRACTION * (self.theta_start_c - ambient),
+            float(theta_est[incoming]), ambient, horizon_s=dt)
+        if out[incoming] <= -outgoing_duty:
+            return None     # the loop already heats it more (it pulls the shaft)
+        return tuple(out)
+
     def time_needed_s(self, j, theta_est, ambient):
         """
         Return t_heat = T ln((G − (θ̂ − θa)) / (G − (θs − θa))) [s] of wire j.
@@ -94,12 +110,14 @@ class Preheat:
             return math.inf
         return tau * math.log((gain - x0) / (gain - x1))
 
-    def duties(self, incoming, t_cross_s, theta_est, ambient, dt):
+    def duties(self, incoming, t_cross_s, theta_est, ambient, dt, theta_target=None, u=0.0):
         """
         Return (d_a, d_b) of this sample, or None when the loop drives the wires.
 
         incoming: wire (0 a, 1 b) the reference is heading for, None if it is not heading
-        for a crossing; t_cross_s: predicted time to the crossing [s]; theta_est: θ̂ [°C].
+        for a crossing; t_cross_s: predicted time to the crossing [s]; theta_est: θ̂ [°C];
+        theta_target: the inverse's target temperatures θ* [°C]; u: the loop's signed
+        command (+ heats a).
         """
         if incoming is None or (self.incoming is not None and incoming != self.incoming):
             self.reset()
@@ -108,16 +126,18 @@ class Preheat:
             need = self.time_needed_s(incoming, float(theta_est[incoming]), ambient)
             need += self.gap(dt) * dt
             if not t_cross_s <= min(self.lead * need, MAX_LEAD_S):
-                return None
+                return self._free_preheat(incoming, t_cross_s, theta_est, ambient, dt, u)
             self.incoming = incoming
             out_est = float(theta_est[1 - incoming])
-            self.burst_c = min(ambient + (out_est - ambient) * math.exp(
+            branch = out_est if theta_target is None else float(theta_target[1 - incoming])
+            burst = min(ambient + (branch - ambient) * math.exp(
                 self.hold * t_cross_s / self.feedforward.wire_tau(1 - incoming)),
-                out_est + MAX_BURST_K)
+                branch + MAX_BURST_K)
+            self.burst_c = burst if burst > out_est + 0.5 else None
         out = [0.0, 0.0]
         if self.burst_c is not None:
             j = 1 - incoming
-            if float(theta_est[j]) < self.burst_c - 0.5:
+            if float(theta_est[j]) < self.burst_c - 0.25:
                 out[j] = self.feedforward.thermal_duty(j, self.burst_c, float(theta_est[j]),
                                                        ambient, horizon_s=dt)
                 return tuple(out)
