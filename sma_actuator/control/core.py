@@ -247,6 +247,7 @@ class ControllerCore:
         self.pi.reset()
         self.relay.reset()
         self.handover.reset()
+        self.handover.mismatch_ms = 0.0     # the estimate restarts: trust it again
         self.crossing, self.ff_temps = (None, math.inf), None
         self.interlock = DeadTimeInterlock(self.settings.dead_time_s, _elapsed)
         self.clock_s = 0.0
@@ -306,6 +307,7 @@ class ControllerCore:
             u, u_ff = self._inverse_step(r, y, dt, ambient_c, theta, lim_a, lim_b)
         duty_a, duty_b = exclusive(*split(u, lim_a, lim_b), s.both_threshold)
         if s.mode == 'pi_inverse':
+            self.handover.observe(y - self.estimator.reading_delayed, dt)
             shared = self.handover.duties(
                 *self.crossing, theta, self._ambient(ambient_c), dt, self.ff_temps,
                 u) if s.preheat else None

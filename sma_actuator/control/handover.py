@@ -53,6 +53,9 @@ MAX_BURST_K = 8.0
 # free preheat (`Preheat._free_preheat`): fraction of the way from ambient to θs, window [s]
 PREHEAT_FRACTION = 0.85
 FREE_LEAD_S = 3.0
+# model trust: RMS of measurement − model reading over `TRUST_TIME_S` below `TRUST_RAD`
+TRUST_RAD = 0.1
+TRUST_TIME_S = 5.0
 # slowest reference rate [rad/s] that counts as moving towards a crossing
 MIN_RATE_RAD_S = 0.01
 
@@ -65,12 +68,28 @@ class Preheat:
         self.theta_start_c = float(theta_start_c)
         self.dead_time_s = float(dead_time_s)
         self.lead, self.hold = LEAD, HOLD
+        self.mismatch_ms = 0.0
         self.reset()
 
     def reset(self):
         """Forget a running handover."""
         self.incoming = None
         self.burst_c = None     # θ the outgoing wire is heated to before it is let go
+
+    def observe(self, mismatch_rad, dt):
+        """
+        Track how well the model's open-loop reading follows the measurement.
+
+        m² ← m² + (e² − m²) dt / `TRUST_TIME_S`, e = y − ŷ(t − D); the handover runs only
+        while m < `TRUST_RAD`: it heats on the model's word for up to a second, and a model
+        that misses the plant by more than that would overheat the incoming wire.
+        """
+        self.mismatch_ms += (mismatch_rad ** 2 - self.mismatch_ms) * min(dt / TRUST_TIME_S, 1.0)
+
+    @property
+    def trusted(self):
+        """Whether the model's reading has followed the measurement (m < `TRUST_RAD`)."""
+        return self.mismatch_ms < TRUST_RAD ** 2
 
     def gap(self, dt):
         """Return n_g = ceil(dead_time / dt), the interlock's dead time in samples."""
@@ -119,7 +138,8 @@ class Preheat:
         theta_target: the inverse's target temperatures θ* [°C]; u: the loop's signed
         command (+ heats a).
         """
-        if incoming is None or (self.incoming is not None and incoming != self.incoming):
+        if (incoming is None or not self.trusted
+                or (self.incoming is not None and incoming != self.incoming)):
             self.reset()
             return None
         if self.incoming is None:
