@@ -94,3 +94,16 @@ def test_drift_correction_leaves_a_matched_model_alone():
         est.update((max(dy, 0.0), max(-dy, 0.0)), 0.98 * dy, DT)
     assert est.stroke_est == pytest.approx(0.98, abs=0.005)
     assert est.stroke == model.stroke_rad and est.offset == model.offset_rad
+
+
+def test_a_model_that_misses_the_plant_gets_no_handover():
+    model = ActuatorParams()
+    ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+    assert ctrl.handover.trusted
+    # the shaft reads 0.3 rad away from anything the model predicts, for 10 s
+    for k in range(400):
+        ctrl.step(SINE(k * DT), 0.3, DT, 22.0)
+    assert not ctrl.handover.trusted
+    assert ctrl.handover.duties(0, 0.5, (22.0, 50.0), 22.0, DT) is None
+    ctrl.reset()
+    assert ctrl.handover.trusted
