@@ -101,7 +101,7 @@ class ControllerSettings:
     on_off_duty: float = 1.0        # heating duty of mode on_off
     ff_horizon_s: float = 0.2       # pi_inverse thermal inverse horizon [s]; 0: static map
     smith: bool = True              # pi_inverse: predict the measurement over the delay
-    drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
+    drift_correction: bool = True   # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
     preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
     dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
