@@ -73,16 +73,21 @@ def test_the_incoming_wire_is_heated_before_the_crossing_and_tracking_improves()
     assert with_handover < 0.8 * without
 
 
-def test_far_on_one_side_the_antagonist_is_not_heated():
+def test_a_moving_reference_far_on_one_side_does_not_heat_the_antagonist():
     model = ActuatorParams()
     ff = InverseFeedforward(model)
     assert ff.target_side(0.4) == 1 and ff.target_side(-0.4) == -1 and ff.target_side(0.0) == 0
-    ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
-    # the shaft reads above a setpoint of 0.4 rad: the PI would pull with wire b, but b is
-    # far below its transformation start and would only heat without moving
-    for _ in range(40):
-        out = ctrl.step(0.4, 0.6, DT, 22.0)
-        assert out.duty_b == 0.0
+    moving = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+    held = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+    # the shaft reads above the setpoint: on a reference rising at 0.05 rad/s, away from
+    # any crossing, wire b, far below its transformation start, would only heat; on a
+    # held setpoint the same overshoot is pulled back by b
+    duties_b = [], []
+    for k in range(40):
+        duties_b[0].append(moving.step(0.4 + 0.05 * k * DT, 0.6, DT, 22.0).duty_b)
+        duties_b[1].append(held.step(0.4, 0.6, DT, 22.0).duty_b)
+    assert max(duties_b[0]) == 0.0
+    assert max(duties_b[1]) > 0.0
 
 
 def test_drift_correction_leaves_a_matched_model_alone():

@@ -101,7 +101,7 @@ class ControllerSettings:
     on_off_duty: float = 1.0        # heating duty of mode on_off
     ff_horizon_s: float = 0.2       # pi_inverse thermal inverse horizon [s]; 0: static map
     smith: bool = True              # pi_inverse: predict the measurement over the delay
-    drift_correction: bool = True   # pi_inverse: correct offset/stroke from measurements
+    drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
     preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
     dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
@@ -335,8 +335,9 @@ class ControllerCore:
         u_ff = ff_a - ff_b
         lo, hi = -lim_b, lim_a
         self.crossing = self._crossing(r)
-        if self.crossing[1] > FREE_LEAD_S:
-            # far from a crossing and far on one side: the antagonist, cold, would only heat
+        if self.crossing[1] > FREE_LEAD_S and abs(self.reference.rate) >= MIN_RATE_RAD_S:
+            # a moving reference far from a crossing and far on one side: the antagonist,
+            # cold, would only heat (a held setpoint keeps it, to pull back an overshoot)
             side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
             lo, hi = (0.0 if side > 0 else lo), (0.0 if side < 0 else hi)
         return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
