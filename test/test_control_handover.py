@@ -112,3 +112,18 @@ def test_a_model_that_misses_the_plant_gets_no_handover():
     assert ctrl.handover.duties(0, 0.5, (22.0, 50.0), 22.0, DT) is None
     ctrl.reset()
     assert ctrl.handover.trusted
+
+
+def test_reference_reversal_is_seen_coming_on_a_sine_but_not_on_a_ramp():
+    from sma_actuator.control.core import ReferencePredictor
+    sine, ramp = ReferencePredictor(), ReferencePredictor()
+    for k in range(200):       # up to 0.5 s before the peak of the 0.05 Hz sine at 6 s
+        t = 0.5 + k * DT
+        sine.update(SINE(t), DT)
+        ramp.update(0.05 * t, DT)
+    assert SINE(5.5) < SINE(6.0)
+    turn = sine.reversal(SINE(5.5), 0.9)
+    # r + L ṙ + L² r̈ / 2 past the peak: below the peak, close to the sine 0.9 s ahead
+    assert turn is not None and turn < 0.5 and turn == pytest.approx(SINE(6.4), abs=0.003)
+    assert sine.reversal(SINE(5.5), 0.3) is None        # the turn is more than 0.3 s away
+    assert ramp.reversal(0.05 * 5.5, 0.9) is None

@@ -39,6 +39,11 @@ pi_inverse, effect by effect:
     where the shaft will read D from now with where the reference will be then;
   * thermal lag: the thermal inverse brings the wire to the target of t + h + D in h
     (`ff_horizon_s`), the reference extrapolated over h + D;
+  * loop reversal: where the reference's own curvature says it turns within
+    L = min(`REVERSAL_LEAD_S`, sqrt(2 `REVERSAL_SHORTFALL_RAD` / |r̈|)) (+ D), the inverse
+    aims at r + L ṙ + L² r̈ / 2, past the turn: the active wire starts through its loop
+    (about 1 s of cooling) before the peak instead of after it;
+  * zero crossings: the incoming wire is heated early (`handover`);
   * asymmetric wires, current limit, convection, phase resistance, stress coupling: per-
     wire H^-1 and thermal inverse (`feedforward`);
   * ambient: the measured ambient drives the estimate and the thermal inverse (a model fitted
@@ -72,6 +77,12 @@ JUMP_RATE_RAD_S = 3.0
 # longest reference extrapolation [rad]
 MAX_EXTRAPOLATION_RAD = 0.5
 NOMINAL_DT_S = 0.025
+# r̈ of the reference is smoothed over this [s]
+ACCEL_TIME_S = 0.2
+# loop reversal anticipated up to this far [s], and no further than where the turn costs
+# this much of the reference's height [rad] (a fast sine: 0.2 Hz sine RMS 0.080 -> 0.067)
+REVERSAL_LEAD_S = 0.9
+REVERSAL_SHORTFALL_RAD = 0.02
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
 # step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
 TAU_C_INVERSE_S = 0.25
@@ -150,14 +161,29 @@ class ReferencePredictor:
 
     def reset(self):
         """Forget the setpoint history."""
-        self.last, self.rate = None, 0.0
+        self.last, self.rate, self.accel = None, 0.0, 0.0
 
     def update(self, r, dt):
         """Take the setpoint r [rad] of this sample."""
         if self.last is not None:
             rate = (r - self.last) / dt
-            self.rate = rate if abs(rate) <= JUMP_RATE_RAD_S else 0.0
+            if abs(rate) <= JUMP_RATE_RAD_S:
+                k = min(dt / ACCEL_TIME_S, 1.0)
+                self.accel += ((rate - self.rate) / dt - self.accel) * k
+                self.rate = rate
+            else:
+                self.rate, self.accel = 0.0, 0.0
         self.last = r
+
+    def reversal(self, r, lead_s):
+        """
+        Return r(t + L) = r + L ṙ + L² r̈ / 2 when ṙ changes sign within L, else None.
+
+        r̈ is the difference of successive rates, smoothed over `ACCEL_TIME_S`.
+        """
+        if self.rate * (self.rate + lead_s * self.accel) >= 0.0:
+            return None
+        return r + lead_s * self.rate + 0.5 * lead_s ** 2 * self.accel
 
     def ahead(self, r, lead_s):
         """Extrapolated setpoint lead_s [s] ahead [rad]."""
@@ -328,7 +354,12 @@ class ControllerCore:
         if s.drift_correction:
             self.drift.update(self.estimator.contraction, self.sensor.angle(y), dt)
         target = self.sensor.angle(self.reference.ahead(r, delay if s.smith else 0.0))
-        ff_target = self.sensor.angle(self.reference.ahead(r, delay + s.ff_horizon_s))
+        ff_r = self.reference.ahead(r, delay + s.ff_horizon_s)
+        lead = REVERSAL_LEAD_S
+        if self.reference.accel != 0.0:
+            lead = min(lead, math.sqrt(2.0 * REVERSAL_SHORTFALL_RAD / abs(self.reference.accel)))
+        turn = self.reference.reversal(r, delay + lead)
+        ff_target = self.sensor.angle(ff_r if turn is None else turn)
         (ff_a, ff_b), self.ff_temps = self.feedforward.duties(
             ff_target, self._ambient(ambient_c), self.estimator.contraction, theta,
             self.drift.offset, self.drift.stroke)
