@@ -77,7 +77,8 @@ JUMP_RATE_RAD_S = 3.0
 # longest reference extrapolation [rad]
 MAX_EXTRAPOLATION_RAD = 0.5
 NOMINAL_DT_S = 0.025
-# r̈ of the reference is smoothed over this [s]
+# ṙ and r̈ of the reference are smoothed over these [s] (`ReferencePredictor`)
+RATE_TIME_S = 0.1
 ACCEL_TIME_S = 0.2
 # loop reversal anticipated up to this far [s], and no further than where the turn costs
 # this much of the reference's height [rad] (a fast sine: 0.2 Hz sine RMS 0.080 -> 0.067)
@@ -154,7 +155,13 @@ class ControlStep:
 
 
 class ReferencePredictor:
-    """r(t + L) ≈ r + L ṙ from the setpoint samples; steps are not extrapolated."""
+    """
+    r(t + L) ≈ r + L ṙ (+ L² r̈ / 2) from the setpoint samples; steps are not extrapolated.
+
+    ṙ is the setpoint's rate smoothed over `RATE_TIME_S` and r̈ the rate's change smoothed
+    over `ACCEL_TIME_S` (exponential averages, ṙ ← ṙ + (Δr / dt − ṙ) dt / τ): a publisher
+    on its own clock delivers a new setpoint in some control samples and two in others.
+    """
 
     def __init__(self):
         self.reset()
@@ -166,14 +173,20 @@ class ReferencePredictor:
     def update(self, r, dt):
         """Take the setpoint r [rad] of this sample."""
         if self.last is not None:
-            rate = (r - self.last) / dt
-            if abs(rate) <= JUMP_RATE_RAD_S:
+            raw = (r - self.last) / dt
+            if abs(raw) <= JUMP_RATE_RAD_S:
+                rate = self.rate + (raw - self.rate) * min(dt / RATE_TIME_S, 1.0)
                 k = min(dt / ACCEL_TIME_S, 1.0)
                 self.accel += ((rate - self.rate) / dt - self.accel) * k
                 self.rate = rate
             else:
                 self.rate, self.accel = 0.0, 0.0
         self.last = r
+
+    def ahead(self, r, lead_s):
+        """Extrapolated setpoint lead_s [s] ahead [rad]."""
+        shift = self.rate * lead_s
+        return r + min(max(shift, -MAX_EXTRAPOLATION_RAD), MAX_EXTRAPOLATION_RAD)
 
     def reversal(self, r, lead_s):
         """
@@ -184,11 +197,6 @@ class ReferencePredictor:
         if self.rate * (self.rate + lead_s * self.accel) >= 0.0:
             return None
         return r + lead_s * self.rate + 0.5 * lead_s ** 2 * self.accel
-
-    def ahead(self, r, lead_s):
-        """Extrapolated setpoint lead_s [s] ahead [rad]."""
-        shift = self.rate * lead_s
-        return r + min(max(shift, -MAX_EXTRAPOLATION_RAD), MAX_EXTRAPOLATION_RAD)
 
 
 class SensorMap:
