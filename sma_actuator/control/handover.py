@@ -13,39 +13,40 @@
 # limitations under the License.
 
 """
-Handover at a reversal of the signed contraction target (mode pi_inverse): preheat.
+Handover at a zero crossing of the signed contraction target (mode pi_inverse).
 
 At a zero crossing of Δy* the incoming wire is near ambient and must heat to the start of
 its transformation θs (As, `tuning.transformation_start_c`) before the shaft moves: at
 full duty T ln(G / (G − (θs − θa))), 0.8 s for Flexinol, a lag the PI cannot remove. The
 outgoing wire meanwhile holds its cooling branch with a small duty, and the two wires are
-never heated at once (dead-time interlock, `control.interlock`).
+never heated at once nor within the dead time of each other (`control.interlock`; the
+controller gates its own output with it).
 
-The wires therefore share the heating in frames of N samples before the crossing:
+With t_c = (φ0 − p⁻¹(r)) / ṙ the predicted time to the crossing (`ControllerCore`):
 
-    [ outgoing: k_p samples ][ gap: n_g ][ incoming: N − k_p − 2 n_g ][ gap: n_g ]
+* free preheat (t_c <= `FREE_LEAD_S`, while the loop gives the outgoing wire zero duty, as
+  after a reversal, when it cools through its loop): the incoming wire gets the duty that
+  takes its estimate θ̂ towards θpre = θa + f (θs − θa), f = `PREHEAT_FRACTION`, in one
+  sample. Below θs it does not move. If the loop already heats it more (it pulls the
+  shaft), the loop's command stands;
+* early handover, once t_c <= LEAD t_need (`LEAD`), t_need = T ln((G − (θ̂ − θa)) / (G −
+  (θs − θa))) + the dead time, the time at full duty to θs:
+  1. the outgoing wire is heated to θburst = θa + (θ* − θa) e^{HOLD t_c / T} (`HOLD`, at
+     most `MAX_BURST_K` above the inverse's target θ*): heated inside its loop it keeps its
+     contraction while it then cools, for about HOLD t_c;
+  2. the incoming wire gets the exact thermal inverse to θs over the horizon t_c, so that
+     it starts to move when the reference crosses (the outgoing one is let go).
+  The handover lasts until the reference has crossed.
+* both only while the model's open-loop reading follows the measurement (`observe`,
+  `TRUST_RAD`): they act on the model's word for up to a second.
 
-* the outgoing (primary) wire gets its whole frame's energy in its slot, duty
-  min(1, d_p N / k_p), k_p = ceil(d_p N), d_p its requested duty. Heated above its cooling
-  branch a wire does not move (a reversal inside the loop leaves the contraction as it
-  is), so the burst is stored and released while it coasts;
-* each gap is the interlock's dead time, n_g = ceil(dead_time / dt) samples at zero;
-* the incoming wire gets the duty that takes its estimate θ̂ to the preheat temperature
-  θpre = θa + f (θs − θa), f = `PREHEAT_FRACTION`, within its slot. Below θs its
-  contraction stays zero, so the preheat moves nothing either.
-
-Sharing starts when the reference, extrapolated at its present rate ṙ, reaches the
-crossing within the time the incoming wire needs to reach θpre at the share it gets:
-
-    t_c = (φ0 − p⁻¹(r)) / ṙ  <=  START_FACTOR t_need + START_MARGIN_S,
-    t_need = T ln((G s − (θ̂ − θa)) / (G s − (θpre − θa))),   s = (N − k_p − 2 n_g) / N
-
-(t_need infinite when G s <= θpre − θa: sharing starts at once, at most `MAX_LEAD_S`
-ahead). A step (ṙ = 0) or a reference that does not cross gets no preheat.
+A step (ṙ = 0) or a reference that does not head for a crossing gets neither.
 """
 import math
 
 
+# early handover: at most this far ahead [s]; start at LEAD t_need; hold burst HOLD t_c,
+# at most MAX_BURST_K [K] above the target (0.05 Hz sine, docs/controller.md)
 MAX_LEAD_S = 2.0
 LEAD = 0.9
 HOLD = 0.3
