@@ -236,20 +236,6 @@ def stroke_scale(data, strokes):
     return s
 
 
-def rest_reference(data, values):
-    """
-    Return per-sample `values` at the first sample of each record of joined `data`.
-
-    From a record's first sample to the next record's, as `zeros`.
-    """
-    out = np.empty(len(data))
-    segs = data.segments or (('DATA', 0, len(data)),)
-    for i, (_, a, _) in enumerate(segs):
-        stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
-        out[a:stop] = values[a]
-    return out
-
-
 def segment_view(data, a, b):
     """Return samples [a, b) of joined `data` as a plain `DynamicData` (one record)."""
     def cut(x):
