@@ -589,6 +589,70 @@ def close_major_loop(grid: PlayHysteresis, u_rest: float) -> PlayHysteresis:
     return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
 
 
+def flexinol_loop_ratio():
+    """
+    Return β = r / (c − θ_rest) of the datasheet loop (`core.actuator.flexinol_hysteresis`).
+
+    r: the mean half-width of its elements, c − θ_rest: how far the loop's centre lies above
+    the default ambient. For Flexinol LT (As 68, Af 78, Ms 52, Mf 42 °C at 22 °C) that is
+    13 K / 38 K = 0.34: the cooling branch lies at (1 − β)/(1 + β) = 0.49 of the heating
+    branch's height above ambient. The thermal model is linear in the excess temperature
+    θ − θ_rest (eq. 7), so a heating gain G that is off by a factor scales both heights
+    alike and β holds on the model's own temperature scale.
+    """
+    h, p = act.flexinol_hysteresis(), act.ActuatorParams()
+    centre = 0.5 * (h.lo + h.hi)
+    return float(np.mean(h.r) / (np.mean(centre) - p.ambient_c))
+
+
+def tie_loop_width(grid, u_rest, ratio, edge=None, spread=None):
+    """
+    Return the saturated `grid` with the elements' half-widths tied to the heating edge.
+
+    An element of half-width r and band [lo, hi] rises over [lo + r, hi + r] on heating and
+    falls over [lo − r, hi − r] on cooling. Data that only heats identifies the rising
+    cells but not r: any width fits them, and the cooling is then predicted anywhere
+    between the heating edge and the rest. With ratio β (`flexinol_loop_ratio`) the loop
+    keeps the datasheet's proportions: one half-width r = f β (e − θ_rest) / (1 + β) for
+    every element, e the heating edge (the loop centre c = e − r then lies
+    (e − θ_rest)/(1 + β) above the rest and r = f β (c − θ_rest)), so the cooling branch
+    spans as many kelvin as the heating branch, 2 r lower, as As-Af and Ms-Mf do. f spreads
+    the widths of one cell over `spread` by their rank in the grid (the datasheet loop
+    spreads them too, so minor loops keep a shape; default its min and max over mean
+    half-width, 0.85 and 1.15). edge: the heating edge [°C] (the
+    weight centre of a previous fit's rising cells, `heating_edge`); None: each element's
+    own rising cell (before any fit). The rising cells are kept. ratio None, or
+    unsaturated (classical) elements: `grid` is returned as it is.
+    """
+    if ratio is None or not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
+        return grid
+    if spread is None:
+        datasheet = act.flexinol_hysteresis().r
+        spread = (datasheet.min() / datasheet.mean(), datasheet.max() / datasheet.mean())
+    cell = 0.5 * (grid.lo + grid.hi) + grid.r
+    half = 0.5 * (grid.hi - grid.lo)
+    widths = np.unique(grid.r)
+    rank = np.searchsorted(widths, grid.r) / max(len(widths) - 1, 1)
+    f = spread[0] + (spread[1] - spread[0]) * rank
+    e = cell if edge is None else edge
+    r = np.maximum(ratio * (e - u_rest) / (1.0 + ratio), 0.0) * f
+    c = cell - r
+    return PlayHysteresis(r, c - half, c + half, grid.w, grid.k1, grid.y0)
+
+
+def heating_edge(h, span):
+    """
+    Return the weight centre [°C] of the rising cells of hysteresis `h`.
+
+    Σ m_i (c_i + r_i) / Σ m_i with m_i = w_i · span_i, the output each element gives over
+    the state range `span` it covers in the training window (as `_adaptive_grid` weighs).
+    """
+    mass = h.w * span
+    if not np.isfinite(mass).all() or mass.sum() <= 0:
+        return None
+    return float(np.sum(mass * (0.5 * (h.lo + h.hi) + h.r)) / mass.sum())
+
+
 def _settle(prob: _Problem, values: dict, ref: PlayHysteresis,
             steps: int = FIXED_POINT_STEPS) -> Settled:
     """
@@ -696,6 +760,8 @@ class Setup:
     burn_in: int
     input_hook: Optional[Callable] = None
     start_tau: bool = False
+    # β of `tie_loop_width` (None: the grids' widths are free), see `fit_dynamic`
+    loop_ratio: Optional[float] = None
 
     @property
     def feedback(self) -> bool:
@@ -755,7 +821,8 @@ class Settled:
 def prepare(data: DynamicData, free: Optional[dict] = None,
             base: Optional[act.ActuatorParams] = None, start: Optional[dict] = None,
             input_hook: Optional[Callable] = None,
-            train_fraction: float = TRAIN_FRACTION) -> Setup:
+            train_fraction: float = TRAIN_FRACTION,
+            loop_ratio: Optional[float] = None) -> Setup:
     """
     Check the problem and fix what every stage shares: base model, bounds, split.
 
@@ -789,7 +856,7 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
     if start:
         values.update({k: v for k, v in start.items() if k in values})
     return Setup(data, base, free, values, n_train, burn_in, input_hook,
-                 bool(start) and 'tau_s' in start)
+                 bool(start) and 'tau_s' in start, loop_ratio)
 
 
 def input_range(setup: Setup) -> InputRange:
@@ -814,8 +881,9 @@ def fit_coarse(setup: Setup, span: InputRange, kind: str, options: SearchOptions
     setup names a previous fit's, which is then the one start.
     """
     values = dict(setup.values)
-    prob = _Problem(setup, close_major_loop(play_grid(span.lo, span.hi, kind, *options.coarse),
-                                            span.rest))
+    coarse = tie_loop_width(play_grid(span.lo, span.hi, kind, *options.coarse), span.rest,
+                            setup.loop_ratio)
+    prob = _Problem(setup, close_major_loop(coarse, span.rest))
     ref = prob.grid
     if setup.feedback:   # a first reference, so the search sees the feedback at all
         ref = _settle(prob, values, ref).ref
@@ -847,9 +915,11 @@ def refine_grid(setup: Setup, span: InputRange, kind: str, previous: GridFit,
     if kind == 'modified':
         h = previous.problem.with_linear(set_values(setup.base, values),
                                          previous.solution).hysteresis
-        grid, shape = _adaptive_grid(h, previous.solution.state_hi - previous.solution.state_lo,
-                                     span.lo, span.hi, *options.fine)
-        grid = close_major_loop(grid, span.rest)
+        states = previous.solution.state_hi - previous.solution.state_lo
+        grid, shape = _adaptive_grid(h, states, span.lo, span.hi, *options.fine)
+        edge = heating_edge(h, states)
+        grid = close_major_loop(tie_loop_width(grid, span.rest, setup.loop_ratio, edge),
+                                span.rest)
     else:
         grid = play_grid(span.lo, span.hi, kind, *options.fine)
     prob = _Problem(setup, grid)
@@ -927,7 +997,8 @@ def fit_dynamic(data: DynamicData, free: Optional[dict] = None, kind: str = 'mod
                 base: Optional[act.ActuatorParams] = None,
                 grid: Optional[PlayHysteresis] = None, start: Optional[dict] = None,
                 input_hook: Optional[Callable] = None, ref: Optional[PlayHysteresis] = None,
-                options: SearchOptions = SearchOptions()) -> DynamicFit:
+                options: SearchOptions = SearchOptions(),
+                loop_ratio: Optional[float] = None) -> DynamicFit:
     """
     Fit the actuator model to a dynamic run by free-run simulation error.
 
@@ -941,12 +1012,15 @@ def fit_dynamic(data: DynamicData, free: Optional[dict] = None, kind: str = 'mod
     (duty_a, duty_b, ambient): plug-in transform of the inputs with its own free
     parameters (names not in ActuatorParams). ref: hysteresis on `grid` used in the
     feedback path of the first round (default: the grid with zero weights, i.e. no
-    feedback until the first weights are known). options: `SearchOptions`. The fitted
+    feedback until the first weights are known). options: `SearchOptions`. loop_ratio:
+    None, or β of `tie_loop_width` (the descending branch tied to the ascending one, for
+    training data that never shows the wire cooling through its transformation; the
+    workbench passes `flexinol_loop_ratio()` then). The fitted
     elements' bands are narrowed to the states they took in the training window
     (`narrow_bands`). Returns a `DynamicFit` scored by free-run error on training and
     held-out data.
     """
-    setup = prepare(data, free, base, start, input_hook, options.train_fraction)
+    setup = prepare(data, free, base, start, input_hook, options.train_fraction, loop_ratio)
     values = setup.values
     if grid is None:
         span = input_range(setup)
