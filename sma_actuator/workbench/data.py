@@ -34,9 +34,10 @@ Every problem raises `DataError` (a ValueError) whose message names the file and
 there is one, the line (1-based, as an editor shows it) and the column.
 """
 import csv
+import os
 from pathlib import Path
 import re
-from typing import Any
+from typing import Any, Optional, Union
 
 import numpy as np
 
@@ -64,12 +65,14 @@ MIN_SAMPLES = 10
 MCAP_MAGIC = b'\x89MCAP'
 STEADY_RATE_TOLERANCE = 0.01   # relative deviation of a time step from the median step
 
+PathLike = Union[str, os.PathLike]
+
 
 class DataError(ValueError):
     """DATA cannot be used as given; the message names file, line and column."""
 
 
-def parse_unit(text, source):
+def parse_unit(text: str, source: Any) -> str:
     """Return the canonical spelling of position unit `text`; `DataError` if unknown."""
     unit = UNITS.get(str(text).strip().lower())
     if unit is None:
@@ -78,7 +81,7 @@ def parse_unit(text, source):
     return unit
 
 
-def comment_unit(path):
+def comment_unit(path: PathLike) -> Optional[str]:
     """Return the unit named by a '# ... position in UNIT' comment of a CSV file, or None."""
     try:
         with open(path, encoding='utf-8-sig', errors='replace') as fh:
@@ -92,7 +95,8 @@ def comment_unit(path):
     return None
 
 
-def load_data(path, rate_hz=None, position_unit=None):
+def load_data(path: PathLike, rate_hz: Optional[float] = None,
+              position_unit: Optional[str] = None) -> Any:
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
@@ -123,7 +127,7 @@ def load_data(path, rate_hz=None, position_unit=None):
                     f'{FORMATS_HELP}')
 
 
-def is_bag(path):
+def is_bag(path: PathLike) -> bool:
     """Return True if `path` is an MCAP file (suffix or magic bytes) or a folder with one."""
     path = Path(path)
     if path.is_dir():
@@ -138,7 +142,7 @@ def is_bag(path):
 
 
 # ------------------------------------------------------------------------------ CSV
-def read_csv_table(path):
+def read_csv_table(path: PathLike) -> tuple:
     """
     Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
 
@@ -178,7 +182,7 @@ def read_csv_table(path):
     return header, np.array(rows, float), np.array(lines)
 
 
-def _csv_fields(path, line_no, text):
+def _csv_fields(path: PathLike, line_no: int, text: str) -> list:
     """Split one CSV line into fields; a malformed or oversized field is a `DataError`."""
     try:
         return next(csv.reader([text]), [])
@@ -186,7 +190,8 @@ def _csv_fields(path, line_no, text):
         raise DataError(f'{path}: line {line_no}: not a valid CSV row ({err})') from None
 
 
-def _check_header(path, line_no, header):
+def _check_header(path: PathLike, line_no: int, header: list) -> None:
+    """Raise `DataError` for an empty, numeric or repeated column name."""
     if any(not h for h in header):
         raise DataError(f'{path}: line {line_no}: empty column name in the header')
     if all(_is_number(h) for h in header):
@@ -199,11 +204,13 @@ def _check_header(path, line_no, header):
         seen.add(h)
 
 
-def _is_number(text):
+def _is_number(text: str) -> bool:
+    """Return True if `text` parses as a number."""
     return limits.is_number(text)
 
 
-def _parse_row(path, line_no, header, fields):
+def _parse_row(path: PathLike, line_no: int, header: list, fields: list) -> list:
+    """Return the finite numbers of one CSV row; `DataError` naming line and column."""
     if len(fields) != len(header):
         raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
                         f'{len(header)} ({",".join(header)})')
@@ -224,7 +231,8 @@ def _parse_row(path, line_no, header, fields):
     return values
 
 
-def _columns(path, header, rows, needed, optional=()):
+def _columns(path: PathLike, header: list, rows: np.ndarray, needed: tuple,
+             optional: tuple = ()) -> dict:
     """Return a dict name -> column of the needed (error if missing) and present optional names."""
     missing = [c for c in needed if c not in header]
     if missing:
@@ -233,7 +241,7 @@ def _columns(path, header, rows, needed, optional=()):
     return {c: rows[:, header.index(c)] for c in (*needed, *optional) if c in header}
 
 
-def _units_from_header(path, header):
+def _units_from_header(path: PathLike, header: list) -> tuple:
     """Return (header with units stripped from position/setpoint names, the unit or None)."""
     out, unit = [], None
     for h in header:
@@ -248,7 +256,8 @@ def _units_from_header(path, header):
     return out, unit
 
 
-def dynamic_from_table(path, header, rows, lines, unit='rad'):
+def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np.ndarray,
+                       unit: str = 'rad') -> DynamicData:
     """`DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line."""
     cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
     if 'duty_b' not in cols:   # one wire against a bias spring
@@ -266,7 +275,7 @@ def dynamic_from_table(path, header, rows, lines, unit='rad'):
     return make_dynamic(path, cols, unit)
 
 
-def check_time(path, time, lines):
+def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> None:
     """Raise `DataError` unless time [s] rises strictly at a steady rate; names the line."""
     steps = np.diff(time)
     bad = np.flatnonzero(steps <= 0)
@@ -288,7 +297,7 @@ def check_time(path, time, lines):
                         'steady rate; resample it)')
 
 
-def make_dynamic(source, cols, unit='rad'):
+def make_dynamic(source: Any, cols: dict, unit: str = 'rad') -> DynamicData:
     """
     Return a `DynamicData` from a dict with the dynamic column names; errors name `source`.
 
@@ -303,7 +312,8 @@ def make_dynamic(source, cols, unit='rad'):
         raise DataError(f'{source}: {err}') from None
 
 
-def static_from_table(path, header, rows, lines):
+def static_from_table(path: PathLike, header: list, rows: np.ndarray,
+                      lines: np.ndarray) -> StaticData:
     """`StaticData` from a parsed static CSV (either layout), curve ids checked."""
     layout = next((lay for lay in STATIC_LAYOUTS if all(c in header for c in lay)), None)
     if layout is None:
@@ -325,7 +335,7 @@ def static_from_table(path, header, rows, lines):
     return make_static(path, values['input'], values['output'], curve)
 
 
-def make_static(source, u, y, curve):
+def make_static(source: Any, u: np.ndarray, y: np.ndarray, curve: np.ndarray) -> StaticData:
     """Return `StaticData(input, output, curve)`; needs an even (training) curve."""
     if not (curve % 2 == 0).any():
         raise DataError(f'{source}: no even-numbered curve to train on (curves train on even '
@@ -341,7 +351,7 @@ def make_static(source, u, y, curve):
 
 
 # ------------------------------------------------------------------------------ bags
-def load_bag(path, rate_hz=None):
+def load_bag(path: PathLike, rate_hz: Optional[float] = None) -> DynamicData:
     """
     `DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
 
