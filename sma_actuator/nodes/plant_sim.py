@@ -64,8 +64,8 @@ from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, initial_value, Param, ParameterError
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
-from ..control.model_file import load_model
 from ..core.actuator import ActuatorParams, AntagonisticActuator
+from ..core.model_file import load_model
 from ..core.sensor import Potentiometer
 
 # (parameter, range, description) for every switchable effect of ActuatorParams; each range
