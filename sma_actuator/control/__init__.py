@@ -39,6 +39,11 @@ Modules:
 * `inputs`: validation of setpoints and duties (reject, keep the last valid value).
 * `metrics`: rms / max error and settling time of a tracking run.
 * `excitation`: open-loop duty sequences for identification runs.
+* `interlock`: the dead-time rule between the two wires (also used by plant_sim and the bridge).
+* `closed_loop`: a `ControllerCore` against any plant, sample by sample (benchmarks, tests).
+
+`load_model` is `core.model_file.load_model`, re-exported here: the package's one model
+file is read and written in `core.model_file` (docs/workbench.md, "The model file").
 """
 from .law import ControllerCore, ControllerSettings, ControlStep
 from ..core.model_file import load_model
