@@ -121,7 +121,7 @@ class PlayHysteresis:
         return y
 
     def output_range(self) -> Tuple[float, float]:
-        """Return (y_min, y_max) reachable for inputs within the saturation bands (finite bands only)."""
+        """Return (y_min, y_max) reachable for inputs within the (finite) saturation bands."""
         lo = np.where(np.isfinite(self.lo), self.lo, 0.0)
         hi = np.where(np.isfinite(self.hi), self.hi, 0.0)
         u_lo = float(np.min(lo - self.r)) if self.n_operators else 0.0

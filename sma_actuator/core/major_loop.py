@@ -67,7 +67,11 @@ def _branch(kind: int, heating: bool, u: float, a_s: float, a_f: float, m_s: flo
 @njit(cache=True)
 def _simulate(kind: int, u: np.ndarray, a_s: float, a_f: float, m_s: float, m_f: float,
               state: np.ndarray) -> np.ndarray:
-    """Return the martensite fraction for each sample; state = [u_prev, xi_prev, direction, u_r, xi_r]."""
+    """
+    Return the martensite fraction for each sample.
+
+    state = [u_prev, xi_prev, direction, u_r, xi_r] is updated in place.
+    """
     n = u.shape[0]
     xi_out = np.empty(n)
     u_prev, xi, direction, u_r, xi_r = state[0], state[1], state[2], state[3], state[4]
@@ -120,7 +124,7 @@ class MajorLoopHysteresis:
         self.reset()
 
     def reset(self, u0: Optional[float] = None) -> None:
-        """Go to the cold, fully martensitic state (xi = 1) at temperature u0 (default Mf - 10 °C)."""
+        """Go to the cold, fully martensitic state (xi = 1) at u0 [°C] (default Mf - 10 °C)."""
         u0 = self.Mf - 10.0 if u0 is None else finite_scalar('u0', u0)
         self._state = np.array([u0, 1.0, -1.0, u0, 1.0])
 
@@ -136,7 +140,7 @@ class MajorLoopHysteresis:
         return self.y0 * float(x[0])
 
     def simulate(self, u: ArrayLike, reset: bool = True) -> np.ndarray:
-        """Return the lengths for a temperature sequence u [°C] (from the reset state unless reset=False)."""
+        """Return the lengths for temperatures u [°C] (from the reset state unless reset=False)."""
         u = finite_array('u', u)
         if reset:
             self.reset(min(u[0], self.Mf - 10.0))
