@@ -27,7 +27,7 @@ import numpy as np
 
 from .metrics import summarize
 from ..core.actuator import AntagonisticActuator
-from ..core.sensor import Potentiometer
+from ..core.sensor import POT_RANGE_RAD, Potentiometer
 
 
 class CorePlant:
@@ -35,7 +35,7 @@ class CorePlant:
 
     def __init__(self, params, dt_s=0.025, noise_rad=0.001, seed=7, bits=12):
         self.actuator = AntagonisticActuator(params)
-        self.pot = Potentiometer(bits, -1.2, 1.2, noise_rad)
+        self.pot = Potentiometer(bits, *POT_RANGE_RAD, noise_rad)
         self.rng = np.random.default_rng(seed)
         self.dt_s = dt_s
         self.reading = self._read(self.actuator.reading_now)

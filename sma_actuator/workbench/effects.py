@@ -15,18 +15,24 @@
 """
 Catalog of physical effects the base model (the paper's) may lack.
 
-Each effect is a small class: its docstring states the physics, `parameters` maps the
-`ActuatorParams` fields it frees to (lower, upper, start) bounds, and `signature` says
-what the residual of a model without it looks like. The physics itself lives in
-`sma_actuator.core.actuator` (one implementation, shared with the plant node).
+Each effect is a small class for behaviour only: its docstring states the physics and
+`signature` says what the residual of a model without it looks like. Its `parameters`,
+the `ActuatorParams` fields it frees with their (lower, upper, start) fit bounds, derive
+from the fields' declarations (`ParamSpec.effect`, `core.actuator`); the physics itself
+lives in `sma_actuator.core.actuator` (one implementation, shared with the plant node).
+docs/architecture.md has the recipe for a new effect.
 
 Plug-in point: subclass `Effect` in your own module and call `register_effect(cls)`
 (or expose the module under the `sma_actuator.effects` entry-point group / pass it to
 `sma-model --plugin`). A plug-in effect may free existing ActuatorParams fields and may
 bring parameters of its own that act through `transform_inputs` (duties and ambient
-before the thermal model), e.g. a supply that sags with load or a PWM dead time.
+before the thermal model), e.g. a supply that sags with load or a PWM dead time. Such
+parameters are declared once too, as `ParamSpec`s in `declares`, from which `parameters`
+and `neutral` follow.
 """
 import numpy as np
+
+from ..core.actuator import fit_table
 
 
 class Effect:
@@ -44,6 +50,23 @@ class Effect:
     own_grid = False
     # acts between the two wires: not applicable to a single wire against a bias spring
     needs_two_wires = False
+    # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (fit and neutral used)
+    declares = {}
+
+    def __init_subclass__(cls, **kwargs):
+        """
+        Derive `parameters` (and `neutral`) from the declarations.
+
+        The `ActuatorParams` fields declared with this effect's name, then its own
+        `declares`; a class that declares nothing keeps what it states or inherits.
+        """
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__.get('declares', {})
+        table = dict(fit_table(cls.name), **{k: spec.fit for k, spec in own.items()})
+        if table and 'parameters' not in cls.__dict__:
+            cls.parameters = table
+        if own and 'neutral' not in cls.__dict__:
+            cls.neutral = {k: spec.neutral for k, spec in own.items()}
 
     def scratch_start(self, params):
         """
@@ -132,7 +155,6 @@ class FastDynamics(Effect):
     """
 
     name = 'fast_dynamics'
-    parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
     # (rich simulator M 1.17: +36 % warm-started, +67 % from scratch)
     own_grid = True
@@ -166,7 +188,6 @@ class Delay(Effect):
     """
 
     name = 'delay'
-    parameters = {'delay_s': (0.0, 1.5, 0.05)}
     # also from scratch, like fast_dynamics: a plant record with a 0.3 s delay refitted
     # warm reached 0.12 % training NRMSE and lost to fast_dynamics from scratch (0.10 %);
     # from scratch the delay fits to the noise (0.05 %, 0.3015 s)
@@ -205,7 +226,6 @@ class Convection(Effect):
     """
 
     name = 'convection'
-    parameters = {'convection_exponent': (-0.2, 1.0, 0.2)}
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
                  'high duty, cooling faster than modelled; residual correlates with temperature')
 
@@ -219,7 +239,6 @@ class AmbientDrift(Effect):
     """
 
     name = 'ambient_drift'
-    parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
     # a drifting ambient shifts every temperature; without it the base fit (often with a
     # wrong time constant) puts its grid where the wires would be at constant ambient
     own_grid = True
@@ -246,9 +265,6 @@ class PhaseResistance(Effect):
     """
 
     name = 'phase_resistance'
-    # NiTi resistivity differs by roughly 10-25 % between the phases; the bound leaves
-    # room for a current limiter that is not perfectly stiff and covers the plant's range
-    parameters = {'phase_kappa': (-0.5, 0.5, 0.1)}
 
     def bounds(self, params):
         """
@@ -291,7 +307,6 @@ class StressCoupling(Effect):
     """
 
     name = 'stress_coupling'
-    parameters = {'stress_k': (0.0, 50.0, 4.0)}
     needs_two_wires = True
     signature = ('loop of each wire shifts with the state of the other: error larger when '
                  'the antagonist is contracted (near the ends of travel), depends on history')
@@ -305,8 +320,6 @@ class AsymmetricWires(Effect):
     """
 
     name = 'asymmetric_wires'
-    parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
-                  'stroke_ratio_b': (0.5, 2.0, 1.0)}
     needs_two_wires = True
     signature = ('error has opposite character on the two sides: one direction too fast or '
                  'too far, the other too slow or short; residual correlates with sign of position')
@@ -322,10 +335,6 @@ class SensorNonlinearity(Effect):
     """
 
     name = 'sensor_nonlinearity'
-    # bounded so each term alone keeps p monotone over about ±1 rad of travel (together
-    # they may turn earlier: `core.actuator.sensor_inverse` then falls back to first order)
-    parameters = {'sensor_c2_rad': (-0.25, 0.25, 0.0), 'sensor_c3_rad': (-0.3, 0.3, 0.0),
-                  'sensor_c4_rad': (-0.15, 0.15, 0.0), 'sensor_c5_rad': (-0.15, 0.15, 0.0)}
     signature = ('static, memoryless error that is a smooth function of the position '
                  '(bow or S-shape in the residual-vs-position plot), same on both branches')
 
@@ -341,12 +350,6 @@ class FatigueDrift(Effect):
     """
 
     name = 'fatigue_drift'
-    # N_f >= 2 cycles: a faster shakedown ends within the first transformation, where
-    # g_a − g_b with huge cancelling offsets only fits the start-up transient
-    parameters = {'fatigue_stroke': (-0.5, 0.8, 0.05), 'fatigue_cycles': (2.0, 5000.0, 20.0),
-                  # solved linearly with the weights, each within ± half the measured travel
-                  'fatigue_offset_rad': (-float('inf'), float('inf'), 0.0),
-                  'fatigue_offset_b_rad': (-float('inf'), float('inf'), 0.0)}
 
     def alternative_starts(self, data):
         """Slow (nearly linear) drift is a different basin from a quick shakedown."""
@@ -365,8 +368,6 @@ class CurrentLimit(Effect):
     """
 
     name = 'current_limit'
-    # sharpness n of the p-norm limiter: ~2 (very soft) to 30 (practically a hard corner)
-    parameters = {'duty_limit': (0.02, 1.0, 0.9), 'duty_limit_sharpness': (2.0, 30.0, 6.0)}
     signature = ('model over-heats only at the highest duties: error at full contraction '
                  'after large duty steps, none at small duties')
 
