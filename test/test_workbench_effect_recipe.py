@@ -60,6 +60,7 @@ def scratch_effect(tmp_path):
         CATALOG.pop('recipe_dead_time', None)
 
 
+@pytest.mark.slow
 def test_a_scratch_effect_declared_once_is_in_the_catalog_and_fits(scratch_effect):
     assert scratch_effect.name == 'recipe_dead_time'
     # bounds, start and neutral value come from the one declaration
