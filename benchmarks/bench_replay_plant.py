@@ -54,7 +54,7 @@ def record_reference(bag, duration_s=16.0):
     """Record a lockstep closed-loop run (sim time) to ; return the bag path."""
     import rclpy
 
-    from sma_actuator.nodes.harness import run_closed_loop
+    from sma_actuator.in_process import run_closed_loop
     from sma_actuator.nodes.recorder import RecorderNode
     context = rclpy.context.Context()
     rclpy.init(context=context)

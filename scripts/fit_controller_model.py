@@ -17,7 +17,7 @@ Make config/controller_model.yaml: record plant_sim's excitation run, then sma-m
 
 1. plant_sim (the ROS node, accelerated, lockstep, noise seed SEED + 1000) is driven open
    loop by `control.excitation.multilevel` (150 s, seed SEED) through the real topics
-   (`nodes.harness.run_excitation`); the record is written as a CSV
+   (`in_process.run_excitation`); the record is written as a CSV
    (time,duty_a,duty_b,position) next to the model, `<out>.record.csv`.
 2. ``sma-model fit <record> --out <out>`` fits the paper's model (plus --add EFFECT ...)
    exactly as a user would; the provenance (this command, the record, the fit's scores)
@@ -35,7 +35,7 @@ import sys
 import numpy as np
 import rclpy
 from sma_actuator.control.excitation import multilevel
-from sma_actuator.nodes.harness import run_excitation
+from sma_actuator.in_process import run_excitation
 from sma_actuator.workbench.cli import main as sma_model
 import yaml
 

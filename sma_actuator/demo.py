@@ -143,7 +143,7 @@ def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance
             real_time_factor=100.0, record=True, controller=None, plant=None, log=print,
             overwrite=False):
     """Run every (profile, mode); write figures, traces and summary.json; return the summary."""
-    from .nodes.harness import run_closed_loop
+    from .in_process import run_closed_loop
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = {'profiles': {}}
@@ -193,7 +193,7 @@ def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
     import yaml
 
     from .nodes.common import config_path
-    from .nodes.harness import run_closed_loop
+    from .in_process import run_closed_loop
 
     def config(name, drop=()):
         with open(config_path(f'{name}.yaml')) as f:

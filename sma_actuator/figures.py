@@ -15,7 +15,7 @@
 """
 Paper figures rendered from the core code (`model_figures --out DIR`).
 
-Fig. 2 main loop (cosine eqs. 1-2 and Ikuta), Fig. 5 Preisach (231 relays), Figs. 8-9
+Fig. 2 major loop (cosine eqs. 1-2 and Ikuta), Fig. 5 Preisach (231 relays), Figs. 8-9
 classical Prandtl-Ishlinskii (8 backlash elements, total h = 1, K = 1), Fig. 11 modified
 PI (8 backlash-with-saturation elements), the thermal step response of eq. (7) (exact
 discretisation against a fine ODE reference) and the fit to measured morphing-wing loops.
@@ -35,7 +35,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 from .core import identification as idn  # noqa: E402
 from .core.hysteresis import (ModifiedPrandtlIshlinskii, PrandtlIshlinskii,  # noqa: E402
                               PreisachModel)
-from .core.mainloop import MainLoopHysteresis  # noqa: E402
+from .core.major_loop import MajorLoopHysteresis  # noqa: E402
 from .core.thermal import thermal_step  # noqa: E402
 
 # the measured loops ship in the workspace's shared/ folder beside the repository
@@ -76,7 +76,7 @@ def fig_main_loop(ax):
     up = np.linspace(20.0, 100.0, 400)
     u = np.concatenate([up, up[::-1]])
     for kind, style in (('cosine', '-'), ('ikuta', '--')):
-        y = MainLoopHysteresis(68.0, 78.0, 52.0, 42.0, y0=1.0, kind=kind).simulate(u)
+        y = MajorLoopHysteresis(68.0, 78.0, 52.0, 42.0, y0=1.0, kind=kind).simulate(u)
         ax.plot(u, y, style, label=kind)
     for t, name in ((68, 'As'), (78, 'Af'), (52, 'Ms'), (42, 'Mf')):
         ax.axvline(t, color='0.8', lw=0.8)

@@ -23,7 +23,7 @@ from sma_actuator.core.hysteresis import (
     PrandtlIshlinskii,
     PreisachModel,
 )
-from sma_actuator.core.mainloop import MainLoopHysteresis
+from sma_actuator.core.major_loop import MajorLoopHysteresis
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a
 
@@ -46,7 +46,7 @@ CASES = {
     # non-finite inputs
     'pi_nan_input': (lambda: PI.simulate([0.0, NAN]), r'^u contains a non-finite'),
     'pi_step_inf': (lambda: PI.step(INF), r'^u must be finite'),
-    'mainloop_nan': (lambda: MainLoopHysteresis().simulate([20.0, NAN]), r'^u contains'),
+    'major_loop_nan': (lambda: MajorLoopHysteresis().simulate([20.0, NAN]), r'^u contains'),
     'preisach_nan': (lambda: PreisachModel.grid(5).simulate([NAN]), r'^u contains'),
     'weights_nan': (lambda: PlayHysteresis([1.0], [-1.0], [1.0], [NAN]), r'^w \(weights\)'),
     'params_nan': (lambda: act.ActuatorParams(length_m=NAN), r'^length_m must be finite'),
@@ -63,8 +63,8 @@ CASES = {
                                                   0.025), r'duty_a and duty_b'),
     'data_length_mismatch': (lambda: idn.DynamicData(**data(duty_b=np.zeros(19))), r'duty_b'),
     # transformation temperatures
-    'as_ge_af': (lambda: MainLoopHysteresis(As=80.0, Af=78.0), r'^As must be below Af'),
-    'mf_ge_ms': (lambda: MainLoopHysteresis(Ms=42.0, Mf=42.0), r'^Mf must be below Ms'),
+    'as_ge_af': (lambda: MajorLoopHysteresis(As=80.0, Af=78.0), r'^As must be below Af'),
+    'mf_ge_ms': (lambda: MajorLoopHysteresis(Ms=42.0, Mf=42.0), r'^Mf must be below Ms'),
     # hysteresis parameters
     'pi_negative_K': (lambda: PrandtlIshlinskii([1.0], [-1.0]), r'^K \(backlash slopes\)'),
     'pi_negative_h': (lambda: PrandtlIshlinskii([-1.0], [1.0]), r'^h \(backlash half-widths\)'),

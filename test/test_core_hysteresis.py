@@ -22,7 +22,7 @@ from sma_actuator.core.hysteresis import (
     PrandtlIshlinskii,
     PreisachModel,
 )
-from sma_actuator.core.mainloop import MainLoopHysteresis
+from sma_actuator.core.major_loop import MajorLoopHysteresis
 
 TIGHT = 1e-9   # float round-off on O(1) outputs; the laws themselves are exact
 
@@ -55,8 +55,8 @@ MODELS = {
     'pi': (lambda u: classical_pi().simulate(u), 0.0, 2.0, 1),
     'modified_pi': (lambda u: modified_pi()[0].simulate(u), 0.0, 4.0, 1),
     'preisach': (lambda u: PreisachModel.grid(21).simulate(u), 0.0, 1.1, 1),
-    'cosine': (lambda u: MainLoopHysteresis(kind='cosine').simulate(u), 60.0, 35.0, -1),
-    'ikuta': (lambda u: MainLoopHysteresis(kind='ikuta').simulate(u), 60.0, 35.0, -1),
+    'cosine': (lambda u: MajorLoopHysteresis(kind='cosine').simulate(u), 60.0, 35.0, -1),
+    'ikuta': (lambda u: MajorLoopHysteresis(kind='ikuta').simulate(u), 60.0, 35.0, -1),
 }
 
 
@@ -171,7 +171,7 @@ def test_streaming_step_equals_batch(kind):
     rng = np.random.default_rng(5)
     if kind in ('cosine', 'ikuta'):
         u = 60 + np.clip(np.cumsum(rng.normal(0, 2, 500)), -40, 40)
-        make = lambda: MainLoopHysteresis(kind=kind)  # noqa: E731
+        make = lambda: MajorLoopHysteresis(kind=kind)  # noqa: E731
     else:
         u = np.clip(np.cumsum(rng.normal(0, 0.1, 500)), -3, 3)
         make = {'pi': classical_pi, 'modified': lambda: modified_pi()[0],

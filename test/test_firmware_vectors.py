@@ -29,7 +29,7 @@ import subprocess
 
 import pytest
 from sma_actuator.hardware import protocol as p
-from sma_actuator.hardware import vectors
+from support import firmware_vectors as vectors
 
 FIRMWARE = Path(__file__).resolve().parents[1] / 'firmware'
 CXXFLAGS = ['-std=c++17', '-Wall', '-Wextra', '-Werror', '-O1', f'-I{FIRMWARE / "sma_mcu"}']
@@ -71,7 +71,7 @@ def _load_vectors():
 def test_vectors_file_matches_python_generator_byte_for_byte():
     expected = vectors.render(vectors.build_vectors())
     assert (FIRMWARE / 'test_vectors.json').read_text() == expected, \
-        'firmware/test_vectors.json is stale: run python -m sma_actuator.hardware.vectors --write'
+        'firmware/test_vectors.json is stale: run python test/support/firmware_vectors.py --write'
 
 
 def test_firmware_reproduces_every_vector(vector_driver):

@@ -34,7 +34,7 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from rclpy.parameter import Parameter  # noqa: E402, I100, I202
 
-from sma_actuator.nodes import common as c  # noqa: E402, I100
+from sma_actuator.nodes import ros_console, ros_params  # noqa: E402, I100
 
 NODES = {'plant_sim': 'plant_sim', 'controller': 'controller', 'setpoint': 'setpoint',
          'hardware_bridge': 'hardware_bridge', 'recorder': 'recorder', 'replay': 'replay'}
@@ -59,7 +59,7 @@ def _run(name, *args, cwd=None, domain=None):
 
 def _declared(node):
     names = node.get_parameters_by_prefix('')
-    return {k: v for k, v in names.items() if k not in c.RCLPY_PARAMETERS}
+    return {k: v for k, v in names.items() if k not in ros_params.RCLPY_PARAMETERS}
 
 
 def _make_node(name, context, tmp_path):
@@ -113,7 +113,7 @@ def test_help_lists_every_declared_parameter_and_starts_nothing(name, tmp_path, 
     for pname, descriptor in descriptors.items():
         line = next((ln for ln in text.splitlines() if ln.startswith(f'  {pname} (')), None)
         assert line is not None, f'{pname} missing from {name} --help'
-        kind = {v: k for k, v in c.KINDS.items()}[descriptor.type]
+        kind = {v: k for k, v in ros_params.KINDS.items()}[descriptor.type]
         assert f'({kind}, default ' in line, line
         for r in list(descriptor.floating_point_range) + list(descriptor.integer_range):
             assert f'range [{r.from_value:g}, {r.to_value:g}]' in line, line
@@ -259,15 +259,16 @@ def test_params_file_matching_follows_rcl_names(ros_context, tmp_path):
     good.write_text('sma:\n  controller:\n    ros__parameters:\n      kp: 2.0\n'
                     '/*/other:\n  ros__parameters:\n    kp: 1.0\n')
     node = rclpy.create_node('controller', namespace='/sma', context=ros_context)
-    c.declare_parameters(node, [c.Param('kp', 1.0, 'Gain.')])
+    ros_params.declare_parameters(node, [ros_params.Param('kp', 1.0, 'Gain.')])
+    warn = ros_console.warn_parameter_sources
     try:
-        assert c.warn_parameter_sources(node, ['--ros-args', '--params-file', str(good)]) == []
+        assert warn(node, ['--ros-args', '--params-file', str(good)]) == []
         wild = tmp_path / 'wild.yaml'
         wild.write_text('/**/controller:\n  ros__parameters:\n    kp: 2.0\n')
-        assert c.warn_parameter_sources(node, ['--ros-args', '--params-file', str(wild)]) == []
+        assert warn(node, ['--ros-args', '--params-file', str(wild)]) == []
         bad = tmp_path / 'bad.yaml'
         bad.write_text('/left/controller:\n  ros__parameters:\n    kp: 2.0\n')
-        (warning,) = c.warn_parameter_sources(node, ['--ros-args', '--params-file', str(bad)])
+        (warning,) = warn(node, ['--ros-args', '--params-file', str(bad)])
         assert 'holds no parameters for node /sma/controller; keys found: /left/controller' \
             in warning
     finally:

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 from sma_actuator.control.metrics import summarize
 
-harness = pytest.importorskip('sma_actuator.nodes.harness')
+in_process = pytest.importorskip('sma_actuator.in_process')
 
 
 @pytest.mark.parametrize('mode', ['pi', 'pi_inverse'])
 def test_loop_settles_on_a_step(ros_context, mode):
-    trace = harness.run_closed_loop(
+    trace = in_process.run_closed_loop(
         ros_context, {'profile': 'step', 'amplitude': 0.4, 'offset': 0.0, 'delay_s': 1.0}, 12.0,
         mode=mode, real_time_factor=100.0)
     a = trace.arrays()

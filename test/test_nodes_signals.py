@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""SIGINT/SIGTERM handling shared by every console script (nodes.common)."""
+"""SIGINT/SIGTERM handling shared by every console script (nodes.ros_console)."""
 import os
 import signal
 import subprocess
@@ -24,7 +24,7 @@ from conftest import NOTICE_S, spin_until
 import pytest
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from sma_actuator.nodes import common as c
+from sma_actuator.nodes import common as c, ros_console
 from std_msgs.msg import Float64MultiArray
 
 
@@ -38,7 +38,7 @@ def restore_signal_handlers():
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_sets_the_stop_flag_and_raises_nothing(restore_signal_handlers, sig):
-    stop = c.install_stop_signals()
+    stop = ros_console.install_stop_signals()
     assert not stop.is_set()
     os.kill(os.getpid(), sig)   # a KeyboardInterrupt here would fail the test
     assert stop.wait(2.0)
@@ -54,7 +54,7 @@ def test_spin_until_stopped_returns_on_the_flag_with_the_context_still_up(ros_co
             stop.set()
     node.create_timer(0.01, tick)
     try:
-        executor = c.spin_until_stopped(node, stop)
+        executor = ros_console.spin_until_stopped(node, stop)
         assert len(ticks) == 5           # no callback after the flag
         assert ros_context.ok()          # the caller can still publish its last word
         assert isinstance(executor, SingleThreadedExecutor)
@@ -69,11 +69,11 @@ def test_spin_until_stopped_returns_when_done_or_the_context_is_shut_down(ros_do
     node = rclpy.create_node('spinner', context=context)
     count = []
     node.create_timer(0.01, lambda: count.append(1))
-    c.spin_until_stopped(node, threading.Event(), done=lambda: len(count) >= 3)
+    ros_console.spin_until_stopped(node, threading.Event(), done=lambda: len(count) >= 3)
     assert len(count) == 3
     threading.Timer(0.1, context.try_shutdown).start()
     t0 = time.monotonic()
-    c.spin_until_stopped(node, threading.Event())   # returns once the context is down
+    ros_console.spin_until_stopped(node, threading.Event())   # returns once the context is down
     assert time.monotonic() - t0 < NOTICE_S and not context.ok()
     node.destroy_node()
 

@@ -20,7 +20,7 @@
 //                                        of each (differential fuzzing against Python)
 //
 // The vectors file has one vector object per line with string values only (written by
-// python -m sma_actuator.hardware.vectors), so a tiny key lookup replaces a JSON parser.
+// python test/support/firmware_vectors.py), so a tiny key lookup replaces a JSON parser.
 #include <cstdio>
 #include <fstream>
 #include <iostream>

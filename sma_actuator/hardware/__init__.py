@@ -20,5 +20,7 @@ Hardware side of the actuator: serial protocol, MCU logic, serial link and MCU e
 - link.py: pyserial port owner with reconnect and backoff.
 - bridge_core.py, calibration.py: the ROS-free logic of the hardware_bridge node.
 - emulator.py: MCU emulator on a pseudo-terminal or TCP socket, with the simulated plant.
-- vectors.py: writes/checks firmware/test_vectors.json shared with the C++ firmware.
+
+The firmware test vectors (firmware/test_vectors.json) are written by
+test/support/firmware_vectors.py, outside the runtime package.
 """

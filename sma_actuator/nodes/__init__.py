@@ -15,7 +15,13 @@
 """
 ROS 2 nodes (thin wrappers around the core and sma_actuator.control).
 
-plant_sim: simulated actuator; controller: pi / pi_inverse / on_off; setpoint: profiles.
-`common` holds the topic names, QoS profiles, parameter-descriptor and diagnostics helpers
-they share.
+plant_sim: simulated actuator; controller: pi / pi_inverse / on_off; setpoint: profiles;
+hardware_bridge: the serial rig; recorder and replay: MCAP bags. The one ROS helper layer
+they all use:
+
+- common: topic names, QoS profiles, config files;
+- ros_params: the parameter table of each node (declaration with descriptors, checks);
+- ros_diagnostics: every DiagnosticStatus on /diagnostics;
+- ros_console: --help, bad input (exit 2), parameter-source warnings, stop signals, spin;
+- ros_bag: the rclpy side of recording and replay (sma_actuator.bag imports no ROS).
 """

@@ -32,17 +32,27 @@ parameters that can be changed at runtime (validated; an invalid set is refused)
 from collections import deque
 from dataclasses import fields
 import time
+from typing import Any, Dict, List, Optional, Sequence
 import warnings
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
 from . import common as c
+from .ros_console import (
+    create_node,
+    handle_command_line,
+    init_with_stop_signals,
+    spin_until_stopped,
+)
+from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
+from .ros_params import declare_parameters, Param, ParameterError
 from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
 from ..control.model_file import load_model, ModelFormatWarning
@@ -71,33 +81,39 @@ SWITCHES = (
     ('drift_correction', 'pi_inverse: correct offset and stroke from the measurements.'),
 )
 PARAMETERS = (
-    c.Param('mode', _D.mode, 'Control mode (changeable at runtime).', choices=MODES),
-    *(c.Param(name, -1.0 if getattr(_D, name) is None else getattr(_D, name), desc, (lo, hi))
+    Param('mode', _D.mode, 'Control mode (changeable at runtime).', choices=MODES),
+    *(Param(name, -1.0 if getattr(_D, name) is None else getattr(_D, name), desc, (lo, hi))
       for name, lo, hi, desc in TUNABLE),
-    *(c.Param(name, getattr(_D, name), desc) for name, desc in SWITCHES),
-    c.Param('period_s', 0.025, 'Control period and watchdog timer [s].', (0.001, 1.0),
-            read_only=True),
-    c.Param('feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR '
-            '[s].', (0.01, 10.0)),
-    c.Param('setpoint_min_rad', -1.0, 'Lowest accepted setpoint [rad].',
-            (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
-    c.Param('setpoint_max_rad', 1.0, 'Highest accepted setpoint [rad].',
-            (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
-    c.Param('initial_setpoint_rad', 0.0, 'Setpoint until one arrives [rad].',
-            (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
-    c.Param('model_file', '', 'Model file (sma-model fit --out); empty: '
-            'config/controller_model.yaml.', read_only=True),
-    c.Param('use_ambient_topic', False, 'Feed /sma/ambient_temperature to the model.',
-            read_only=True),
+    *(Param(name, getattr(_D, name), desc) for name, desc in SWITCHES),
+    Param('period_s', 0.025, 'Control period and watchdog timer [s].', (0.001, 1.0),
+          read_only=True),
+    Param('feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR '
+          '[s].', (0.01, 10.0)),
+    Param('setpoint_min_rad', -1.0, 'Lowest accepted setpoint [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
+    Param('setpoint_max_rad', 1.0, 'Highest accepted setpoint [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
+    Param('initial_setpoint_rad', 0.0, 'Setpoint until one arrives [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
+    Param('model_file', '', 'Model file (sma-model fit --out); empty: '
+          'config/controller_model.yaml.', read_only=True),
+    Param('use_ambient_topic', False, 'Feed /sma/ambient_temperature to the model.',
+          read_only=True),
 )
 
 
 class Controller(Node):
-    """Controller node (see module docstring)."""
+    """
+    Controller node (see module docstring).
 
-    def __init__(self, **kwargs):
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('controller', **c.node_options(kwargs))
-        p = c.declare_parameters(self, PARAMETERS)
+        p = declare_parameters(self, PARAMETERS)
         mode, model_file = p['mode'], p['model_file']
         values = {name: p[name] for name, *_ in TUNABLE}
         values.update({name: p[name] for name, _ in SWITCHES})
@@ -111,8 +127,8 @@ class Controller(Node):
                 warnings.simplefilter('always', ModelFormatWarning)
                 model = load_model(self.model_path)
         except (OSError, ValueError) as err:
-            raise c.ParameterError(f'parameter model_file: cannot load {self.model_path}: '
-                                   f'{err}') from err
+            raise ParameterError(f'parameter model_file: cannot load {self.model_path}: '
+                                 f'{err}') from err
         for w in caught:
             self.get_logger().warn(str(w.message))
         self.core = ControllerCore(model, ControllerSettings(mode=mode, **values))
@@ -120,8 +136,8 @@ class Controller(Node):
         ControllerCore(model, ControllerSettings(mode='pi_inverse')).step(0.1, 0.0, self.period_s)
         self.setpoint = LastValid(lambda v: setpoint_problem(v, self.sp_min, self.sp_max), initial)
         if setpoint_problem(initial, self.sp_min, self.sp_max):
-            raise c.ParameterError('parameter initial_setpoint_rad: outside [setpoint_min_rad, '
-                                   'setpoint_max_rad]')
+            raise ParameterError('parameter initial_setpoint_rad: outside [setpoint_min_rad, '
+                                 'setpoint_max_rad]')
         self.ambient_c = None
         self.last_feedback = None     # node-clock time [s] of the last valid joint state
         self.last_sample = None       # header stamp [s] of the last sample used for control
@@ -139,7 +155,7 @@ class Controller(Node):
         self._last_tick_wall = None
 
         self.duty_pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
-        self.diag = c.Diagnostics(self, 'controller')
+        self.diag = Diagnostics(self, 'controller')
         # newest setpoint wins: a flood is dropped in the middleware, not queued for Python
         self.create_subscription(Float64, c.SETPOINT, self.on_setpoint, SETPOINT_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self.on_joint_state, c.SENSOR_QOS)
@@ -153,11 +169,13 @@ class Controller(Node):
         self.get_logger().info(f'controller mode {mode}, model {self.model_path}, '
                                f'kp {kp:.3g} duty/rad, ki {ki:.3g} duty/(rad s)')
 
-    def now_s(self):
+    def now_s(self) -> float:
+        """Return the node clock (sim time with use_sim_time) [s]."""
         return self.get_clock().now().nanoseconds * 1e-9
 
     # inputs ---------------------------------------------------------------------------
-    def on_setpoint(self, msg):
+    def on_setpoint(self, msg: Float64) -> None:
+        """Keep a valid setpoint; reject (log, WARN) any other."""
         problem = self.setpoint.offer(msg.data)
         if problem:
             self.get_logger().warn(f'rejected setpoint: {problem}; keeping '
@@ -167,13 +185,15 @@ class Controller(Node):
             now = time.monotonic()
             if now - self._last_setpoint_diag >= 1.0:
                 self._last_setpoint_diag = now
-                self.diag.publish(c.WARN, f'rejected setpoint: {problem}', self._status())
+                self.diag.publish(WARN, f'rejected setpoint: {problem}', self._status())
 
-    def on_ambient(self, msg):
+    def on_ambient(self, msg: Temperature) -> None:
+        """Take the ambient temperature for the thermal model when it is plausible."""
         if AMBIENT_RANGE_C[0] <= msg.temperature <= AMBIENT_RANGE_C[1]:  # NaN fails both
             self.ambient_c = msg.temperature
 
-    def on_joint_state(self, msg, info):
+    def on_joint_state(self, msg: JointState, info: Dict[str, int]) -> None:
+        """Run one control step on a fresh, valid joint state and publish the duty."""
         received_ns = info.get('received_timestamp', 0) if isinstance(info, dict) else 0
         arrival_ns = received_ns if received_ns > 0 else time.time_ns()
         try:
@@ -186,7 +206,7 @@ class Controller(Node):
                                    throttle_duration_sec=1.0)
             if self.rejected_feedback == 1 or time.monotonic() - self._last_reject_diag > 1.0:
                 self._last_reject_diag = time.monotonic()
-                self.diag.publish(c.WARN, f'rejected joint state (position {position})',
+                self.diag.publish(WARN, f'rejected joint state (position {position})',
                                   self._status())
             return
         self.last_feedback = self.now_s()
@@ -207,7 +227,8 @@ class Controller(Node):
         self.latencies.append((time.time_ns() - arrival_ns) * 1e-9)
 
     # watchdog -------------------------------------------------------------------------
-    def on_watchdog(self):
+    def on_watchdog(self) -> None:
+        """Zero the duty while no valid joint state arrived for feedback_timeout_s."""
         wall = time.perf_counter()
         if self._last_tick_wall is not None:
             self.tick_intervals.append(wall - self._last_tick_wall)
@@ -226,21 +247,22 @@ class Controller(Node):
         if first:
             self._report_stale()
 
-    def _report_stale(self):
+    def _report_stale(self) -> None:
         if self.last_feedback is None:
-            self.diag.publish(c.WARN, 'waiting for joint states: zero duty', self._status())
+            self.diag.publish(WARN, 'waiting for joint states: zero duty', self._status())
         else:
             self.get_logger().error(f'no joint state for > {self.feedback_timeout_s:g} s: '
                                     'zero duty')
-            self.diag.publish(c.ERROR, 'stale feedback: zero duty', self._status())
+            self.diag.publish(ERROR, 'stale feedback: zero duty', self._status())
 
-    def publish_status(self):
+    def publish_status(self) -> None:
+        """Publish the 1 Hz diagnostics status."""
         if self.stale:
             self._report_stale()
         else:
-            self.diag.publish(c.OK, f'mode {self.core.settings.mode}', self._status())
+            self.diag.publish(OK, f'mode {self.core.settings.mode}', self._status())
 
-    def _status(self):
+    def _status(self) -> Dict[str, Any]:
         s = self.last_step
         out = {'mode': self.core.settings.mode, 'setpoint_rad': float(self.setpoint.value),
                'rejected_setpoints': self.setpoint.rejected,
@@ -259,7 +281,7 @@ class Controller(Node):
                        guard_active=s.guard_active)
         return out
 
-    def timing_stats(self):
+    def timing_stats(self) -> Dict[str, float]:
         """
         Return latency and timer jitter over the last 2000 samples.
 
@@ -277,7 +299,8 @@ class Controller(Node):
         return out
 
     # parameters -----------------------------------------------------------------------
-    def on_set_parameters(self, params):
+    def on_set_parameters(self, params: List[Parameter]) -> SetParametersResult:
+        """Apply runtime changes of the tunable settings; refuse an invalid set."""
         names = {f.name for f in fields(ControllerSettings)}
         changes = {p.name: p.value for p in params if p.name in names}
         for p in params:
@@ -293,13 +316,14 @@ class Controller(Node):
         return SetParametersResult(successful=True)
 
 
-def main(args=None):
-    c.handle_command_line('controller', __doc__, PARAMETERS, args)
-    stop = c.init_with_stop_signals(args, 'controller')
+def main(args: Optional[Sequence[str]] = None) -> None:
+    """Run the controller until SIGINT/SIGTERM, then publish a final zero duty."""
+    handle_command_line('controller', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'controller')
     node = None
     try:
-        node = c.create_node('controller', Controller, args)
-        c.spin_until_stopped(node, stop)
+        node = create_node('controller', Controller, args)
+        spin_until_stopped(node, stop)
     finally:
         if node is not None:
             # last word on the duty topic: heat off (the plant's timeout is the backstop)

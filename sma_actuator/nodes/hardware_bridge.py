@@ -40,14 +40,23 @@ middleware queued it. More than one publisher on the duty topic means zero duty 
 import sys
 import threading
 import time
+from typing import Any, Dict, Optional, Sequence
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import rclpy
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, UInt16
 
 from . import common as c
+from .ros_console import (
+    create_node,
+    fail,
+    handle_command_line,
+    init_with_stop_signals,
+    spin_until_stopped,
+)
+from .ros_diagnostics import Diagnostics, LEVELS
+from .ros_params import declare_parameters, Param
 from ..core.sensor import POT_RANGE_RAD, Potentiometer
 from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
@@ -56,54 +65,58 @@ from ..hardware.link import SerialLink
 POTENTIOMETER_RAW = 'potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
 PUBLISHER_CHECK_PERIOD_S = 0.05   # how often the duty topic's publishers are counted
-LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
-          'error': DiagnosticStatus.ERROR, 'stale': DiagnosticStatus.STALE}
 
 
 # every parameter is read-only: they take effect at start
 PARAMETERS = (
-    c.Param('port', '/dev/ttyACM0', 'Serial device or pyserial URL (socket://host:port, '
-            'loop://).', read_only=True),
-    c.Param('baud', 115200, 'Serial baud rate [bit/s].', (1200, 4_000_000), read_only=True),
-    c.Param('adc_offset_rad', POT_RANGE_RAD[0], 'Shaft angle at 0 ADC counts [rad].',
-            (-10.0, 10.0), read_only=True),
-    c.Param('adc_scale_rad_per_count', Potentiometer().resolution_rad,
-            'Shaft angle per ADC count [rad].', (-1.0, 1.0), read_only=True),
-    c.Param('adc_polynomial', [0.0], 'With 2 or more coefficients: angle [rad] = '
-            'polyval(coefficients, counts), highest power first, replacing offset and scale. '
-            '[0.0] = not used (YAML has no typed empty list).', read_only=True),
-    c.Param('publish_rate_hz', 200.0, 'ADC report (and joint state) rate requested from the '
-            'MCU; each duty frame also gets an immediate report [Hz].', (1.0, 1000.0),
-            read_only=True),
-    c.Param('duty_refresh_hz', 50.0, 'Re-send the current duty at this rate (> 10 Hz keeps '
-            'the 100 ms MCU watchdog fed) [Hz].', (11.0, 1000.0), read_only=True),
-    c.Param('max_duty', 1.0, 'Per-wire duty limit.', (0.0, 1.0), read_only=True),
-    c.Param('interlock_threshold', 0.3, 'The two duties are never both above this (the '
-            'firmware caps it at 0.5).', (0.0, 0.5), read_only=True),
-    c.Param('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long -> zero duty + '
-            'WARN [s].', (0.01, 10.0), read_only=True),
-    c.Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
-            'duty this long; not below the firmware dead time 0.025 s [s].', (0.025, 10.0),
-            read_only=True),
-    c.Param('link_timeout_s', 0.5, 'No valid frame from the MCU this long -> link lost, zero '
-            'duty, re-handshake [s].', (0.05, 10.0), read_only=True),
-    c.Param('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', (0.1, 100.0), read_only=True),
-    c.Param('reconnect_backoff_min_s', 0.1, 'First reopen delay [s]; doubles per failure.',
-            (0.01, 10.0), read_only=True),
-    c.Param('reconnect_backoff_max_s', 5.0, 'Longest reopen delay [s].', (0.1, 60.0),
-            read_only=True),
-    c.Param('velocity_filter_tau_s', 0.02, 'Low-pass time constant of the velocity estimate '
-            '[s].', (0.0, 1.0), read_only=True),
-    c.Param('diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].', (0.1, 50.0), read_only=True),
+    Param('port', '/dev/ttyACM0', 'Serial device or pyserial URL (socket://host:port, '
+          'loop://).', read_only=True),
+    Param('baud', 115200, 'Serial baud rate [bit/s].', (1200, 4_000_000), read_only=True),
+    Param('adc_offset_rad', POT_RANGE_RAD[0], 'Shaft angle at 0 ADC counts [rad].',
+          (-10.0, 10.0), read_only=True),
+    Param('adc_scale_rad_per_count', Potentiometer().resolution_rad,
+          'Shaft angle per ADC count [rad].', (-1.0, 1.0), read_only=True),
+    Param('adc_polynomial', [0.0], 'With 2 or more coefficients: angle [rad] = '
+          'polyval(coefficients, counts), highest power first, replacing offset and scale. '
+          '[0.0] = not used (YAML has no typed empty list).', read_only=True),
+    Param('publish_rate_hz', 200.0, 'ADC report (and joint state) rate requested from the '
+          'MCU; each duty frame also gets an immediate report [Hz].', (1.0, 1000.0),
+          read_only=True),
+    Param('duty_refresh_hz', 50.0, 'Re-send the current duty at this rate (> 10 Hz keeps '
+          'the 100 ms MCU watchdog fed) [Hz].', (11.0, 1000.0), read_only=True),
+    Param('max_duty', 1.0, 'Per-wire duty limit.', (0.0, 1.0), read_only=True),
+    Param('interlock_threshold', 0.3, 'The two duties are never both above this (the '
+          'firmware caps it at 0.5).', (0.0, 0.5), read_only=True),
+    Param('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long -> zero duty + '
+          'WARN [s].', (0.01, 10.0), read_only=True),
+    Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
+          'duty this long; not below the firmware dead time 0.025 s [s].', (0.025, 10.0),
+          read_only=True),
+    Param('link_timeout_s', 0.5, 'No valid frame from the MCU this long -> link lost, zero '
+          'duty, re-handshake [s].', (0.05, 10.0), read_only=True),
+    Param('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', (0.1, 100.0), read_only=True),
+    Param('reconnect_backoff_min_s', 0.1, 'First reopen delay [s]; doubles per failure.',
+          (0.01, 10.0), read_only=True),
+    Param('reconnect_backoff_max_s', 5.0, 'Longest reopen delay [s].', (0.1, 60.0),
+          read_only=True),
+    Param('velocity_filter_tau_s', 0.02, 'Low-pass time constant of the velocity estimate '
+          '[s].', (0.0, 1.0), read_only=True),
+    Param('diagnostics_rate_hz', 1.0, 'Diagnostics rate [Hz].', (0.1, 50.0), read_only=True),
 )
 
 
 class HardwareBridge(Node):
-    """Bridge node (see module docstring)."""
+    """
+    Bridge node (see module docstring).
 
-    def __init__(self, **kwargs):
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('hardware_bridge', **c.node_options(kwargs))
-        f = c.declare_parameters(self, PARAMETERS)
+        f = declare_parameters(self, PARAMETERS)
         self.port, baud, poly = f['port'], f['baud'], f['adc_polynomial']
         calibration = AdcCalibration(f['adc_offset_rad'], f['adc_scale_rad_per_count'],
                                      poly if len(poly) >= 2 else ())
@@ -120,7 +133,8 @@ class HardwareBridge(Node):
                                f['velocity_filter_tau_s'], self._log)
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, c.DIAGNOSTICS, c.DIAGNOSTICS_QOS)
+        # the serial port names the hardware: one rig, whichever node drives it
+        self.diag = Diagnostics(self, hardware_id=self.port)
         self.duty_sub = self.create_subscription(
             Float64MultiArray, c.DUTY, self.on_duty,
             c.expiring_command_qos(config.duty_timeout_s))
@@ -135,45 +149,44 @@ class HardwareBridge(Node):
 
     # --- callbacks (executor thread) ----------------------------------------------------
 
-    def on_duty(self, msg, info):
+    def on_duty(self, msg: Float64MultiArray, info: Dict[str, int]) -> None:
+        """Check a duty command (value, age) and send it to the MCU at once."""
         sent_ns = info.get('source_timestamp', 0) if isinstance(info, dict) else 0
         # source timestamps are the sender's system clock (same host, or synchronised)
         age_s = (time.time_ns() - sent_ns) * 1e-9 if sent_ns > 0 else 0.0
         with self._lock:
             self._write(self.core.on_duty_command(msg.data, time.monotonic(), age_s))
 
-    def check_duty_publishers(self):
+    def check_duty_publishers(self) -> None:
+        """Count the duty publishers: more than one means zero duty + ERROR."""
         count = self.count_publishers(self.duty_sub.topic_name)
         with self._lock:
             self._write(self.core.on_publisher_count(count, time.monotonic()))
 
-    def on_tick(self):
+    def on_tick(self) -> None:
+        """Run the host watchdog, duty refresh and heartbeat."""
         with self._lock:
             self._write(self.core.tick(time.monotonic()))
 
-    def publish_diagnostics(self):
+    def publish_diagnostics(self) -> None:
+        """Publish the link, mcu and duty statuses in one DiagnosticArray."""
         with self._lock:
             statuses = self.core.diagnostics()
-        msg = DiagnosticArray()
-        msg.header.stamp = self.get_clock().now().to_msg()
+        out = []
         for name, level, text, values in statuses:
             if name == 'link':
                 values = dict(values, port=self.port, opens=self.link.opens,
                               reconnect_backoff_s=self.link.backoff_s)
-            msg.status.append(DiagnosticStatus(
-                level=LEVELS[level], name=f'{self.get_name()}: {name}', message=text,
-                hardware_id=self.port,
-                values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
-                        for k, v in values.items()]))
-        self.diag_pub.publish(msg)
+            out.append(self.diag.status(LEVELS[level], text, values, part=name))
+        self.diag.publish_statuses(out)
 
     # --- callbacks (link thread) --------------------------------------------------------
 
-    def _on_open(self):
+    def _on_open(self) -> bytes:
         with self._lock:
             return self.core.on_open(time.monotonic())
 
-    def _on_data(self, data, t_s):
+    def _on_data(self, data: bytes, t_s: float) -> None:
         with self._lock:
             tx, samples = self.core.on_data(data, t_s)
             self._write(tx)
@@ -187,21 +200,21 @@ class HardwareBridge(Node):
             self.js_pub.publish(js)
             self.raw_pub.publish(UInt16(data=sample.counts))
 
-    def _on_close(self, reason):
+    def _on_close(self, reason: str) -> None:
         with self._lock:
             self.core.on_close(reason, time.monotonic(), failure=not self._stopping)
 
-    def _on_open_failed(self, reason):
+    def _on_open_failed(self, reason: str) -> None:
         with self._lock:
             self.core.on_open_failed(reason, time.monotonic())
 
     # --- helpers ------------------------------------------------------------------------
 
-    def _write(self, data):
+    def _write(self, data: bytes) -> None:
         if data:
             self.link.write(data)   # under self._lock: frames leave in seq order
 
-    def _log(self, level, text):
+    def _log(self, level: str, text: str) -> None:
         # one call site per severity: rclpy refuses a severity change at the same call site
         logger = self.get_logger()
         if level == 'error':
@@ -211,7 +224,7 @@ class HardwareBridge(Node):
         else:
             logger.info(text)
 
-    def destroy_node(self):
+    def destroy_node(self) -> None:
         """Send zero duty, close the port, then destroy the node."""
         with self._lock:
             self._stopping = True
@@ -220,17 +233,17 @@ class HardwareBridge(Node):
         super().destroy_node()
 
 
-def main(args=None):
+def main(args: Optional[Sequence[str]] = None) -> int:
     """Run the bridge until SIGINT/SIGTERM; exit status 2 on bad parameters."""
-    c.handle_command_line('hardware_bridge', __doc__, PARAMETERS, args)
-    stop = c.init_with_stop_signals(args, 'hardware_bridge')
+    handle_command_line('hardware_bridge', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'hardware_bridge')
     node = None
     try:
-        node = c.create_node('hardware_bridge', HardwareBridge, args)
-        c.spin_until_stopped(node, stop)
+        node = create_node('hardware_bridge', HardwareBridge, args)
+        spin_until_stopped(node, stop)
     except ValueError as exc:
         # a configuration mistake the parameter table cannot see (e.g. a bad calibration)
-        c.fail('hardware_bridge', f'not started: {exc}')
+        fail('hardware_bridge', f'not started: {exc}')
     finally:
         if node is not None:
             node.destroy_node()

@@ -41,7 +41,9 @@ controllers) applies zero duty and reports ERROR while it lasts.
 """
 import math
 import time
+from typing import Any, Dict, Optional, Sequence
 
+from builtin_interfaces.msg import Time as TimeMsg
 import numpy as np
 import rclpy
 from rclpy.clock import Clock, ClockType
@@ -52,18 +54,26 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray, Header
 
 from . import common as c
+from .ros_console import (
+    create_node,
+    handle_command_line,
+    init_with_stop_signals,
+    spin_until_stopped,
+)
+from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
+from .ros_params import declare_parameters, initial_value, Param, ParameterError
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
 from ..control.model_file import load_model
-from ..core.actuator import (ActuatorParams, AMBIENT_RANGE_C, AntagonisticActuator, PARAMETERS,
-                             PLANT_PARAMETERS)
+from ..core import actuator as act
+from ..core.actuator import ActuatorParams, AMBIENT_RANGE_C, AntagonisticActuator
 from ..core.sensor import POT_RANGE_RAD, Potentiometer
 
 # (parameter, lower, upper, description) of every effect parameter, from its declaration in
 # `ActuatorParams`; each range lies within the workbench's fit bounds, so any record the plant
 # makes can be diagnosed
-EFFECTS = tuple((name, *PARAMETERS[name].plant, PARAMETERS[name].label)
-                for name in PLANT_PARAMETERS)
+EFFECTS = tuple((name, *act.PARAMETERS[name].plant, act.PARAMETERS[name].label)
+                for name in act.PLANT_PARAMETERS)
 # wall time between two counts of the duty topic's publishers [s]; count_publishers costs
 # about 18 µs, which matters at 4000 steps/s in accelerated mode
 PUBLISHER_CHECK_PERIOD_S = 0.025
@@ -71,51 +81,57 @@ PUBLISHER_CHECK_PERIOD_S = 0.025
 
 _BASE = ActuatorParams()
 PARAMETERS = (
-    c.Param('rate_hz', 40.0, 'Publication and step rate [Hz].', (1.0, 1000.0), read_only=True),
-    c.Param('accelerated', False, 'Own the time: step sim time on a wall timer and publish '
-            '/clock (other nodes: use_sim_time).', read_only=True),
-    c.Param('real_time_factor', 10.0, 'Sim seconds per wall second in accelerated mode.',
-            (0.1, 1000.0), read_only=True),
-    c.Param('lockstep', False, 'Accelerated mode: advance only after the duty reply to the '
-            'last joint state arrived (or lockstep_timeout_s wall seconds passed), so the '
-            'loop delay does not depend on the host speed.', read_only=True),
-    c.Param('lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
-            (0.001, 10.0), read_only=True),
-    c.Param('start_subscribers', 0, 'Accelerated mode: sim time starts only once '
-            '/sma/joint_states has this many subscribers (e.g. 2: controller and recorder).',
-            (0, 100), read_only=True),
-    c.Param('warmup_s', 0.0, 'Accelerated mode: wall seconds between start_subscribers being '
-            'reached and the first step, so that every node has matched every topic [s].',
-            (0.0, 60.0), read_only=True),
-    c.Param('duration_s', 0.0, 'Accelerated mode: stop stepping after this much sim time and '
-            'exit; 0 = never [s]. Fixes the length of a recording on sim time.', (0.0, 1e6),
-            read_only=True),
-    c.Param('duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero duty.',
-            (0.01, 10.0)),
-    c.Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
-            'applied duty for this long [plant s] (docs/safety.md).', (0.0, 10.0),
-            read_only=True),
-    c.Param('model_file', '', 'Optional model file (sma-model fit --out) for the plant; the '
-            'effect parameters override it.', read_only=True),
-    c.Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', AMBIENT_RANGE_C,
-            read_only=True),
-    c.Param('use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
-            read_only=True),
-    c.Param('adc_bits', 12, 'ADC resolution [bit].', (4, 24), read_only=True),
-    c.Param('noise_rad', 0.001, 'Potentiometer noise std [rad].', (0.0, 0.1), read_only=True),
-    c.Param('seed', 0, 'Noise seed.', (0, 2 ** 31 - 1), read_only=True),
-) + tuple(c.Param(name, getattr(_BASE, name), f'{desc} (default: model_file, else neutral)',
-                  (lo, hi), read_only=True) for name, lo, hi, desc in EFFECTS)
+    Param('rate_hz', 40.0, 'Publication and step rate [Hz].', (1.0, 1000.0), read_only=True),
+    Param('accelerated', False, 'Own the time: step sim time on a wall timer and publish '
+          '/clock (other nodes: use_sim_time).', read_only=True),
+    Param('real_time_factor', 10.0, 'Sim seconds per wall second in accelerated mode.',
+          (0.1, 1000.0), read_only=True),
+    Param('lockstep', False, 'Accelerated mode: advance only after the duty reply to the '
+          'last joint state arrived (or lockstep_timeout_s wall seconds passed), so the '
+          'loop delay does not depend on the host speed.', read_only=True),
+    Param('lockstep_timeout_s', 0.1, 'Longest wall wait for a duty in lockstep [s].',
+          (0.001, 10.0), read_only=True),
+    Param('start_subscribers', 0, 'Accelerated mode: sim time starts only once '
+          '/sma/joint_states has this many subscribers (e.g. 2: controller and recorder).',
+          (0, 100), read_only=True),
+    Param('warmup_s', 0.0, 'Accelerated mode: wall seconds between start_subscribers being '
+          'reached and the first step, so that every node has matched every topic [s].',
+          (0.0, 60.0), read_only=True),
+    Param('duration_s', 0.0, 'Accelerated mode: stop stepping after this much sim time and '
+          'exit; 0 = never [s]. Fixes the length of a recording on sim time.', (0.0, 1e6),
+          read_only=True),
+    Param('duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero duty.',
+          (0.01, 10.0)),
+    Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
+          'applied duty for this long [plant s] (docs/safety.md).', (0.0, 10.0),
+          read_only=True),
+    Param('model_file', '', 'Optional model file (sma-model fit --out) for the plant; the '
+          'effect parameters override it.', read_only=True),
+    Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', AMBIENT_RANGE_C,
+          read_only=True),
+    Param('use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
+          read_only=True),
+    Param('adc_bits', 12, 'ADC resolution [bit].', (4, 24), read_only=True),
+    Param('noise_rad', 0.001, 'Potentiometer noise std [rad].', (0.0, 0.1), read_only=True),
+    Param('seed', 0, 'Noise seed.', (0, 2 ** 31 - 1), read_only=True),
+) + tuple(Param(name, getattr(_BASE, name), f'{desc} (default: model_file, else neutral)',
+                (lo, hi), read_only=True) for name, lo, hi, desc in EFFECTS)
 
 
 class PlantSim(Node):
-    """Simulated actuator node (see module docstring)."""
+    """
+    Simulated actuator node (see module docstring).
 
-    def __init__(self, **kwargs):
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('plant_sim', **c.node_options(kwargs))
-        base = _base_model(c.initial_value(self, PARAMETERS, 'model_file'))
-        p = c.declare_parameters(self, PARAMETERS,
-                                 defaults={name: getattr(base, name) for name, *_ in EFFECTS})
+        base = _base_model(initial_value(self, PARAMETERS, 'model_file'))
+        p = declare_parameters(self, PARAMETERS,
+                               defaults={name: getattr(base, name) for name, *_ in EFFECTS})
         self.rate_hz, self.accelerated = p['rate_hz'], p['accelerated']
         self.rtf, self.lockstep = p['real_time_factor'], p['lockstep']
         self.lockstep_timeout_s, self.duty_timeout_s = p['lockstep_timeout_s'], p['duty_timeout_s']
@@ -151,7 +167,7 @@ class PlantSim(Node):
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.temp_pubs = [self.create_publisher(Temperature, topic, c.SENSOR_QOS)
                           for topic in c.WIRE_TEMPERATURES]
-        self.diag = c.Diagnostics(self, 'plant')
+        self.diag = Diagnostics(self, 'plant')
         # lifespan in wall seconds (DDS source timestamps): a frozen plant does not replay
         self.duty_sub = self.create_subscription(
             Float64MultiArray, c.DUTY, self.on_duty, c.expiring_command_qos(self.duty_timeout_s))
@@ -172,19 +188,21 @@ class PlantSim(Node):
                                f'duty timeout {self.duty_timeout_s:g} s')
 
     # time -----------------------------------------------------------------------------
-    def now_s(self):
+    def now_s(self) -> float:
         """Plant time [s]: own sim time in accelerated mode, else the node clock."""
         if self.accelerated:
             return self.sim_time
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def stamp(self):
+    def stamp(self) -> TimeMsg:
+        """Return the stamp of plant time now (builtin_interfaces/Time)."""
         if self.accelerated:
             return Time(nanoseconds=int(round(self.sim_time * 1e9))).to_msg()
         return self.get_clock().now().to_msg()
 
     # inputs ---------------------------------------------------------------------------
-    def on_duty(self, msg):
+    def on_duty(self, msg: Float64MultiArray) -> None:
+        """Keep a valid duty pair; reject (log, WARN) any other."""
         self.awaiting_since = None
         problem = self.duty.offer(tuple(msg.data))
         if problem:
@@ -194,22 +212,24 @@ class PlantSim(Node):
             now = time.monotonic()
             if now - self._last_reject_diag >= 1.0:
                 self._last_reject_diag = now
-                self.diag.publish(c.WARN, f'rejected duty: {problem}', self._status(),
+                self.diag.publish(WARN, f'rejected duty: {problem}', self._status(),
                                   self.stamp())
             return
         self.last_duty_time = self.now_s()
 
-    def on_ambient(self, msg):
+    def on_ambient(self, msg: Temperature) -> None:
+        """Take a plausible ambient temperature; reject (log, WARN) any other."""
         t = msg.temperature
         if not (math.isfinite(t) and AMBIENT_RANGE_C[0] <= t <= AMBIENT_RANGE_C[1]):
             self.get_logger().warn(f'rejected ambient temperature {t}')
-            self.diag.publish(c.WARN, f'rejected ambient temperature {t}', self._status(),
+            self.diag.publish(WARN, f'rejected ambient temperature {t}', self._status(),
                               self.stamp())
             return
         self.ambient_c = t
 
     # step -----------------------------------------------------------------------------
-    def on_tick(self):
+    def on_tick(self) -> None:
+        """Step the actuator one period and publish joint state, temperatures, diagnostics."""
         if self.accelerated:
             if not self.sim_started():
                 return
@@ -239,7 +259,7 @@ class PlantSim(Node):
         if stale and not self.was_stale and self.last_duty_time is not None:
             self.zeroed = (self.now_s(), self.last_step_time)
             self.get_logger().warn(f'no valid duty for {self.duty_timeout_s:g} s: zero duty')
-            self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(),
+            self.diag.publish(WARN, 'duty stale: applying zero duty', self._status(),
                               self.stamp())
         self.was_stale = stale
         self.last_step_time = self.now_s()
@@ -258,14 +278,14 @@ class PlantSim(Node):
         self.steps += 1
         if self.steps % self.steps_per_diag == 0:
             if conflict:
-                self.diag.publish(c.ERROR, self._conflict_text(), self._status(), stamp)
+                self.diag.publish(ERROR, self._conflict_text(), self._status(), stamp)
             elif stale and self.last_duty_time is not None:
-                self.diag.publish(c.WARN, 'duty stale: applying zero duty', self._status(), stamp)
+                self.diag.publish(WARN, 'duty stale: applying zero duty', self._status(), stamp)
             else:
-                self.diag.publish(c.OK, 'running' if not stale else 'no duty yet (zero applied)',
+                self.diag.publish(OK, 'running' if not stale else 'no duty yet (zero applied)',
                                   self._status(), stamp)
 
-    def check_duty_publishers(self):
+    def check_duty_publishers(self) -> bool:
         """
         Return True while more than one node publishes on the duty topic.
 
@@ -280,16 +300,16 @@ class PlantSim(Node):
         before, self.duty_publishers = self.duty_publishers, count
         if count > 1 and before <= 1:
             self.get_logger().error(self._conflict_text())
-            self.diag.publish(c.ERROR, self._conflict_text(), self._status(), self.stamp())
+            self.diag.publish(ERROR, self._conflict_text(), self._status(), self.stamp())
         elif count <= 1 < before:
             self.get_logger().info(f'{count} publisher on {self.duty_sub.topic_name} again')
         return count > 1
 
-    def _conflict_text(self):
+    def _conflict_text(self) -> str:
         return (f'{self.duty_publishers} publishers on {self.duty_sub.topic_name}: '
                 'applying zero duty')
 
-    def sim_started(self):
+    def sim_started(self) -> bool:
         """Accelerated mode: whether start_subscribers and warmup_s allow stepping."""
         if self.start_wall is None:
             if self.js_pub.get_subscription_count() < self.start_subscribers:
@@ -297,12 +317,12 @@ class PlantSim(Node):
             self.start_wall = time.monotonic() + self.warmup_s
         return time.monotonic() >= self.start_wall
 
-    def duty_stale(self):
+    def duty_stale(self) -> bool:
         """No valid duty for duty_timeout_s of plant time (or never)."""
         return (self.last_duty_time is None
                 or self.now_s() - self.last_duty_time > self.duty_timeout_s)
 
-    def _status(self):
+    def _status(self) -> Dict[str, Any]:
         th = self.actuator.temperature_c
         out = {'applied_duty_a': float(self.applied[0]), 'applied_duty_b': float(self.applied[1]),
                'theta_a_c': float(th[0]), 'theta_b_c': float(th[1]),
@@ -318,27 +338,28 @@ class PlantSim(Node):
         return out
 
 
-def _base_model(model_file):
+def _base_model(model_file: str) -> ActuatorParams:
     """Return the ActuatorParams of `model_file` (empty: the defaults)."""
     if not model_file:
         return ActuatorParams()
     try:
         return load_model(model_file)
     except (OSError, ValueError, TypeError) as err:
-        raise c.ParameterError(f'parameter model_file: cannot load {model_file}: {err}') from err
+        raise ParameterError(f'parameter model_file: cannot load {model_file}: {err}') from err
 
 
-def _header(stamp, frame):
+def _header(stamp: TimeMsg, frame: str) -> Header:
     return Header(stamp=stamp, frame_id=frame)
 
 
-def main(args=None):
-    c.handle_command_line('plant_sim', __doc__, PARAMETERS, args)
-    stop = c.init_with_stop_signals(args, 'plant_sim')
+def main(args: Optional[Sequence[str]] = None) -> None:
+    """Run the plant until SIGINT/SIGTERM or the end of duration_s."""
+    handle_command_line('plant_sim', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'plant_sim')
     node = None
     try:
-        node = c.create_node('plant_sim', PlantSim, args)
-        c.spin_until_stopped(node, stop, done=lambda: node.finished)
+        node = create_node('plant_sim', PlantSim, args)
+        spin_until_stopped(node, stop, done=lambda: node.finished)
     finally:
         if node is not None:
             node.destroy_node()

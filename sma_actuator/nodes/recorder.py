@@ -30,12 +30,14 @@ Embed: ``RecorderNode(context=ctx, bag_path='runs/step1/bag')`` on any executor,
 """
 import functools
 import sys
+from typing import Any, Dict, List, Optional, Sequence
 
-from diagnostic_msgs.msg import DiagnosticArray
 import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.context import Context
 from rclpy.node import Node
 from sma_actuator.bag.errors import BagError, BagWriteError
+from sma_actuator.bag.metadata import BagRecord
 from sma_actuator.bag.msgdefs import type_description_hash
 from sma_actuator.bag.qos import adapt_request_to_offers
 from sma_actuator.bag.recording import (
@@ -44,27 +46,17 @@ from sma_actuator.bag.recording import (
     DEFAULT_TOPICS,
     TopicSelector,
 )
-from sma_actuator.bag.ros_interop import (
-    diagnostics,
-    ERROR,
-    message_class,
-    OK,
-    publisher_offers,
-    qos_profile,
-    take_pending,
-    WARN,
-)
 from sma_actuator.bag.writer import BagWriter, COMPRESSIONS
-from sma_actuator.nodes.common import (
+from sma_actuator.nodes.common import NAMESPACE
+from sma_actuator.nodes.ros_bag import message_class, publisher_offers, qos_profile, take_pending
+from sma_actuator.nodes.ros_console import (
     create_node,
-    declare_parameters,
     handle_command_line,
     init_with_stop_signals,
-    NAMESPACE,
-    overrides_from_kwargs,
-    Param,
     spin_until_stopped,
 )
+from sma_actuator.nodes.ros_diagnostics import Diagnostics, ERROR, OK, WARN
+from sma_actuator.nodes.ros_params import declare_parameters, overrides_from_kwargs, Param
 
 PARAMETERS = (
     Param('topics', list(DEFAULT_TOPICS), 'Topic names or glob patterns to record (* also '
@@ -107,14 +99,15 @@ class RecorderNode(Node):
     :raises ValueError: An unknown parameter name or a bad value.
     """
 
-    def __init__(self, *, context=None, node_name='recorder', namespace=NAMESPACE, **params):
+    def __init__(self, *, context: Optional[Context] = None, node_name: str = 'recorder',
+                 namespace: str = NAMESPACE, **params: Any) -> None:
         super().__init__(node_name, context=context, namespace=namespace,
                          parameter_overrides=overrides_from_kwargs(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
         self._selector = TopicSelector(p['topics'], self.get_namespace())
         path = p['bag_path'] or bag_directory(p['output_dir'], p['run_name'],
                                               p['name_template'])
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self._diag = Diagnostics(self, 'recording')
         try:
             self.bag = BagWriter(path, compression=p['compression'],
                                  chunk_size_bytes=p['chunk_size_bytes'],
@@ -123,8 +116,7 @@ class RecorderNode(Node):
                                  max_file_duration_s=p['max_file_duration_s'],
                                  overwrite=p['overwrite'])
         except BagWriteError as err:
-            self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: recording', ERROR,
-                                               str(err), [('bag', path)]))
+            self._diag.publish(ERROR, str(err), [('bag', path)])
             raise
         self._depth = p['queue_depth']
         self._recording_subs = {}
@@ -144,11 +136,11 @@ class RecorderNode(Node):
         self._discover()
 
     @property
-    def recorded_topics(self):
+    def recorded_topics(self) -> List[str]:
         """Topics subscribed so far."""
         return sorted(self._recording_subs)
 
-    def _discover(self):
+    def _discover(self) -> None:
         if self._closed:
             return
         for topic, types in self.get_topic_names_and_types():
@@ -165,7 +157,8 @@ class RecorderNode(Node):
             except BagError as err:
                 self._skip(topic, str(err))
 
-    def _subscribe(self, topic, type_name, offers, type_hash):
+    def _subscribe(self, topic: str, type_name: str, offers: List[Dict[str, Any]],
+                   type_hash: str) -> None:
         msg_type = message_class(type_name)
         installed = type_description_hash(type_name)
         if type_hash and type_hash != installed:
@@ -178,12 +171,12 @@ class RecorderNode(Node):
             qos_profile(request['reliability'], request['durability'], self._depth), raw=True)
         self.get_logger().info(f"recording '{topic}' ({type_name}, {request['reliability']})")
 
-    def _skip(self, topic, reason):
+    def _skip(self, topic: str, reason: str) -> None:
         if self._skipped.get(topic) != reason:
             self._skipped[topic] = reason
             self.get_logger().error(f"not recording '{topic}': {reason}")
 
-    def _on_message(self, topic, data, info):
+    def _on_message(self, topic: str, data: bytes, info: Dict[str, int]) -> None:
         self._write(topic, data, info)
         if self._closed:
             return   # a write failure closed the bag and destroyed the subscriptions
@@ -193,7 +186,7 @@ class RecorderNode(Node):
             if self._closed:
                 break
 
-    def _write(self, topic, data, info):
+    def _write(self, topic: str, data: bytes, info: Dict[str, int]) -> None:
         if self._closed:
             return
         log_time = self.get_clock().now().nanoseconds
@@ -207,7 +200,7 @@ class RecorderNode(Node):
             self.get_logger().error(f"cannot write '{topic}' message: {err}",
                                     throttle_duration_sec=5.0)
 
-    def _flush_if_due(self):
+    def _flush_if_due(self) -> None:
         if self._closed:
             return
         try:
@@ -215,7 +208,7 @@ class RecorderNode(Node):
         except BagError as err:
             self._fail(err)
 
-    def _fail(self, err):
+    def _fail(self, err: BagError) -> None:
         """Stop recording after a write failure: ERROR on /diagnostics, close what we can."""
         if self.failure is not None:
             return
@@ -224,7 +217,7 @@ class RecorderNode(Node):
         self._publish_diagnostics()
         self.close()
 
-    def _publish_diagnostics(self):
+    def _publish_diagnostics(self) -> None:
         if self._closed:
             return
         if self.failure is not None:
@@ -239,10 +232,9 @@ class RecorderNode(Node):
                   ('bytes_on_disk', self.bag.bytes_on_disk), ('write_errors', self._write_errors)]
         values += [(f'count {t}', r.message_count) for t, r in self.bag.topics.items()]
         values += [(f'skipped {t}', reason) for t, reason in self._skipped.items()]
-        self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: recording', level, text,
-                                           values))
+        self._diag.publish(level, text, values)
 
-    def close(self):
+    def close(self) -> BagRecord:
         """
         Stop recording and finish the bag (summary, metadata.yaml); idempotent.
 
@@ -262,13 +254,13 @@ class RecorderNode(Node):
                                    + (' (after a write failure)' if self.failure else ''))
         return self.bag.close()
 
-    def destroy_node(self):
+    def destroy_node(self) -> None:
         """Close the bag, then destroy the node."""
         self.close()
         super().destroy_node()
 
 
-def main(args=None):
+def main(args: Optional[Sequence[str]] = None) -> int:
     """Console entry point: record until SIGINT/SIGTERM, take what is queued, close the bag."""
     # The stop flag leaves the context up, so messages that already arrived but were not
     # taken yet are still drained into the bag.

@@ -30,29 +30,30 @@ import queue
 import sys
 import threading
 import time
+from typing import Any, Dict, List, Optional, Sequence
 
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import rclpy
+from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sma_actuator.bag.errors import BagError, UnknownTypeError
-from sma_actuator.bag.playback import parse_remappings, PlaybackOptions, Player
+from sma_actuator.bag.playback import parse_remappings, PlaybackOptions, PlaybackStats, Player
 from sma_actuator.bag.qos import adapt_offer_to_recorded_offers, load_offered_qos_profiles
-from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.ros_interop import diagnostics, ERROR, message_class, OK, qos_profile
-from sma_actuator.nodes.common import (
+from sma_actuator.bag.reader import BagMessage, BagReader
+from sma_actuator.nodes.ros_bag import message_class, qos_profile
+from sma_actuator.nodes.ros_console import (
     create_node,
-    declare_parameters,
     handle_command_line,
     init_with_stop_signals,
-    overrides_from_kwargs,
-    Param,
     spin_until_stopped,
 )
+from sma_actuator.nodes.ros_diagnostics import Diagnostics, ERROR, OK
+from sma_actuator.nodes.ros_params import declare_parameters, overrides_from_kwargs, Param
 from std_msgs.msg import Float64MultiArray
 
 PARAMETERS = (
@@ -95,7 +96,8 @@ class ReplayNode(Node):
     :raises ValueError: Unknown parameter, bad remapping or option.
     """
 
-    def __init__(self, *, context=None, node_name='replay', **params):
+    def __init__(self, *, context: Optional[Context] = None, node_name: str = 'replay',
+                 **params: Any) -> None:
         super().__init__(node_name, context=context,
                          parameter_overrides=overrides_from_kwargs(PARAMETERS, params))
         p = declare_parameters(self, PARAMETERS)
@@ -165,12 +167,12 @@ class ReplayNode(Node):
         self._error = None
         self.finished = threading.Event()
         self._worker = None
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self._diag = Diagnostics(self, 'replay')
         self.create_timer(p['diagnostics_period_s'], self._publish_diagnostics)
         self.get_logger().info(f'playing {topics} from {self._reader.path} at rate '
                                f"{p['rate']}" + (f', remapped {remap}' if remap else ''))
 
-    def _select(self, wanted):
+    def _select(self, wanted: List[str]) -> List[str]:
         topics = self._reader.topics
         missing = sorted(set(wanted) - set(topics))
         if missing:
@@ -195,7 +197,7 @@ class ReplayNode(Node):
                 selected.append(name)
         return selected
 
-    def _publisher_for(self, topic, out_name):
+    def _publisher_for(self, topic: str, out_name: str) -> Publisher:
         info = self._reader.topics[topic]
         try:
             offers = load_offered_qos_profiles(info.offered_qos_profiles)
@@ -208,22 +210,22 @@ class ReplayNode(Node):
                                      qos_profile(offer['reliability'], offer['durability'], 100))
 
     @property
-    def played_topics(self):
+    def played_topics(self) -> Dict[str, str]:
         """Bag topic -> published topic name."""
         return dict(self._topic_out)
 
     @property
-    def stats(self):
+    def stats(self) -> PlaybackStats:
         """Return the player's :class:`~sma_actuator.bag.playback.PlaybackStats` so far."""
         return self._player.stats
 
-    def start(self):
+    def start(self) -> None:
         """Start playback in a background thread (see ``wait_for_subscribers_s``)."""
         if self._worker is None:
             self._worker = threading.Thread(target=self._run, name='replay', daemon=True)
             self._worker.start()
 
-    def _wait_for_subscribers(self):
+    def _wait_for_subscribers(self) -> bool:
         """
         Wait until the required topics (else every played topic) are matched.
 
@@ -254,7 +256,7 @@ class ReplayNode(Node):
                 break
         return not self._stop_event.is_set()
 
-    def _run(self):
+    def _run(self) -> None:
         try:
             if self._wait_for_subscribers():
                 if self._follow:
@@ -268,7 +270,7 @@ class ReplayNode(Node):
             self._send_zero_duty()
             self.finished.set()
 
-    def _follow_clock(self):
+    def _follow_clock(self) -> None:
         """Publish on each /clock tick what is due by its bag time; see follow_clock."""
         deadline = time.monotonic() + self._wait_s
         while not self.count_publishers('/clock'):
@@ -304,14 +306,14 @@ class ReplayNode(Node):
             self.get_logger().info(f'followed /clock from {first_tick * 1e-9:.3f} s = bag time '
                                    f'{self._start_ns * 1e-9:.3f} s')
 
-    def _publish(self, msg):
+    def _publish(self, msg: BagMessage) -> None:
         self._replay_pubs[msg.topic].publish(msg.data)
 
-    def _publish_clock(self, bag_time_ns):
+    def _publish_clock(self, bag_time_ns: int) -> None:
         sec, nanosec = divmod(bag_time_ns, 1_000_000_000)
         self._clock_pub.publish(Clock(clock=Time(sec=sec, nanosec=nanosec)))
 
-    def _send_zero_duty(self):
+    def _send_zero_duty(self) -> None:
         with self._zeroed:
             if self._zero_sent or self._duty_topic not in self._replay_pubs:
                 return
@@ -321,29 +323,29 @@ class ReplayNode(Node):
             pub.wait_for_all_acked(Duration(seconds=1.0))
             self.get_logger().info(f"sent duty [0, 0] on '{self._topic_out[self._duty_topic]}'")
 
-    def stop(self):
+    def stop(self) -> None:
         """Stop playback (if running) and make sure the duty is zeroed; idempotent."""
         self._stop_event.set()
         if self._worker is not None:
             self._worker.join(timeout=5.0)
         self._send_zero_duty()
 
-    def _publish_diagnostics(self):
+    def _publish_diagnostics(self) -> None:
         stats = self._player.stats
         late = np.asarray(stats.lateness_ns[-1000:], dtype=float) * 1e-6
         state = 'finished' if self.finished.is_set() else 'playing'
         level, text = (ERROR, f'failed: {self._error}') if self._error else (OK, state)
-        self._diag_pub.publish(diagnostics(self, f'{self.get_name()}: replay', level, text, [
+        self._diag.publish(level, text, [
             ('bag', self._reader.path), ('published', stats.published), ('loops', stats.loops),
-            ('lateness_p99_ms', f'{np.percentile(late, 99):.3f}' if late.size else 'n/a')]))
+            ('lateness_p99_ms', f'{np.percentile(late, 99):.3f}' if late.size else 'n/a')])
 
-    def destroy_node(self):
+    def destroy_node(self) -> None:
         """Stop playback (zeroing the duty), then destroy the node."""
         self.stop()
         super().destroy_node()
 
 
-def main(args=None):
+def main(args: Optional[Sequence[str]] = None) -> int:
     """Console entry point: play the bag; SIGINT/SIGTERM stop it and zero the duty first."""
     # The stop flag leaves the context up, so the duty can still be zeroed on the way out.
     handle_command_line('replay', __doc__, PARAMETERS, args)

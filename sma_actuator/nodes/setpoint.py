@@ -26,13 +26,23 @@ from dataclasses import fields, replace
 import sys
 import threading
 import time
+from typing import Any, List, Optional, Sequence
 
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
 from . import common as c
+from .ros_console import (
+    create_node,
+    handle_command_line,
+    init_with_stop_signals,
+    spin_until_stopped,
+)
+from .ros_diagnostics import Diagnostics, OK, WARN
+from .ros_params import declare_parameters, Param
 from ..profiles import Profile, PROFILES
 
 _D = Profile()
@@ -46,25 +56,31 @@ PROFILE_PARAMS = (
     ('chirp_duration_s', 0.1, 3600.0, 'Chirp sweep duration D [s].'),
 )
 PARAMETERS = (
-    c.Param('profile', _D.kind, 'Setpoint profile (changeable at runtime).', choices=PROFILES),
-    *(c.Param(name, getattr(_D, name), desc, (lo, hi)) for name, lo, hi, desc in PROFILE_PARAMS),
-    c.Param('rate_hz', 40.0, 'Publication rate [Hz].', (0.1, 1000.0), read_only=True),
-    c.Param('duration_s', 0.0, 'Stop publishing after this long [s] of the node clock (sim '
-            'time with use_sim_time) and exit; 0 = never.', (0.0, 1e6), read_only=True),
-    c.Param('one_shot', False, 'Publish `offset` once and exit.', read_only=True),
+    Param('profile', _D.kind, 'Setpoint profile (changeable at runtime).', choices=PROFILES),
+    *(Param(name, getattr(_D, name), desc, (lo, hi)) for name, lo, hi, desc in PROFILE_PARAMS),
+    Param('rate_hz', 40.0, 'Publication rate [Hz].', (0.1, 1000.0), read_only=True),
+    Param('duration_s', 0.0, 'Stop publishing after this long [s] of the node clock (sim '
+          'time with use_sim_time) and exit; 0 = never.', (0.0, 1e6), read_only=True),
+    Param('one_shot', False, 'Publish `offset` once and exit.', read_only=True),
 )
 
 
 class Setpoint(Node):
-    """Setpoint source node (see module docstring)."""
+    """
+    Setpoint source node (see module docstring).
 
-    def __init__(self, **kwargs):
+    :param kwargs: rclpy ``Node`` keyword arguments (context, parameter_overrides,
+        namespace: default ``sma``, ...); the parameters are those of ``PARAMETERS``.
+    :raises ParameterError: A parameter value the node cannot run with.
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('setpoint', **c.node_options(kwargs))
-        p = c.declare_parameters(self, PARAMETERS)
+        p = declare_parameters(self, PARAMETERS)
         self.profile = Profile(p['profile'], **{name: p[name] for name, *_ in PROFILE_PARAMS})
         rate, self.duration_s, self.one_shot = p['rate_hz'], p['duration_s'], p['one_shot']
         self.pub = self.create_publisher(Float64, c.SETPOINT, c.COMMAND_QOS)
-        self.diag = c.Diagnostics(self, 'setpoint')
+        self.diag = Diagnostics(self, 'setpoint')
         self.add_on_set_parameters_callback(self.on_set_parameters)
         self.t0 = None
         self.value = None
@@ -73,7 +89,8 @@ class Setpoint(Node):
             self.timer = self.create_timer(1.0 / rate, self.on_tick)
             self.create_timer(1.0, self.publish_status)
 
-    def on_tick(self):
+    def on_tick(self) -> None:
+        """Publish the profile value at the node-clock time since the first tick."""
         now = self.get_clock().now().nanoseconds * 1e-9
         if now <= 0.0:          # use_sim_time and no /clock yet
             return
@@ -87,13 +104,15 @@ class Setpoint(Node):
         self.value = float(self.profile(t))
         self.pub.publish(Float64(data=self.value))
 
-    def publish_status(self):
+    def publish_status(self) -> None:
+        """Publish the 1 Hz diagnostics status."""
         p = self.profile
-        self.diag.publish(c.OK, 'done' if self.done else f'profile {p.kind}',
+        self.diag.publish(OK, 'done' if self.done else f'profile {p.kind}',
                           {'profile': p.kind, 'amplitude_rad': p.amplitude, 'offset_rad': p.offset,
                            'period_s': p.period_s, 'setpoint_rad': self.value})
 
-    def publish_once(self, wait_s=5.0, stop=None):
+    def publish_once(self, wait_s: float = 5.0,
+                     stop: Optional[threading.Event] = None) -> bool:
         """
         One-shot: wait for a subscriber, publish `offset`, wait for the acknowledgement.
 
@@ -115,7 +134,8 @@ class Setpoint(Node):
                                f'{"" if acked else " (not acknowledged)"}')
         return acked
 
-    def on_set_parameters(self, params):
+    def on_set_parameters(self, params: List[Parameter]) -> SetParametersResult:
+        """Apply a runtime profile change; refuse (WARN) one the profile rejects."""
         names = {f.name for f in fields(Profile)}
         changes = {('kind' if p.name == 'profile' else p.name): p.value for p in params
                    if p.name in names or p.name == 'profile'}
@@ -124,21 +144,22 @@ class Setpoint(Node):
         try:
             self.profile = replace(self.profile, **changes)
         except (ValueError, TypeError) as e:
-            self.diag.publish(c.WARN, f'rejected profile change: {e}')
+            self.diag.publish(WARN, f'rejected profile change: {e}')
             return SetParametersResult(successful=False, reason=str(e))
         return SetParametersResult(successful=True)
 
 
-def main(args=None):
-    c.handle_command_line('setpoint', __doc__, PARAMETERS, args)
-    stop = c.init_with_stop_signals(args, 'setpoint')
+def main(args: Optional[Sequence[str]] = None) -> None:
+    """Publish the profile until SIGINT/SIGTERM or duration_s; exit 1 if a one-shot fails."""
+    handle_command_line('setpoint', __doc__, PARAMETERS, args)
+    stop = init_with_stop_signals(args, 'setpoint')
     node, ok = None, True
     try:
-        node = c.create_node('setpoint', Setpoint, args)
+        node = create_node('setpoint', Setpoint, args)
         if node.one_shot:
             ok = node.publish_once(stop=stop)
         else:
-            c.spin_until_stopped(node, stop, done=lambda: node.done, poll_s=0.1)
+            spin_until_stopped(node, stop, done=lambda: node.done, poll_s=0.1)
     finally:
         if node is not None:
             node.destroy_node()

@@ -13,21 +13,21 @@
 # limitations under the License.
 
 """
-The rclpy side of recording and replay (the only module of sma_actuator.bag importing ROS).
+The rclpy side of recording and replay; sma_actuator.bag itself imports no ROS.
 
 Small helpers shared by the recorder and replay nodes: message classes by type name, QoS
-profiles from rosbag2 policy names, diagnostics.
+profiles from rosbag2 policy names, the QoS publishers offer, taking a queue at once.
 """
 import importlib
-from typing import Any, Dict, Iterable, Iterator, Tuple
+from typing import Any, Dict, Iterator, List, Tuple
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.subscription import Subscription
 
-from .errors import UnknownTypeError
-from .msgdefs import split_type_name
-from .qos import profile_to_dict
+from ..bag.errors import UnknownTypeError
+from ..bag.msgdefs import split_type_name
+from ..bag.qos import profile_to_dict
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
                 'best_effort': ReliabilityPolicy.BEST_EFFORT}
@@ -35,7 +35,7 @@ _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
                'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
 
 
-def message_class(type_name: str):
+def message_class(type_name: str) -> type:
     """
     Import and return the Python class of ``pkg/msg/Type``.
 
@@ -55,7 +55,7 @@ def qos_profile(reliability: str, durability: str, depth: int) -> QoSProfile:
                       reliability=_RELIABILITY[reliability], durability=_DURABILITY[durability])
 
 
-def publisher_offers(node: Node, topic: str):
+def publisher_offers(node: Node, topic: str) -> Tuple[List[Dict[str, Any]], str]:
     """Return ``(offered QoS dicts, type hash or '')`` of the publishers of a topic."""
     infos = node.get_publishers_info_by_topic(topic)
     hashes = {str(i.topic_type_hash) for i in infos}
@@ -64,7 +64,7 @@ def publisher_offers(node: Node, topic: str):
         type_hash if type_hash.startswith('RIHS01_') else '')
 
 
-def take_pending(subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
+def take_pending(subscription: Subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
     """
     Yield ``(message, info)`` for every message already queued on a subscription.
 
@@ -83,17 +83,3 @@ def take_pending(subscription) -> Iterator[Tuple[Any, Dict[str, Any]]]:
         if taken is None:
             return
         yield taken
-
-
-def diagnostics(node: Node, name: str, level: bytes, message: str,
-                values: Iterable[Tuple[str, Any]]) -> DiagnosticArray:
-    """Return a DiagnosticArray with one status stamped with the node clock."""
-    status = DiagnosticStatus(level=level, name=name, message=message,
-                              hardware_id=node.get_fully_qualified_name(),
-                              values=[KeyValue(key=k, value=str(v)) for k, v in values])
-    array = DiagnosticArray(status=[status])
-    array.header.stamp = node.get_clock().now().to_msg()
-    return array
-
-
-OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR

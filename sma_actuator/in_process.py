@@ -24,18 +24,21 @@ recorder) to the same executor for the run.
 from dataclasses import dataclass, field
 import functools
 import time
+from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
+from numpy.typing import ArrayLike
+from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64, Float64MultiArray
 
-from . import common as c
-from .controller import Controller
-from .plant_sim import PlantSim
-from .setpoint import Setpoint
+from .nodes import common as c
+from .nodes.controller import Controller
+from .nodes.plant_sim import PlantSim
+from .nodes.setpoint import Setpoint
 
 # a loaded host can stall the controller for tens of ms; only a dead one should make the
 # plant step without its reply (that would change the loop delay and the results)
@@ -52,7 +55,7 @@ class Trace:
     duty: list = field(default_factory=list)         # latest duty pair at that stamp
     theta: list = field(default_factory=list)        # latest plant wire temperatures [°C]
 
-    def arrays(self):
+    def arrays(self) -> Dict[str, np.ndarray]:
         """Return a dict of numpy arrays: time_s, position, setpoint (n,); duty, theta (n, 2)."""
         out = {k: np.asarray(getattr(self, k), dtype=float)
                for k in ('time_s', 'position', 'setpoint')}
@@ -64,7 +67,7 @@ class Trace:
 class TraceProbe(Node):
     """Listens to setpoint, duty, wire temperatures and joint states; one row per joint state."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('trace_probe', **c.node_options(kwargs))
         self.trace = Trace()
         self.setpoint = None
@@ -77,16 +80,16 @@ class TraceProbe(Node):
                                      c.SENSOR_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
-    def _sp(self, msg):
+    def _sp(self, msg: Float64) -> None:
         self.setpoint = msg.data
 
-    def _duty(self, msg):
+    def _duty(self, msg: Float64MultiArray) -> None:
         self.duty = tuple(msg.data)
 
-    def _temp(self, wire, msg):
+    def _temp(self, wire: int, msg: Temperature) -> None:
         self.theta[wire] = msg.temperature
 
-    def _js(self, msg):
+    def _js(self, msg: JointState) -> None:
         if self.setpoint is None:      # the loop starts with the first setpoint
             return
         t = self.trace
@@ -96,7 +99,7 @@ class TraceProbe(Node):
         t.duty.append(self.duty)
         t.theta.append(tuple(self.theta))
 
-    def sim_time(self):
+    def sim_time(self) -> float:
         return self.trace.time_s[-1] - self.trace.time_s[0] if self.trace.time_s else 0.0
 
 
@@ -108,7 +111,7 @@ class ExcitationSource(Node):
     logs (stamp t_k, position at t_k, duty sent in reply, which the plant holds over [t_k, t_k+1)).
     """
 
-    def __init__(self, duty_a, duty_b, **kwargs):
+    def __init__(self, duty_a: ArrayLike, duty_b: ArrayLike, **kwargs: Any) -> None:
         super().__init__('excitation', **c.node_options(kwargs))
         self.sequence = np.column_stack([duty_a, duty_b])
         self.k = 0
@@ -117,7 +120,7 @@ class ExcitationSource(Node):
         self.pub = self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
-    def _js(self, msg):
+    def _js(self, msg: JointState) -> None:
         if self.k >= len(self.sequence):
             self.pub.publish(Float64MultiArray(data=[0.0, 0.0]))
             return
@@ -126,11 +129,14 @@ class ExcitationSource(Node):
         self.k += 1
         self.pub.publish(Float64MultiArray(data=list(self.applied)))
 
-    def done(self):
+    def done(self) -> bool:
+        """Return whether every duty of the sequence was sent."""
         return self.k >= len(self.sequence)
 
 
-def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
+def run_excitation(context: Context, duty_a: ArrayLike, duty_b: ArrayLike,
+                   plant: Optional[Dict[str, Any]] = None,
+                   real_time_factor: float = 100.0) -> Tuple[np.ndarray, ...]:
     """
     Drive the plant node open loop with a duty sequence (one entry per 25 ms plant step).
 
@@ -171,13 +177,18 @@ def run_excitation(context, duty_a, duty_b, plant=None, real_time_factor=100.0):
             n.destroy_node()
 
 
-def _overrides(d):
+def _overrides(d: Optional[Dict[str, Any]]) -> List[Parameter]:
     return [Parameter(k, value=v) for k, v in (d or {}).items()]
 
 
-def run_closed_loop(context, profile, duration_s, mode='pi', real_time_factor=20.0,
-                    plant=None, controller=None, setpoint=None, attach=(), warmup_s=None,
-                    wall_timeout_s=None):
+def run_closed_loop(context: Context, profile: Dict[str, Any], duration_s: float,
+                    mode: str = 'pi', real_time_factor: float = 20.0,
+                    plant: Optional[Dict[str, Any]] = None,
+                    controller: Optional[Dict[str, Any]] = None,
+                    setpoint: Optional[Dict[str, Any]] = None,
+                    attach: Iterable[Callable[[Context], Node]] = (),
+                    warmup_s: Optional[float] = None,
+                    wall_timeout_s: Optional[float] = None) -> Trace:
     """
     Run one closed-loop experiment; return the `Trace`.
 

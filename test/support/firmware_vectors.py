@@ -15,8 +15,9 @@
 """
 Shared test vectors of the serial protocol: Python writes them, the C++ firmware checks them.
 
-``python -m sma_actuator.hardware.vectors --write`` regenerates firmware/test_vectors.json
-from this package's protocol and MCU logic; ``--check`` verifies the file is up to date.
+``python test/support/firmware_vectors.py --write`` regenerates firmware/test_vectors.json
+from the protocol and MCU logic of sma_actuator.hardware; ``--check`` verifies the file is
+up to date. It lives with the tests: the runtime package does not ship test data.
 The firmware's host test driver (firmware/host_test/vector_driver.cpp) replays every vector
 against the C++ code and must reproduce each expected output byte-for-byte.
 
@@ -209,7 +210,7 @@ def build_vectors() -> dict:
                         'out': run_scenario(steps)})
     return {'format': 'sma_actuator serial protocol test vectors',
             'protocol_version': str(p.PROTOCOL_VERSION),
-            'generator': 'python -m sma_actuator.hardware.vectors --write', 'vectors': vectors}
+            'generator': 'python test/support/firmware_vectors.py --write', 'vectors': vectors}
 
 
 def render(doc: dict) -> str:

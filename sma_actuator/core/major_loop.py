@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Main-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
+Major-loop hysteresis models of the wire: temperature u [°C] -> length y (y0 cold, 0 hot).
 
 Two laws for the martensite fraction xi on the major-loop branches:
 
@@ -86,9 +86,9 @@ def _simulate(kind, u, a_s, a_f, m_s, m_f, state):
     return xi_out
 
 
-class MainLoopHysteresis:
+class MajorLoopHysteresis:
     """
-    Main-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
+    Major-loop model y = y0 * xi(u) with cosine (kind='cosine') or Ikuta (kind='ikuta') branches.
 
     Parameters: As, Af, Ms, Mf [°C] with As < Af and Mf < Ms; y0 output when cold (length
     or strain units of your choice). Streaming `step(u)`, batch `simulate(u)`, `reset()`.
