@@ -26,6 +26,7 @@ from sma_actuator.core import actuator as act
 from sma_actuator.workbench import engine
 from sma_actuator.workbench.effects import BUILTIN, CATALOG
 from sma_actuator.workbench.plugins import load_plugins
+from support import plant_records
 from test_workbench_engine import dead_time_record
 
 SCRATCH = '''
@@ -81,6 +82,12 @@ def test_every_declared_effect_parameter_reaches_the_plant_and_the_catalog():
     assert {name for name, *_ in PLANT_EFFECTS} == set(declared)
     for name, lo, hi, description in PLANT_EFFECTS:
         assert (lo, hi) == declared[name].plant and description == declared[name].label
+    # the test records of the package's plant stay inside the plant's declared ranges
+    for effect, levels in plant_records.EFFECTS.items():
+        for changes in levels:
+            for k, v in changes.items():
+                lo, hi = declared[k].plant
+                assert declared[k].effect == effect and lo <= v <= hi, (k, v)
     for effect, names in act.EFFECT_PARAMETERS.items():
         assert set(BUILTIN[effect].parameters) == set(names)
         assert all(CATALOG[effect].parameters[k] == declared[k].fit for k in names)
