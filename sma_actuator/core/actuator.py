@@ -364,8 +364,16 @@ STATE_CONTRACTION = 4   # contraction fractions y_a, y_b
 STATE_ELEMENTS = 6      # play element states s_a (m), s_b (m)
 
 
+# argument tuples of `simulate_wires`
+KernelInputs = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+KernelHysteresis = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]
+KernelFeatures = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]
+
+
 @njit(cache=True)
-def simulate_wires(inputs, dt, p, hyst, state, features):
+def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelHysteresis,
+                   state: np.ndarray, features: KernelFeatures
+                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """
     Step 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
@@ -449,8 +457,7 @@ def simulate_wires(inputs, dt, p, hyst, state, features):
 NO_FEATURES = (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0), 0, 1)
 
 
-def kernel_hysteresis(h: PlayHysteresis) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                  np.ndarray, float, float]:
+def kernel_hysteresis(h: PlayHysteresis) -> KernelHysteresis:
     """Return the hyst argument of `simulate_wires`, (r, lo, hi, w, k1, y0) of `h`."""
     return h.r, h.lo, h.hi, h.w, h.k1, h.y0
 
