@@ -29,7 +29,9 @@ Plants: `plant` is plant_sim's model (`control.closed_loop.CorePlant`: the core 
 with plant_sim's potentiometer, 1 mrad noise, 12-bit ADC); `richsim` is the independent
 simulator of test/support (Preisach hysteresis, RK4, its own formulation of every effect).
 On the plain plant it also runs steps (±0.4 rad) and a 0.2 Hz sine: rise time (10-90 %),
-overshoot and RMS error, pi against pi_inverse.
+overshoot and RMS error, pi against pi_inverse. Drift: plant_sim's plain model fitted once,
+the plant's offset or stroke then moved (runs on other days), pi_inverse with the drift
+estimator off and on; and pi_inverse without the early handover (`control.handover`).
 
 Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
      [--models DIR] (fitted models are cached in DIR; delete it to refit)
@@ -70,10 +72,20 @@ RICH_CASES = {
 }
 
 
+# plant_sim's plain plant with its offset / stroke moved away from the fitted model's
+DRIFT_CASES = {
+    'matched': {},
+    'offset +0.08 rad': {'offset_rad': 0.08},
+    'stroke -20 %': {'stroke_rad': 0.8},
+    'offset -0.08, stroke +20 %': {'offset_rad': -0.08, 'stroke_rad': 1.2},
+}
+
+
 def make_plant(source, case, seed):
-    """Return a fresh plant of `source` for `case`."""
+    """Return a fresh plant of `source` for `case` (a dict: plant_sim parameter changes)."""
     if source == 'plant':
-        return CorePlant(ActuatorParams(**PLANT_CASES[case][0]), DT, seed=seed)
+        changes = case if isinstance(case, dict) else PLANT_CASES[case][0]
+        return CorePlant(ActuatorParams(**changes), DT, seed=seed)
     from support.richsim_loop import RichPlant
     effect, magnitude = RICH_CASES[case][0]
     return RichPlant(effect, magnitude, seed=seed)
@@ -115,9 +127,9 @@ def fitted_model(models, source, case, effects, seconds, seed):
     return load_model(path), spec_nrmse['nrmse'], path
 
 
-def sine_rms(model, mode, source, case, seed=7, profile=SINE, periods=3):
-    """RMS error [rad] after the first period of the sine."""
-    ctrl = ControllerCore(model, ControllerSettings(mode=mode))
+def sine_rms(model, mode, source, case, seed=7, profile=SINE, periods=3, **settings):
+    """RMS error [rad] after the first period of the sine; settings: ControllerSettings."""
+    ctrl = ControllerCore(model, ControllerSettings(mode=mode, **settings))
     run = run_tracking(ctrl, make_plant(source, case, seed), profile,
                        profile.delay_s + periods * profile.period_s, DT)
     return run.summary(profile.delay_s + profile.period_s)['rms_error']
@@ -138,6 +150,21 @@ def step_metrics(model, mode, source, amplitude):
     overshoot = 100.0 * max(0.0, float(np.max(y[after])) - a) / a
     rms = run.summary(step.delay_s)['rms_error']
     return (float(t90 - t10) if reached else float('nan')), overshoot, rms
+
+
+def drift_table(models, seconds, seed):
+    """Print pi_inverse on plant_sim with its offset / stroke moved: drift estimator off / on."""
+    model, _, _ = fitted_model(models, 'plant', 'plain', [], seconds, seed)
+    print('\nplant_sim, model fitted on the plain plant, plant offset / stroke then moved: '
+          'pi_inverse sine RMS [rad], drift estimator off / on (drift_time_s 30 s)')
+    print(f'{"plant":28s} {"pi":>8s} {"drift off":>10s} {"drift on":>10s} {"on / off":>9s}')
+    for label, changes in DRIFT_CASES.items():
+        pi = sine_rms(model, 'pi', 'plant', changes)
+        off, on = (sine_rms(model, 'pi_inverse', 'plant', changes, drift_correction=d)
+                   for d in (False, True))
+        print(f'{label:28s} {pi:8.4f} {off:10.4f} {on:10.4f} {on / off:9.3f}', flush=True)
+    without = sine_rms(model, 'pi_inverse', 'plant', 'plain', preheat=False)
+    print(f'pi_inverse without the early handover (preheat off), plain plant: {without:.4f} rad')
 
 
 def figure(path, models, seconds, seed):
@@ -179,6 +206,7 @@ def main():
     ap.add_argument('--excitation-s', type=float, default=300.0)
     ap.add_argument('--seed', type=int, default=1, help='excitation seed')
     ap.add_argument('--no-steps', action='store_true', help='skip steps and the 0.2 Hz sine')
+    ap.add_argument('--no-drift', action='store_true', help='skip the drift table')
     ap.add_argument('--figure', default='', metavar='PNG',
                     help='also plot pi_inverse on the delayed plant, base vs delay model')
     ns = ap.parse_args()
@@ -211,6 +239,8 @@ def main():
                       f'{rms["pi_inverse"]:11.4f} {ratio:7.3f} {cut:>23s}', flush=True)
     if ns.figure:
         figure(ns.figure, models, ns.excitation_s, ns.seed)
+    if 'plant' in ns.source and not ns.no_drift:
+        drift_table(models, ns.excitation_s, ns.seed)
     if ns.no_steps:
         return
     print('\nplain plant, base model: steps from 0 (rise 10-90 % [s], overshoot [%], RMS [rad]) '

@@ -128,3 +128,25 @@ def test_column_range_is_the_min_and_max_over_both_arrays():
     lo, hi = column_range(a, b)
     np.testing.assert_array_equal(lo, np.minimum(a.min(0), b.min(0)))
     np.testing.assert_array_equal(hi, np.maximum(a.max(0), b.max(0)))
+
+
+def test_tied_loop_keeps_the_heating_cells_and_puts_cooling_at_the_datasheet_height():
+    """
+    Tie a grid's widths to a heating edge 20 K above a 22 °C rest (β of the datasheet).
+
+    Every rising cell stays where it was; the cooling branch lies 2 r below it, at
+    (1 − β)/(1 + β) = 0.49 of the heating edge's height above the rest for the mean width,
+    as Flexinol LT's (Ms + Mf)/2 − 22 = 25 K is of (As + Af)/2 − 22 = 51 K.
+    """
+    beta = idn.flexinol_loop_ratio()
+    assert beta == pytest.approx(13.0 / 38.0)
+    grid = idn.play_grid(20.0, 60.0, 'modified', 6, 10)
+    tied = idn.tie_loop_width(grid, 22.0, beta, edge=42.0)
+    rising = 0.5 * (grid.lo + grid.hi) + grid.r
+    assert np.allclose(0.5 * (tied.lo + tied.hi) + tied.r, rising)
+    assert np.allclose(tied.hi - tied.lo, grid.hi - grid.lo)
+    assert tied.r.min() == pytest.approx(0.85 * tied.r.mean())
+    assert tied.r.max() == pytest.approx(1.15 * tied.r.mean())
+    cooling_edge = 42.0 - 2.0 * tied.r.mean()
+    assert (cooling_edge - 22.0) / 20.0 == pytest.approx(25.0 / 51.0, abs=0.01)
+    assert idn.tie_loop_width(grid, 22.0, None) is grid

@@ -32,6 +32,8 @@ Modules:
 * `guard`: thermal guard (duty limits from the estimated temperatures).
 * `feedforward`: inverse compensation sensor^-1, per-wire H^-1 and thermal inverse
   (mode `pi_inverse`).
+* `handover`: pi_inverse at a zero crossing: the incoming wire heated early, the
+  outgoing one let go, never both within the interlock's dead time.
 * `on_off`: the paper's fully-heated / fully-cooled relay mode.
 * `core`: `ControllerCore`, the three modes assembled into one step function.
 * `model_file`: `load_model`, the package's one model file format.

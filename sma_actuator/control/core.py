@@ -39,6 +39,11 @@ pi_inverse, effect by effect:
     where the shaft will read D from now with where the reference will be then;
   * thermal lag: the thermal inverse brings the wire to the target of t + h + D in h
     (`ff_horizon_s`), the reference extrapolated over h + D;
+  * loop reversal: where the reference's own curvature says it turns within
+    L = min(`REVERSAL_LEAD_S`, sqrt(2 `REVERSAL_SHORTFALL_RAD` / |r̈|)) (+ D), the inverse
+    aims at r + L ṙ + L² r̈ / 2, past the turn: the active wire starts through its loop
+    (about 1 s of cooling) before the peak instead of after it;
+  * zero crossings: the incoming wire is heated early (`handover`);
   * asymmetric wires, current limit, convection, phase resistance, stress coupling: per-
     wire H^-1 and thermal inverse (`feedforward`);
   * ambient: the measured ambient drives the estimate and the thermal inverse (a model fitted
@@ -57,10 +62,12 @@ import numpy as np
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
+from .handover import FREE_LEAD_S, MIN_RATE_RAD_S, Preheat
+from .interlock import DeadTimeInterlock
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
-from .tuning import simc_gains, TAU_C_MIN_S
+from .tuning import simc_gains, TAU_C_MIN_S, transformation_start_c
 from ..core.actuator import sensor_polynomial
 from ..core.validate import finite_scalar
 
@@ -70,9 +77,21 @@ JUMP_RATE_RAD_S = 3.0
 # longest reference extrapolation [rad]
 MAX_EXTRAPOLATION_RAD = 0.5
 NOMINAL_DT_S = 0.025
+# ṙ and r̈ of the reference are smoothed over these [s] (`ReferencePredictor`)
+RATE_TIME_S = 0.1
+ACCEL_TIME_S = 0.2
+# loop reversal anticipated up to this far [s], and no further than where the turn costs
+# this much of the reference's height [rad] (a fast sine: 0.2 Hz sine RMS 0.080 -> 0.067)
+REVERSAL_LEAD_S = 0.9
+REVERSAL_SHORTFALL_RAD = 0.02
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
 # step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
 TAU_C_INVERSE_S = 0.25
+
+
+def _elapsed(now, then):
+    """Elapsed controller time [s], rounded up by 1 µs: n samples of dt count as n dt."""
+    return now - then + 1e-6
 
 
 @dataclass
@@ -96,6 +115,8 @@ class ControllerSettings:
     smith: bool = True              # pi_inverse: predict the measurement over the delay
     drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
+    preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
+    dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
 
     def __post_init__(self):
         if self.mode not in MODES:
@@ -106,13 +127,17 @@ class ControllerSettings:
                 value = finite_scalar(name, value)
                 setattr(self, name, None if value < 0 else value)
         for name in ('duty_max', 'both_threshold', 'max_temp_c', 'guard_horizon_s',
-                     'on_off_band_rad', 'on_off_duty', 'ff_horizon_s', 'drift_time_s'):
+                     'on_off_band_rad', 'on_off_duty', 'ff_horizon_s', 'drift_time_s',
+                     'dead_time_s'):
             setattr(self, name, finite_scalar(name, getattr(self, name)))
         self.smith, self.drift_correction = bool(self.smith), bool(self.drift_correction)
+        self.preheat = bool(self.preheat)
         if not 0.0 <= self.duty_max <= 1.0 or not 0.0 <= self.both_threshold <= 1.0:
             raise ValueError('duty_max and both_threshold must be in [0, 1]')
         if self.ff_horizon_s < 0 or self.guard_horizon_s <= 0 or self.drift_time_s <= 0:
             raise ValueError('ff_horizon_s must be >= 0, guard_horizon_s and drift_time_s > 0')
+        if not 0.0 <= self.dead_time_s <= 1.0:
+            raise ValueError(f'dead_time_s must be in [0, 1] s, got {self.dead_time_s}')
 
 
 @dataclass
@@ -130,26 +155,48 @@ class ControlStep:
 
 
 class ReferencePredictor:
-    """r(t + L) ≈ r + L ṙ from the setpoint samples; steps are not extrapolated."""
+    """
+    r(t + L) ≈ r + L ṙ (+ L² r̈ / 2) from the setpoint samples; steps are not extrapolated.
+
+    ṙ is the setpoint's rate smoothed over `RATE_TIME_S` and r̈ the rate's change smoothed
+    over `ACCEL_TIME_S` (exponential averages, ṙ ← ṙ + (Δr / dt − ṙ) dt / τ): a publisher
+    on its own clock delivers a new setpoint in some control samples and two in others.
+    """
 
     def __init__(self):
         self.reset()
 
     def reset(self):
         """Forget the setpoint history."""
-        self.last, self.rate = None, 0.0
+        self.last, self.rate, self.accel = None, 0.0, 0.0
 
     def update(self, r, dt):
         """Take the setpoint r [rad] of this sample."""
         if self.last is not None:
-            rate = (r - self.last) / dt
-            self.rate = rate if abs(rate) <= JUMP_RATE_RAD_S else 0.0
+            raw = (r - self.last) / dt
+            if abs(raw) <= JUMP_RATE_RAD_S:
+                rate = self.rate + (raw - self.rate) * min(dt / RATE_TIME_S, 1.0)
+                k = min(dt / ACCEL_TIME_S, 1.0)
+                self.accel += ((rate - self.rate) / dt - self.accel) * k
+                self.rate = rate
+            else:
+                self.rate, self.accel = 0.0, 0.0
         self.last = r
 
     def ahead(self, r, lead_s):
         """Extrapolated setpoint lead_s [s] ahead [rad]."""
         shift = self.rate * lead_s
         return r + min(max(shift, -MAX_EXTRAPOLATION_RAD), MAX_EXTRAPOLATION_RAD)
+
+    def reversal(self, r, lead_s):
+        """
+        Return r(t + L) = r + L ṙ + L² r̈ / 2 when ṙ changes sign within L, else None.
+
+        r̈ is the difference of successive rates, smoothed over `ACCEL_TIME_S`.
+        """
+        if self.rate * (self.rate + lead_s * self.accel) >= 0.0:
+            return None
+        return r + lead_s * self.rate + 0.5 * lead_s ** 2 * self.accel
 
 
 class SensorMap:
@@ -204,6 +251,7 @@ class ControllerCore:
         self.reference = ReferencePredictor()
         self.pi = DiscretePI(0.0, 0.0)
         self.feedforward = InverseFeedforward(self.model)
+        self.handover = Preheat(self.feedforward, transformation_start_c(self.model))
         self._apply(self.settings)
         self.reset()
 
@@ -222,6 +270,7 @@ class ControllerCore:
         self.drift.time_s = s.drift_time_s
         self.guard = ThermalGuard(self.model, s.max_temp_c, s.guard_horizon_s)
         self.relay = OnOffRelay(s.on_off_band_rad, s.on_off_duty)
+        self.handover.dead_time_s = s.dead_time_s
 
     def reset(self):
         """Back to rest: wires estimated cold, integrator and relay cleared, duties zero."""
@@ -231,6 +280,11 @@ class ControllerCore:
         self.reference.reset()
         self.pi.reset()
         self.relay.reset()
+        self.handover.reset()
+        self.handover.mismatch_ms = 0.0     # the estimate restarts: trust it again
+        self.crossing, self.ff_temps = (None, math.inf), None
+        self.interlock = DeadTimeInterlock(self.settings.dead_time_s, _elapsed)
+        self.clock_s = 0.0
         self.last_duty = (0.0, 0.0)
 
     def configure(self, **changes):
@@ -240,6 +294,7 @@ class ControllerCore:
             self.pi.reset()     # the integral of one mode means nothing in another
         state = self.relay.state
         self._apply(new)
+        self.interlock.dead_time = new.dead_time_s
         self.relay.state = state if new.mode == self.settings.mode else 0
         self.settings = new
 
@@ -270,6 +325,7 @@ class ControllerCore:
         if ambient_c is not None and not math.isfinite(ambient_c):
             ambient_c = None
         self._advance(dt, ambient_c)
+        self.clock_s += dt
         self.reference.update(r, dt)
         theta = self.estimator.temperature_c
         g_a, g_b = self.guard.limits(theta, self.last_duty, ambient_c)
@@ -281,8 +337,18 @@ class ControllerCore:
         elif s.mode == 'pi':
             u = self.pi.step(error, dt, -lim_b, lim_a)
         else:
+            integral = self.pi.integral
             u, u_ff = self._inverse_step(r, y, dt, ambient_c, theta, lim_a, lim_b)
         duty_a, duty_b = exclusive(*split(u, lim_a, lim_b), s.both_threshold)
+        if s.mode == 'pi_inverse':
+            self.handover.observe(y - self.estimator.reading_delayed, dt)
+            shared = self.handover.duties(
+                *self.crossing, theta, self._ambient(ambient_c), dt, self.ff_temps,
+                u) if s.preheat else None
+            if shared is not None:
+                self.pi.integral = integral
+                duty_a, duty_b = min(shared[0], lim_a), min(shared[1], lim_b)
+            (duty_a, duty_b), _ = self.interlock.apply(duty_a, duty_b, self.clock_s)
         self.last_duty = (duty_a, duty_b)
         return ControlStep(duty_a, duty_b, error, u_ff, (lim_a, lim_b), tuple(theta),
                            self.pi.saturated, min(g_a, g_b) < s.duty_max)
@@ -296,12 +362,40 @@ class ControllerCore:
         if s.drift_correction:
             self.drift.update(self.estimator.contraction, self.sensor.angle(y), dt)
         target = self.sensor.angle(self.reference.ahead(r, delay if s.smith else 0.0))
-        ff_target = self.sensor.angle(self.reference.ahead(r, delay + s.ff_horizon_s))
-        (ff_a, ff_b), _ = self.feedforward.duties(
+        ff_r = self.reference.ahead(r, delay + s.ff_horizon_s)
+        lead = REVERSAL_LEAD_S
+        if self.reference.accel != 0.0:
+            lead = min(lead, math.sqrt(2.0 * REVERSAL_SHORTFALL_RAD / abs(self.reference.accel)))
+        turn = self.reference.reversal(r, delay + lead)
+        ff_target = self.sensor.angle(ff_r if turn is None else turn)
+        (ff_a, ff_b), self.ff_temps = self.feedforward.duties(
             ff_target, self._ambient(ambient_c), self.estimator.contraction, theta,
             self.drift.offset, self.drift.stroke)
         u_ff = ff_a - ff_b
-        return self.pi.step(target - angle, dt, -lim_b, lim_a, feedforward=u_ff), u_ff
+        lo, hi = -lim_b, lim_a
+        self.crossing = self._crossing(r)
+        if self.crossing[1] > FREE_LEAD_S and abs(self.reference.rate) >= MIN_RATE_RAD_S:
+            # a moving reference far from a crossing and far on one side: the antagonist,
+            # cold, would only heat (a held setpoint keeps it, to pull back an overshoot)
+            side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
+            lo, hi = (0.0 if side > 0 else lo), (0.0 if side < 0 else hi)
+        return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
+
+    def _crossing(self, r):
+        """
+        Return (incoming wire or None, t_c [s]) of the next zero crossing of the target.
+
+        The crossing is predicted in true angle: t_c = (φ0 − p⁻¹(r)) / ṙ, ṙ the
+        extrapolated rate of p⁻¹(r) over 0.1 s; the incoming wire is a (0) for ṙ > 0, b (1)
+        for ṙ < 0; (None, inf) when the reference does not head for a crossing.
+        """
+        now = self.sensor.angle(r)
+        rate = (self.sensor.angle(self.reference.ahead(r, 0.1)) - now) / 0.1
+        distance = self.drift.offset - now
+        incoming, t_cross = None, math.inf
+        if abs(rate) >= MIN_RATE_RAD_S and distance * rate > 0:
+            incoming, t_cross = (0 if rate > 0 else 1), distance / rate
+        return incoming, t_cross
 
     def idle(self, dt, ambient_c=None):
         """Fault path (stale feedback): zero duty, integrator cleared, estimate keeps running."""
@@ -309,5 +403,7 @@ class ControllerCore:
         self.pi.reset()
         self.relay.reset()
         self.reference.reset()
+        self.clock_s += finite_scalar('dt', dt)
+        self.interlock.apply(0.0, 0.0, self.clock_s)
         self.last_duty = (0.0, 0.0)
         return ControlStep(0.0, 0.0, theta_est_c=tuple(self.estimator.temperature_c))

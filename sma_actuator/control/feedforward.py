@@ -54,6 +54,8 @@ from ..core.validate import finite_scalar
 # |Δy*| below this counts as "both wires idle": on the flat cold branch any temperature up
 # to the knee gives y = 0, and the inverse would otherwise pick the knee and heat needlessly
 IDLE_CONTRACTION = 1e-3
+# |Δy*| beyond which the loop heats only the wire on the target's side (`target_side`)
+ONE_SIDED_MARGIN = 0.1
 
 
 class InverseFeedforward:
@@ -110,13 +112,29 @@ class InverseFeedforward:
         ratio = p.stroke_ratio_b if p.stroke_ratio_b > 0 else 1.0
         return None, min(-dy / ratio, y_max)
 
-    def _tau(self, j):
+    def target_side(self, angle_rad, offset_rad=None, stroke_rad=None, margin=None):
+        """
+        Return +1 (−1) when the target Δy* = (φ* − φ0) / g lies beyond +margin (−margin).
+
+        0 in between. Far on one side the antagonist, below its transformation start, only
+        heats without moving, and must be let go; margin defaults to `ONE_SIDED_MARGIN`.
+        """
+        p = self.params
+        offset = p.offset_rad if offset_rad is None else offset_rad
+        stroke = p.stroke_rad if stroke_rad is None else stroke_rad
+        dy = (angle_rad - offset) / stroke
+        m = ONE_SIDED_MARGIN if margin is None else margin
+        return 1 if dy > m else (-1 if dy < -m else 0)
+
+    def wire_tau(self, j):
+        """Wire j's thermal time constant T_j [s]."""
         return self._taus[j]
 
-    def _gain(self, j):
+    def wire_gain(self, j):
+        """Wire j's steady rise at full duty G_j [K]."""
         return self._gains[j]
 
-    def thermal_duty(self, j, theta_target, theta_est, ambient, y_own=0.0):
+    def thermal_duty(self, j, theta_target, theta_est, ambient, y_own=0.0, horizon_s=None):
         """
         Return wire j's duty that brings θ̂_j to θ* (step 4, every thermal effect inverted).
 
@@ -125,19 +143,21 @@ class InverseFeedforward:
         between θ̂ and θ*, then the current limiter's saturation is inverted: a hard limit
         d_lim cannot be exceeded (any target beyond it asks for full duty), the smooth one
         d_eff = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, is inverted exactly,
-        x = z / (1 − z^n)^(1/n), z = d_eff / d_lim.
+        x = z / (1 − z^n)^(1/n), z = d_eff / d_lim. horizon_s: h of the thermal inverse
+        (None: `horizon_s` of the object).
         """
         p = self.params
-        gain = self._gain(j) * (1.0 + p.phase_kappa * (1.0 - y_own))
-        tau = self._tau(j)
+        gain = self.wire_gain(j) * (1.0 + p.phase_kappa * (1.0 - y_own))
+        tau = self.wire_tau(j)
         if p.convection_exponent != 0.0:
             ref = theta_target if theta_est is None else 0.5 * (theta_target + theta_est)
             f = max((max(abs(ref - ambient), 0.5) / CONVECTION_REF_K) ** p.convection_exponent,
                     0.05)
             gain, tau = gain / f, tau / f
-        if self.horizon_s > 0 and theta_est is not None:
-            a, _ = thermal_step(float(theta_est), 0.0, ambient, 0.0, self.horizon_s, tau, 0.0)
-            d_eff = (theta_target - a) / ((1.0 - np.exp(-self.horizon_s / tau)) * gain)
+        h = self.horizon_s if horizon_s is None else horizon_s
+        if h > 0 and theta_est is not None:
+            a, _ = thermal_step(float(theta_est), 0.0, ambient, 0.0, h, tau, 0.0)
+            d_eff = (theta_target - a) / ((1.0 - np.exp(-h / tau)) * gain)
         else:
             d_eff = (theta_target - ambient) / gain
         return float(np.clip(current_limit_inverse(d_eff, p.duty_limit,
@@ -155,7 +175,7 @@ class InverseFeedforward:
             if y_star is None:
                 self._last_target[j], self._direction[j] = None, 0
                 continue
-            gain = self._gain(j)
+            gain = self.wire_gain(j)
             last, self._last_target[j] = self._last_target[j], y_star
             if last is not None and y_star != last:
                 self._direction[j] = 1 if y_star > last else -1

@@ -57,21 +57,47 @@ KP_RANGE = (0.05, 20.0)
 KI_RANGE = (0.01, 40.0)
 
 
-def heating_slope_per_k(params):
+def heating_branch(params):
     """
-    Return the secant slope h' [1/K] of the heating branch, ambient to 90 % contraction.
+    Return (u [°C], y) of the model's heating branch from the cold wire at ambient.
 
-    The branch is traced from the cold state at the model's ambient up to ambient + G.
+    y(u) = H[u] along u rising from the cold state at the model's ambient θa to θa + G
+    (kept non-decreasing), on 2001 points: what a wire at rest shows when heated.
     """
     h = PlayHysteresis.from_dict(params.hysteresis.to_dict())
     amb, top = params.ambient_c, params.ambient_c + max(params.gain_k, 1.0)
     u = np.linspace(amb, top, 2001)
-    y = np.maximum.accumulate(h.simulate(u, h.initial_state(amb)))
+    return u, np.maximum.accumulate(h.simulate(u, h.initial_state(amb)))
+
+
+def heating_slope_per_k(params):
+    """
+    Return the secant slope h' [1/K] of the heating branch, ambient to 90 % contraction.
+
+    h' = 0.9 (y(θa + G) − y(θa)) / (u90 − θa), u90 where the branch (`heating_branch`)
+    reaches 90 % of its span.
+    """
+    u, y = heating_branch(params)
+    amb = params.ambient_c
     span = float(y[-1] - y[0])
     if span <= 1e-9:
         return 1.0 / 50.0
     u90 = float(np.interp(y[0] + 0.9 * span, y, u))
     return 0.9 * span / max(u90 - amb, 1.0)
+
+
+def transformation_start_c(params, fraction=0.02):
+    """
+    Return θs [°C], the model's As: where a heated cold wire starts to move.
+
+    θs is the first u of the heating branch (`heating_branch`) with y(u) >= y(θa) +
+    fraction (y(θa + G) − y(θa)); below it a heated wire does not move.
+    """
+    u, y = heating_branch(params)
+    span = float(y[-1] - y[0])
+    if span <= 1e-9:
+        return float(u[-1])
+    return float(u[np.argmax(y >= y[0] + fraction * span)])
 
 
 def process_model(params, dt_s=0.025, smith=False):

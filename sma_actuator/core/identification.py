@@ -53,8 +53,6 @@ LINEAR_PARAMS = act.LINEAR_PARAMS
 MIN_DUTY_EXCITATION = 0.05
 # largest spread of the sample steps, relative to their median, of uniformly sampled data
 SAMPLING_TOLERANCE = 0.01
-# share of a single record's time that trains (the rest validates)
-TRAIN_FRACTION = 0.7
 # feedback fixed-point iterations per settle (see `_settle`): 1 -> 4 took a phase-resistance
 # fit at the true kappa from 0.48 % to 0.13 % training NRMSE; 8 gave the same
 FIXED_POINT_STEPS = 4
@@ -69,6 +67,8 @@ OUTER_TOL = 1e-4
 # ridge on the (unit-norm scaled) hysteresis weights: elements the training data hardly
 # excite would otherwise take arbitrary weights and spoil the held-out prediction
 RIDGE = 1e-10
+# share of a single record's time that trains when no records are held out
+TRAIN_FRACTION = 0.7
 
 
 def scores(y, y_hat, span=None):
@@ -584,7 +584,7 @@ def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
 
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAIN_FRACTION,
                 grid=None, start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0),
-                max_nfev=40, rounds=3, input_hook=None, ref=None, refine=2):
+                max_nfev=40, rounds=3, input_hook=None, ref=None, refine=2, loop_ratio=None):
     """
     Fit the actuator model to a dynamic run by free-run simulation error.
 
@@ -604,6 +604,9 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAI
     refine: passes of the adaptive fine grid (modified PI, no `grid` given), each placed
     where the previous pass's weights are. The fitted elements' bands are narrowed to the
     states they took in the training window (`narrow_bands`).
+    loop_ratio: None, or β of `tie_loop_width` (the descending branch tied to the ascending
+    one, for training data that never shows the wire cooling through its transformation;
+    the workbench passes `flexinol_loop_ratio()` then).
     Returns a `DynamicFit` scored by free-run error on training and held-out data.
     """
     if not isinstance(data, DynamicData):
@@ -638,7 +641,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAI
         u_lo = float(np.min(amb)) - 2.0
         u_hi = float(np.max(amb)) + base.gain_k * max(data.duty_a.max(), data.duty_b.max())
         u_rest = float(np.max(amb))
-        prob = _Problem(data, base, close_major_loop(play_grid(u_lo, u_hi, kind, *coarse), u_rest),
+        coarse_grid = tie_loop_width(play_grid(u_lo, u_hi, kind, *coarse), u_rest, loop_ratio)
+        prob = _Problem(data, base, close_major_loop(coarse_grid, u_rest),
                         free, n_train, burn_in, input_hook, values)
         if feedback:   # a first reference, so the search sees the feedback at all
             _settle(prob, base, values)
@@ -664,7 +668,8 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAI
                 h = prob.with_linear(set_values(base, values), b).hysteresis
                 grid, shape = _adaptive_grid(h, prob.state_hi - prob.state_lo, u_lo, u_hi,
                                              *fine)
-                grid = close_major_loop(grid, u_rest)
+                edge = heating_edge(h, prob.state_hi - prob.state_lo)
+                grid = close_major_loop(tie_loop_width(grid, u_rest, loop_ratio, edge), u_rest)
             else:
                 grid = play_grid(u_lo, u_hi, kind, *fine)
             prob = _Problem(data, base, grid, free, n_train, burn_in, input_hook, values)
@@ -737,6 +742,70 @@ def close_major_loop(grid, u_rest):
         return grid
     lo = np.minimum(np.maximum(grid.lo, u_rest + grid.r), grid.hi)
     return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
+
+
+def flexinol_loop_ratio():
+    """
+    Return β = r / (c − θ_rest) of the datasheet loop (`core.actuator.flexinol_hysteresis`).
+
+    r: the mean half-width of its elements, c − θ_rest: how far the loop's centre lies above
+    the default ambient. For Flexinol LT (As 68, Af 78, Ms 52, Mf 42 °C at 22 °C) that is
+    13 K / 38 K = 0.34: the cooling branch lies at (1 − β)/(1 + β) = 0.49 of the heating
+    branch's height above ambient. The thermal model is linear in the excess temperature
+    θ − θ_rest (eq. 7), so a heating gain G that is off by a factor scales both heights
+    alike and β holds on the model's own temperature scale.
+    """
+    h, p = act.flexinol_hysteresis(), act.ActuatorParams()
+    centre = 0.5 * (h.lo + h.hi)
+    return float(np.mean(h.r) / (np.mean(centre) - p.ambient_c))
+
+
+def tie_loop_width(grid, u_rest, ratio, edge=None, spread=None):
+    """
+    Return the saturated `grid` with the elements' half-widths tied to the heating edge.
+
+    An element of half-width r and band [lo, hi] rises over [lo + r, hi + r] on heating and
+    falls over [lo − r, hi − r] on cooling. Data that only heats identifies the rising
+    cells but not r: any width fits them, and the cooling is then predicted anywhere
+    between the heating edge and the rest. With ratio β (`flexinol_loop_ratio`) the loop
+    keeps the datasheet's proportions: one half-width r = f β (e − θ_rest) / (1 + β) for
+    every element, e the heating edge (the loop centre c = e − r then lies
+    (e − θ_rest)/(1 + β) above the rest and r = f β (c − θ_rest)), so the cooling branch
+    spans as many kelvin as the heating branch, 2 r lower, as As-Af and Ms-Mf do. f spreads
+    the widths of one cell over `spread` by their rank in the grid (the datasheet loop
+    spreads them too, so minor loops keep a shape; default its min and max over mean
+    half-width, 0.85 and 1.15). edge: the heating edge [°C] (the
+    weight centre of a previous fit's rising cells, `heating_edge`); None: each element's
+    own rising cell (before any fit). The rising cells are kept. ratio None, or
+    unsaturated (classical) elements: `grid` is returned as it is.
+    """
+    if ratio is None or not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
+        return grid
+    if spread is None:
+        datasheet = act.flexinol_hysteresis().r
+        spread = (datasheet.min() / datasheet.mean(), datasheet.max() / datasheet.mean())
+    cell = 0.5 * (grid.lo + grid.hi) + grid.r
+    half = 0.5 * (grid.hi - grid.lo)
+    widths = np.unique(grid.r)
+    rank = np.searchsorted(widths, grid.r) / max(len(widths) - 1, 1)
+    f = spread[0] + (spread[1] - spread[0]) * rank
+    e = cell if edge is None else edge
+    r = np.maximum(ratio * (e - u_rest) / (1.0 + ratio), 0.0) * f
+    c = cell - r
+    return PlayHysteresis(r, c - half, c + half, grid.w, grid.k1, grid.y0)
+
+
+def heating_edge(h, span):
+    """
+    Return the weight centre [°C] of the rising cells of hysteresis `h`.
+
+    Σ m_i (c_i + r_i) / Σ m_i with m_i = w_i · span_i, the output each element gives over
+    the state range `span` it covers in the training window (as `_adaptive_grid` weighs).
+    """
+    mass = h.w * span
+    if not np.isfinite(mass).all() or mass.sum() <= 0:
+        return None
+    return float(np.sum(mass * (0.5 * (h.lo + h.hi) + h.r)) / mass.sum())
 
 
 def _settle(prob, base, values, steps=FIXED_POINT_STEPS):

@@ -74,11 +74,14 @@ TUNABLE = (
     ('on_off_duty', 0.0, 1.0, 'on_off: duty of the heated wire.'),
     ('ff_horizon_s', 0.0, 10.0, 'pi_inverse: thermal inverse horizon [s]; 0 = static map.'),
     ('drift_time_s', 1.0, 3600.0, 'pi_inverse: memory of the drift estimator [s].'),
+    ('dead_time_s', 0.0, 1.0, 'pi_inverse: interlock dead time between the wires [s] (as '
+     'interlock_dead_time_s of plant_sim and the bridge).'),
 )
 # runtime-switchable settings: (name, description)
 SWITCHES = (
     ('smith', 'pi_inverse: predict the measurement over the model delay (Smith).'),
     ('drift_correction', 'pi_inverse: correct offset and stroke from the measurements.'),
+    ('preheat', 'pi_inverse: early handover to the incoming wire at a zero crossing.'),
 )
 PARAMETERS = (
     Param('mode', _D.mode, 'Control mode (changeable at runtime).', choices=MODES),

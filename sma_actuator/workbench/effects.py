@@ -385,7 +385,19 @@ class CurrentLimit(Effect):
         return [{'duty_limit': 1.0, 'duty_limit_sharpness': 30.0}]
 
 
-class SensorZero(Effect):
+class PerRecordEffect(Effect):
+    """Base of the effects with a value per record of a record set (two or more records)."""
+
+    per_record = ''   # what each record has its own of
+
+    def applicable(self, data):
+        """Return why not: the value is per record, so it needs two or more records."""
+        if len(getattr(data, 'segments', ()) or ()) < 2:
+            return f'needs two or more records (a {self.per_record} per record)'
+        return None
+
+
+class SensorZero(PerRecordEffect):
     """
     Per-record sensor zero: a potentiometer is not tared between runs.
 
@@ -396,14 +408,28 @@ class SensorZero(Effect):
     """
 
     name = 'sensor_zero'
+    per_record = 'sensor zero'
     signature = ('each record is off by its own constant: the residual mean differs from '
                  'record to record, already at rest before the first heating')
 
-    def applicable(self, data):
-        """Return why not: the zero is per record, so it needs two or more records."""
-        if len(getattr(data, 'segments', ()) or ()) < 2:
-            return 'needs two or more records (a sensor zero per record)'
-        return None
+
+class RecordStroke(PerRecordEffect):
+    """
+    Per-record stroke: a wire's stroke changes from day to day (shakedown, retensioning).
+
+    The contraction of record k is ρ_k times the model's: position = rest_k + ρ_k (φ −
+    φ_rest), with rest_k the record's start rest and φ the model's shaft output. ρ_k is the
+    least-squares factor of a pooled fit's departure from rest onto the measured one,
+    referred to the median training record (ρ = 1 there); the model is then refitted on the
+    records scaled back to that stroke. A held-out or new record's stroke is unknown
+    before it is measured: it is predicted with the median training record's stroke
+    (ρ = 1). Needs two or more records.
+    """
+
+    name = 'record_stroke'
+    per_record = 'stroke'
+    signature = ('each record is off by its own factor: the residual follows the position '
+                 'with a slope that differs from record to record, zero at rest')
 
 
 CATALOG = {}
@@ -421,7 +447,8 @@ def register_effect(cls):
 # exist only where they were registered)
 BUILTIN = {c.name: c for c in (Saturation, FastDynamics, Delay, Convection, AmbientDrift,
                                PhaseResistance, StressCoupling, AsymmetricWires,
-                               SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero)}
+                               SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero,
+                               RecordStroke)}
 for _cls in BUILTIN.values():
     register_effect(_cls)
 

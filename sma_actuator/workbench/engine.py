@@ -53,7 +53,7 @@ import numpy as np
 
 from .effects import CATALOG, Effect, get_effect, is_builtin
 from .parallel import available_cores, imap_on_cores
-from .records import zeros
+from .records import loop_prior, record_strokes, stroke_scale, zeros
 from ..core import actuator as act
 from ..core.hysteresis import PlayHysteresis
 from ..core.identification import (DynamicData, fit_dynamic, fit_static, narrow_bands,
@@ -296,12 +296,48 @@ def _tared(data):
 def _fit_dynamic(data, effects, kind, base_fit):
     tare = 'sensor_zero' in effects
     # the residual is the same either way: the tare cancels in model − measured
-    fit = _fit_dynamic_raw(_tared(data)[0] if tare else data, effects, kind, base_fit)
+    fit_data = _tared(data)[0] if tare else data
+    strokes = None
+    if 'record_stroke' in effects:
+        fit_data, strokes, base_fit = _stroked(fit_data, effects, kind, base_fit, tare)
+    fit = _fit_dynamic_raw(fit_data, effects, kind, base_fit)
+    if strokes is not None:   # back to each record's own stroke: m0 + ρ (p − m0)
+        m0 = zeros(fit_data)
+        fit.prediction = m0 + stroke_scale(fit_data, strokes) * (fit.prediction - m0)
     if tare:
         fit.prediction = fit.prediction + zeros(data)
+    if strokes is not None:   # the residual of the records as measured (BIC in diagnose)
+        train = split_masks(data, fit.split, fit.burn_in)[0]
+        fit.residual = fit.prediction[train] - data.position[train]
     fit.train, fit.validation = rescore(data, fit.prediction, fit.split, fit.burn_in)
     fit.rig = rig_info(data, fit.split)
+    if strokes is not None:
+        fit.rig['record_strokes'] = strokes
     return fit
+
+
+def _stroked(data, effects, kind, base_fit, tared):
+    """
+    Return (`data` scaled to the median record's stroke, {record: ρ}, the pooled fit).
+
+    ρ of each record from the pooled model (`effects` without `record_stroke`): the base
+    fit's prediction when it is that model, else a fit of it; each record's departure
+    from its start rest is divided by its ρ, m0 + (y − m0) / ρ (`records.record_strokes`).
+    The pooled fit warm-starts the refit when no base fit is given.
+    """
+    pooled = [e for e in effects if e != 'record_stroke']
+    if (base_fit is not None and list(base_fit.effects) == pooled
+            and base_fit.prediction is not None and len(base_fit.prediction) == len(data)):
+        pred = base_fit.prediction - (zeros(data) if tared else 0.0)
+    else:
+        base_fit = _fit_dynamic_raw(data, pooled, kind, base_fit)
+        pred = base_fit.prediction
+    strokes = record_strokes(data, pred)
+    m0 = zeros(data)
+    y = m0 + (data.position - m0) / stroke_scale(data, strokes)
+    return (DynamicData(data.time, data.duty_a, data.duty_b, y, data.ambient, data.setpoint,
+                        data.position_unit, data.layout, data.segments, data.scored,
+                        data.split), strokes, base_fit)
 
 
 def rig_info(data, n_train=None):
@@ -335,6 +371,8 @@ def _fit_dynamic_raw(data, effects, kind, base_fit):
             alternatives += eff.alternative_starts(data)
     hook = partial(_hooked_inputs, effects) if _input_hooks(effects) else None
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
+    # training data that never cools back leaves the descending branch to the datasheet loop
+    loop_ratio = loop_prior(data)
     trials = [(alt, same_grid, {}) for alt in [{}] + alternatives]
     for eff in map(get_effect, effects):
         if same_grid and eff.name not in base_fit.effects and eff.own_grid:
@@ -345,7 +383,8 @@ def _fit_dynamic_raw(data, effects, kind, base_fit):
         trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,
                             grid=base_fit.grid if warm else None,
                             start=dict(start, **alt), input_hook=hook,
-                            ref=base_fit.params.hysteresis if warm else None)
+                            ref=base_fit.params.hysteresis if warm else None,
+                            loop_ratio=loop_ratio)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
     train = split_masks(data, res.n_train, res.burn_in)[0]

@@ -28,13 +28,19 @@ validates; with two or more, the last record given is held out (train on the oth
 import numpy as np
 
 from .data import DataError
-from ..core.identification import DynamicData, SAMPLING_TOLERANCE
+from ..core.identification import (DynamicData, flexinol_loop_ratio, SAMPLING_TOLERANCE,
+                                   TRAIN_FRACTION)
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
 REST_GAP_S = 60.0
 # rest at the start of a record used for its sensor zero [s] (or until the duty first rises)
 ZERO_WINDOW_S = 1.0
+# a training set whose measured position never reverses by this share of its range has not
+# shown a wire cooling back through its transformation (`loop_prior`)
+MIN_REVERSAL = 0.5
+# moving mean over the measured position before looking for reversals [s] (sensor noise)
+REVERSAL_SMOOTH_S = 0.2
 
 
 def record_zero(data):
@@ -49,6 +55,43 @@ def record_zero(data):
     if heated.size:
         n = max(1, min(n, int(heated[0])))
     return float(np.mean(data.position[:n]))
+
+
+def reversal(data, n_train=None):
+    """
+    Return the largest reversal of the measured position in the training records.
+
+    Per record (training samples only, smoothed over REVERSAL_SMOOTH_S): the smaller of its
+    largest rise from a running minimum and its largest fall from a running maximum, i.e.
+    how far it went back after going out; the largest over the records, as a share of the
+    range of the measured position over all training samples. A record that heats and holds
+    scores its creep only; one that heats and cools to rest scores about 1.
+    """
+    n_train = n_train or data.split or int(round(TRAIN_FRACTION * len(data)))
+    keep = np.ones(len(data), bool) if data.scored is None else np.asarray(data.scored, bool)
+    span = float(np.ptp(data.position[:n_train][keep[:n_train]]))
+    k = max(1, int(round(REVERSAL_SMOOTH_S / data.dt)))
+    best = 0.0
+    for _, a, b in data.segments or (('', 0, len(data)),):
+        y = data.position[a:min(b, n_train)]
+        if len(y) < k:
+            continue
+        y = np.convolve(y, np.ones(k) / k, mode='valid')
+        rise = np.max(y - np.minimum.accumulate(y))
+        fall = np.max(np.maximum.accumulate(y) - y)
+        best = max(best, float(min(rise, fall)))
+    return best / span if span > 0 else 0.0
+
+
+def loop_prior(data, n_train=None):
+    """
+    Return the loop ratio β to tie the cooling branch with, or None when the data shows it.
+
+    Training records that never reverse by MIN_REVERSAL of their range (heat and hold,
+    ramps up) leave the descending branch unidentified: the datasheet loop's proportions
+    (`core.identification.flexinol_loop_ratio`, `tie_loop_width`) stand in for it.
+    """
+    return flexinol_loop_ratio() if reversal(data, n_train) < MIN_REVERSAL else None
 
 
 def _resample(data, dt):
@@ -149,6 +192,49 @@ def zeros(data):
         stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
         z[a:stop] = record_zero(segment_view(data, a, b))
     return z
+
+
+def record_strokes(data, prediction, n_train=None):
+    """
+    Return each record's stroke relative to the median record's, {name: ρ_k}.
+
+    ρ_k = (Σ p_k m_k / Σ p_k²) / median over the training records of the same ratio, with
+    p_k the departure of a (pooled) model's `prediction` from its value at the record's
+    first sample and m_k the measured departure from the record's start rest
+    (`record_zero`), over the record's samples: the least-squares factor by which the
+    record's contraction differs from the model's, referred to the median training record.
+    Held-out records (at or after n_train, default `data.split`) get ρ = 1: their stroke is
+    unknown until they are measured, so they are predicted with the median stroke.
+    """
+    n_train = n_train or data.split or len(data)
+    keep = np.ones(len(data), bool) if data.scored is None else np.asarray(data.scored, bool)
+    raw = {}
+    for name, a, b in data.segments or (('DATA', 0, len(data)),):
+        if a >= n_train:
+            continue
+        k = keep[a:b]
+        p = (prediction[a:b] - prediction[a])[k]
+        m = (data.position[a:b] - record_zero(segment_view(data, a, b)))[k]
+        den = float(np.sum(p * p))
+        raw[name] = float(np.sum(p * m) / den) if den > 0 else 1.0
+    ref = float(np.median(list(raw.values()))) if raw else 1.0
+    return {name: (raw[name] / ref if name in raw and ref > 0 else 1.0)
+            for name, _, _ in data.segments or (('DATA', 0, len(data)),)}
+
+
+def stroke_scale(data, strokes):
+    """
+    Return the per-sample stroke factor of joined `data` (each record's ρ, 1 on its gaps).
+
+    `strokes`: {name: ρ} (`record_strokes`); from a record's first sample to the next
+    record's, as `zeros` (the gaps are neither regressed nor scored).
+    """
+    s = np.ones(len(data))
+    segs = data.segments or (('DATA', 0, len(data)),)
+    for i, (name, a, _) in enumerate(segs):
+        stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
+        s[a:stop] = strokes.get(name, 1.0)
+    return s
 
 
 def segment_view(data, a, b):
