@@ -15,7 +15,7 @@
 """
 controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
 
-The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
+The control law (`control.law.ControllerCore`) runs when a fresh /sma/joint_states
 sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
 plant publishes at 40 Hz), and publishes /sma/duty at once, so the output lags the
 feedback by the computation only. The `period_s` timer on the node clock (sim time
@@ -53,10 +53,10 @@ from .ros_console import (
 )
 from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, Param, ParameterError
-from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
-from ..control.model_file import load_model, ModelFormatWarning
+from ..control.law import ControllerCore, ControllerSettings, MODES
 from ..core.actuator import AMBIENT_RANGE_C
+from ..core.model_file import load_model, ModelFormatWarning
 from ..core.sensor import ANGLE_LIMIT_RAD
 
 SETPOINT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)

@@ -64,9 +64,9 @@ from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, initial_value, Param, ParameterError
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
-from ..control.model_file import load_model
 from ..core import actuator as act
 from ..core.actuator import ActuatorParams, AMBIENT_RANGE_C, AntagonisticActuator
+from ..core.model_file import load_model
 from ..core.sensor import POT_RANGE_RAD, Potentiometer
 
 # (parameter, lower, upper, description) of every effect parameter, from its declaration in

@@ -22,7 +22,6 @@ Modules (see docs/workbench.md for the user walkthrough):
 * `effects`   – the effect catalog (`CATALOG`, `Effect`, `register_effect`)
 * `compare`   – error breakdown by regime and residual correlation tests
 * `report`    – HTML report with PNG figures
-* `modelfile` – MODEL.yaml read/write
 * `plugins`   – user effects from a file, a module or the `sma_actuator.effects` entry points
 * `cli`       – the `sma-model` command
 

@@ -204,7 +204,7 @@ def data_lines(data):
 
 def read_model_spec(path, catalog):
     """MODEL.yaml as a checked dict (effects known to the catalog)."""
-    from .modelfile import read_model
+    from ..core.model_file import read_model
     return read_model(path, known_effects=catalog)
 
 
@@ -222,7 +222,7 @@ def model_signals(fit, data):
 
 def json_safe(obj):
     """Plain JSON data: numpy -> Python, non-finite floats -> None."""
-    from .modelfile import to_plain
+    from ..core.model_file import to_plain
     obj = to_plain(obj)
     if isinstance(obj, dict):
         return {k: json_safe(v) for k, v in obj.items()}
@@ -271,7 +271,7 @@ def model_line(effects, kind):
 def cmd_fit(args):
     """sma-model fit: fit the base model plus effects; print scores; write FITTED.yaml."""
     from .engine import fit_model
-    from .modelfile import check_writable, write_model
+    from ..core.model_file import check_writable, write_model
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
     if args.out:
@@ -342,7 +342,7 @@ def cmd_compare(args):
     from .compare import compare, summary_lines
     from .data import is_static
     from .engine import load_fit, record_scores
-    from .modelfile import is_fitted, is_static_model
+    from ..core.model_file import is_fitted, is_static_model
     from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -534,7 +534,7 @@ def cmd_batch(args):
     if any(out.resolve() == p for p in paths):
         raise UsageError(f'--out {out} is one of the records; choose another path')
     out.mkdir(parents=True, exist_ok=True)
-    from .modelfile import is_fitted
+    from ..core.model_file import is_fitted
     options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
                            candidates=tuple(args.candidates) if args.candidates else None,
                            rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
