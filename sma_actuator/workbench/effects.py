@@ -147,16 +147,15 @@ class Saturation(Effect):
 
 class FastDynamics(Effect):
     """
-    Unmodelled fast dynamics tau of the paper's Fig.
+    Unmodelled fast dynamics τ of the paper's Fig. 13.
 
-    13: a first-order lag on the heat input (heat spreading from core to surface, amplifier
+    A first-order lag on the heat input (heat spreading from core to surface, amplifier
     filtering), so the wire responds to a duty step with an S-shaped rather than exponential
     temperature rise.
     """
 
     name = 'fast_dynamics'
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
-    # (rich simulator M 1.17: +36 % warm-started, +67 % from scratch)
     own_grid = True
 
     def alternative_starts(self, data):
@@ -169,10 +168,9 @@ class FastDynamics(Effect):
 
         The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
         from scratch the search can end in the swapped pair, τ at its lower bound and the
-        slow lag in τ_fast, which the hysteresis then fits worse (rich simulator M 0.33:
-        τ 0.2 s, τ_fast 1.41 s, 0.70 % training NRMSE). Keep τ the slow one: the base fit's
-        single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast means
-        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %).
+        slow lag in τ_fast, which the hysteresis then fits worse. Keep τ the slow one: the
+        base fit's single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast
+        means τ >= τ_base / 2.
         """
         return {'tau_s': (0.5 * params.tau_s, 20.0, params.tau_s)}
     signature = ('residual spikes right after duty steps, same sign as the step; '
