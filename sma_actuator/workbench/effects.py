@@ -281,10 +281,9 @@ class PhaseResistance(Effect):
         return {}
 
     # heating from martensite runs hotter (or cooler) than the base model's, so the base
-    # grid sits where the base put the transformation: at the true kappa its refit was
-    # worse than the base (1.3 % against 0.83 % training NRMSE on the package's own plant),
-    # from scratch it fits to 0.08 %. From scratch the search does not leave kappa ~ 0 (the
-    # coarse grid hides the effect), so that refit starts from a strong effect.
+    # grid sits where the base put the transformation and a refit on it cannot reach the
+    # true kappa; from scratch the search does not leave kappa ~ 0 (the coarse grid hides
+    # the effect), so that refit starts from a strong effect.
     own_grid = True
 
     def scratch_start(self, params):
