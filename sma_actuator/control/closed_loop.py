@@ -30,7 +30,7 @@ import numpy as np
 
 from .metrics import summarize
 from ..core.actuator import ActuatorParams, AntagonisticActuator
-from ..core.sensor import Potentiometer
+from ..core.sensor import POT_RANGE_RAD, Potentiometer
 
 if TYPE_CHECKING:
     from .law import ControllerCore
@@ -52,7 +52,7 @@ class CorePlant:
     def __init__(self, params: ActuatorParams, dt_s: float = 0.025, noise_rad: float = 0.001,
                  seed: int = 7, bits: int = 12):
         self.actuator = AntagonisticActuator(params)
-        self.pot = Potentiometer(bits, -1.2, 1.2, noise_rad)
+        self.pot = Potentiometer(bits, *POT_RANGE_RAD, noise_rad)
         self.rng = np.random.default_rng(seed)
         self.dt_s = dt_s
         self.reading = self._read(self.actuator.reading_now)

@@ -84,7 +84,7 @@ NOMINAL_DT_S = 0.025
 RATE_TIME_S = 0.1
 ACCEL_TIME_S = 0.2
 # loop reversal anticipated up to this far [s], and no further than where the turn costs
-# this much of the reference's height [rad] (a fast sine: 0.2 Hz sine RMS 0.080 -> 0.067)
+# this much of the reference's height [rad], so a fast sine turns early but not short
 REVERSAL_LEAD_S = 0.9
 REVERSAL_SHORTFALL_RAD = 0.02
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a

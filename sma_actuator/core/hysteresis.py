@@ -253,24 +253,38 @@ class InversePlayHysteresis:
         """Return the input that drives the operator to output y from the current state."""
         if self._s is None:
             self.reset(self.u_min if np.isfinite(self.u_min) and self.u_min > -1e8 else 0.0)
-        u, self._s = kernels.play_inverse(np.array([finite_scalar('y', y)]), *self._args(),
-                                          self._s, self._u, self.u_min, self.u_max)
+        u, self._s = self._solve(np.array([finite_scalar('y', y)]), self._s, self._u,
+                                 self.u_min, self.u_max)
         self._u = float(u[0])
         return self._u
+
+    def solve(self, y: float, state: np.ndarray, u: float, u_min: Optional[float] = None,
+              u_max: Optional[float] = None) -> float:
+        """
+        Return the input that drives the operator from `state` to output y, keeping no state.
+
+        state: element states s_i, u: the input they were reached with (a forward
+        operator's `state` and last input); u_min, u_max: the input limits of this solve
+        (default: the inverse's own).
+        """
+        lo = self.u_min if u_min is None else u_min
+        hi = self.u_max if u_max is None else u_max
+        u_out, _ = self._solve(np.array([finite_scalar('y', y)]), state, u, lo, hi)
+        return float(u_out[0])
 
     def simulate(self, y: ArrayLike, u0: float = 0.0) -> np.ndarray:
         """Return the input for a target sequence y, from the lower-branch state at u0."""
         y = finite_array('y', y)
         self.reset(u0)
-        u, self._s = kernels.play_inverse(y, *self._args(), self._s, self._u,
-                                          self.u_min, self.u_max)
+        u, self._s = self._solve(y, self._s, self._u, self.u_min, self.u_max)
         self._u = float(u[-1])
         return u
 
-    def _args(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]:
-        """Return the forward operator's (r, lo, hi, w, k1, y0) for the kernel."""
+    def _solve(self, y: np.ndarray, s: np.ndarray, u: float, u_min: float,
+               u_max: float) -> Tuple[np.ndarray, np.ndarray]:
+        """Return `kernels.play_inverse` of targets y from state (s, u): (inputs, last state)."""
         f = self.forward
-        return f.r, f.lo, f.hi, f.w, f.k1, f.y0
+        return kernels.play_inverse(y, f.r, f.lo, f.hi, f.w, f.k1, f.y0, s, u, u_min, u_max)
 
 
 class PreisachModel:

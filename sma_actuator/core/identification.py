@@ -44,11 +44,15 @@ from . import kernels
 from .hysteresis import PlayHysteresis, PreisachModel
 from .validate import finite_array, same_length
 
-# parameters that feed the hysteresis output back into its own regressors
-FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles',
-                   'fatigue_offset_rad', 'fatigue_offset_b_rad')
-# parameters solved linearly with the weights (no outer search)
-LINEAR_PARAMS = ('fatigue_offset_rad', 'fatigue_offset_b_rad')
+# parameters that feed the hysteresis output back into its own regressors, and those
+# solved linearly with the weights (no outer search): the roles declared in `ActuatorParams`
+FEEDBACK_PARAMS = act.FEEDBACK_PARAMS
+LINEAR_PARAMS = act.LINEAR_PARAMS
+# sum of the two duties' ranges below which a record cannot identify the thermal and
+# hysteresis parameters (the wires hardly move through their loops)
+MIN_DUTY_EXCITATION = 0.05
+# largest spread of the sample steps, relative to their median, of uniformly sampled data
+SAMPLING_TOLERANCE = 0.01
 # feedback fixed-point iterations per settle (see `_settle`): 1 -> 4 took a phase-resistance
 # fit at the true kappa from 0.48 % to 0.13 % training NRMSE; 8 gave the same
 FIXED_POINT_STEPS = 4
@@ -269,8 +273,9 @@ class DynamicData:
             k = int(np.flatnonzero(steps <= 0)[0])
             raise ValueError(f'time must be strictly increasing (row {k + 1}: {self.time[k + 1]} '
                              f'after {self.time[k]})')
-        if np.ptp(steps) > 0.01 * np.median(steps):
-            raise ValueError('time must be uniformly sampled (steps vary by more than 1 %)')
+        if np.ptp(steps) > SAMPLING_TOLERANCE * np.median(steps):
+            raise ValueError('time must be uniformly sampled (steps vary by more than '
+                             f'{100 * SAMPLING_TOLERANCE:g} %)')
         for name in ('duty_a', 'duty_b'):
             d = getattr(self, name)
             if (d < 0).any() or (d > 1).any():
@@ -350,10 +355,10 @@ class _Problem:
         ua, ub = np.empty(len(at)), np.empty(len(at))
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(self.values)
-        ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
-                                          params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
-                                          ref.k1, ref.y0, st, fa, fb, ua, ub,
-                                          at.start, max(at.step, 1))
+        ya, yb, _, _ = act.simulate_wires((da[:n], db[:n], amb[:n], np.zeros(n)), d.dt,
+                                          params.kernel_vector(),
+                                          (g.r, g.lo, g.hi, ref.w, ref.k1, ref.y0), st,
+                                          (fa, fb, ua, ub, at.start, max(at.step, 1)))
         sb = params.stroke_ratio_b
         drift = any(k in self.names for k in LINEAR_PARAMS)
         if self.fatigued(params):
@@ -507,10 +512,10 @@ def narrow_bands(params, duty_a, duty_b, ambient, dt):
     if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()) or n == 0:
         return params
     fa, fb = np.empty((n, h.n_operators)), np.empty((n, h.n_operators))
-    act.simulate_wires(np.asarray(duty_a, float), np.asarray(duty_b, float),
-                       np.asarray(ambient, float), np.zeros(n), dt, params.kernel_vector(),
-                       h.r, h.lo, h.hi, h.w, h.k1, h.y0, act.initial_state(params),
-                       fa, fb, np.empty(n), np.empty(n), 0, 1)
+    act.simulate_wires((np.asarray(duty_a, float), np.asarray(duty_b, float),
+                        np.asarray(ambient, float), np.zeros(n)), dt, params.kernel_vector(),
+                       act.kernel_hysteresis(h), act.initial_state(params),
+                       (fa, fb, np.empty(n), np.empty(n), 0, 1))
     lo, hi = _state_range(fa, fb)
     return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
 
@@ -578,9 +583,8 @@ def _adaptive_grid(h, span, u_lo, u_hi, n_widths, n_centres):
 
 
 def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAIN_FRACTION,
-                grid=None,
-                start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0), max_nfev=40,
-                rounds=3, input_hook=None, ref=None, refine=2, loop_ratio=None):
+                grid=None, start=None, coarse=(6, 10), fine=(14, 24), starts=(0.6, 2.0, 6.0),
+                max_nfev=40, rounds=3, input_hook=None, ref=None, refine=2, loop_ratio=None):
     """
     Fit the actuator model to a dynamic run by free-run simulation error.
 
@@ -619,7 +623,7 @@ def fit_dynamic(data, free=None, kind='modified', base=None, train_fraction=TRAI
     for k, (lo, hi, x0) in free.items():
         if not lo <= x0 <= hi:
             raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
-    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < MIN_DUTY_EXCITATION:
         raise ValueError('too little excitation: the duties hardly vary, so the thermal and '
                          'hysteresis parameters cannot be identified')
     if np.ptp(data.position) <= 0:

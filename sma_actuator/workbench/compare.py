@@ -52,7 +52,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
 from .data import is_static
-from ..core.identification import scores
+from ..core.identification import scores, TRAIN_FRACTION
 
 Z99 = 2.576
 STEADY_RATE_K_PER_S = 0.1
@@ -127,7 +127,7 @@ def _compare_dynamic(data, prediction, signals, split):
     y_hat = np.asarray(prediction, float)
     if y_hat.shape != y.shape:
         raise ValueError(f'prediction has {y_hat.size} samples, the record {y.size}')
-    split = int(round(0.7 * len(y))) if split is None else int(split)
+    split = int(round(TRAIN_FRACTION * len(y))) if split is None else int(split)
     train = np.arange(len(y)) < split
     temps = thermal_signals(data, signals)
     masks = dynamic_regimes(data, temps)

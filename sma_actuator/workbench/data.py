@@ -40,7 +40,7 @@ import re
 import numpy as np
 
 from . import limits
-from ..core.identification import DynamicData
+from ..core.identification import DynamicData, MIN_DUTY_EXCITATION
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
 # without duty_b (or with duty_b always 0) the rig is one wire against a bias spring
@@ -386,7 +386,7 @@ def check_excitation(data, source='DATA'):
     if is_static(data):
         pairs = (('output', data.output, 0.0), ('input', data.input, 0.0))
     else:
-        if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+        if np.ptp(data.duty_a) + np.ptp(data.duty_b) < MIN_DUTY_EXCITATION:
             raise DataError(f'{source}: too little excitation: duty_a and duty_b hardly vary '
                             f'(ranges {np.ptp(data.duty_a):.3g}, {np.ptp(data.duty_b):.3g}), '
                             'the thermal and hysteresis parameters cannot be identified')

@@ -28,7 +28,8 @@ validates; with two or more, the last record given is held out (train on the oth
 import numpy as np
 
 from .data import DataError
-from ..core.identification import DynamicData, flexinol_loop_ratio, TRAIN_FRACTION
+from ..core.identification import (DynamicData, flexinol_loop_ratio, SAMPLING_TOLERANCE,
+                                   TRAIN_FRACTION)
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
@@ -150,7 +151,7 @@ def join(records, held_out=(), notes=None):
     parts, segments, split, at = [], [], None, 0
     gap = int(round(REST_GAP_S / dt))
     for i, (name, d) in enumerate(order):
-        if abs(d.dt - dt) > 0.01 * dt:
+        if abs(d.dt - dt) > SAMPLING_TOLERANCE * dt:
             if notes is not None:
                 notes.append(f'{name}: resampled from {1.0 / d.dt:.4g} Hz to {1.0 / dt:.4g} Hz '
                              f'(the rate of {records[0][0]})')
