@@ -49,9 +49,9 @@ from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.core.identification import DynamicData
+from sma_actuator.core.model_file import write_model
 from sma_actuator.profiles import Profile
 from sma_actuator.workbench.engine import fit_model
-from sma_actuator.workbench.modelfile import write_model
 
 DT = 0.025
 SINE = Profile('sine', 0.5, period_s=20.0, delay_s=1.0)

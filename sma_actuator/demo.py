@@ -38,16 +38,24 @@ of the 0.5 rad amplitude), null when the run ends outside the band; a sine has n
 The loop runs in lockstep on sim time, so the figures do not depend on the host's load.
 An existing `--name` is refused (exit 2) unless `--force` is given.
 """
+from __future__ import annotations
+
 import argparse
 import csv
 import json
 from pathlib import Path
 import sys
 import time
+from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple, TYPE_CHECKING
 
+import numpy as np
 import rclpy
+from rclpy.context import Context
 
 from .control import metrics
+
+if TYPE_CHECKING:
+    from .nodes.recorder import RecorderNode
 
 # the references of Figs. 15-17: (setpoint parameters, run length [sim s])
 REFERENCES = {
@@ -60,7 +68,8 @@ REFERENCES = {
 MODES = ('pi', 'pi_inverse')
 
 
-def recorder_factory(bag_dir, overwrite=False):
+def recorder_factory(bag_dir: Path | str,
+                     overwrite: bool = False) -> Optional[Callable[[Context], RecorderNode]]:
     """
     Return a factory(context) -> RecorderNode writing to bag_dir, for MCAP recording.
 
@@ -75,7 +84,8 @@ def recorder_factory(bag_dir, overwrite=False):
                                         use_sim_time=True, overwrite=overwrite)
 
 
-def plot_profile(path, title, runs):
+def plot_profile(path: Path | str, title: str,
+                 runs: Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> None:
     """
     Write a PNG like the paper's Figs. 15-17 with every mode overlaid.
 
@@ -106,7 +116,8 @@ def plot_profile(path, title, runs):
     plt.close(fig)
 
 
-def profile_metrics(profile, t, setpoint, position, tolerance):
+def profile_metrics(profile: str, t: np.ndarray, setpoint: np.ndarray, position: np.ndarray,
+                    tolerance: float) -> Dict[str, Optional[float]]:
     """Return the summary.json metrics of one run of reference `profile` (module doc)."""
     params, _ = REFERENCES[profile]
     t0 = params['delay_s']
@@ -130,7 +141,8 @@ def profile_metrics(profile, t, setpoint, position, tolerance):
     return m
 
 
-def write_csv(path, t, a):
+def write_csv(path: Path | str, t: np.ndarray, a: Dict[str, np.ndarray]) -> None:
+    """Write the trace behind a figure: time [s], setpoint and position [rad], duties, °C."""
     with open(path, 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(['time_s', 'setpoint_rad', 'position_rad', 'duty_a', 'duty_b',
@@ -139,9 +151,12 @@ def write_csv(path, t, a):
             w.writerow([f'{v:.6g}' for v in row])
 
 
-def run_all(context, out_dir, profiles=tuple(REFERENCES), modes=MODES, tolerance=0.025,
-            real_time_factor=100.0, record=True, controller=None, plant=None, log=print,
-            overwrite=False):
+def run_all(context: Context, out_dir: Path | str, profiles: Iterable[str] = tuple(REFERENCES),
+            modes: Iterable[str] = MODES, tolerance: float = 0.025,
+            real_time_factor: float = 100.0, record: bool = True,
+            controller: Optional[Dict[str, Any]] = None,
+            plant: Optional[Dict[str, Any]] = None, log: Callable[[str], Any] = print,
+            overwrite: bool = False) -> Dict[str, Any]:
     """Run every (profile, mode); write figures, traces and summary.json; return the summary."""
     from .in_process import run_closed_loop
     out_dir = Path(out_dir)
@@ -180,8 +195,10 @@ _HARNESS_PLANT = ('accelerated', 'lockstep', 'lockstep_timeout_s', 'real_time_fa
                   'start_subscribers', 'warmup_s', 'duration_s')
 
 
-def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
-               real_time_factor=100.0):
+def record_run(bag_dir: Path | str, duration_s: float, setpoint: Dict[str, Any],
+               plant: Optional[Dict[str, Any]] = None,
+               controller: Optional[Dict[str, Any]] = None,
+               real_time_factor: float = 100.0) -> int:
     """
     Record a closed-loop run of `duration_s` sim seconds into the MCAP bag `bag_dir`.
 
@@ -195,7 +212,8 @@ def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
     from .nodes.common import config_path
     from .in_process import run_closed_loop
 
-    def config(name, drop=()):
+    def config(name: str, drop: Iterable[str] = ()) -> Dict[str, Any]:
+        """Return the `/**` parameters of config/<name>.yaml without the `drop` keys."""
         with open(config_path(f'{name}.yaml')) as f:
             values = yaml.safe_load(f)['/**']['ros__parameters']
         return {k: v for k, v in values.items() if k not in drop}
@@ -205,7 +223,8 @@ def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
     try:
         recorder = []
 
-        def factory(ctx):
+        def factory(ctx: Context) -> RecorderNode:
+            """Make the recorder node and keep it, to count its messages after the run."""
             recorder.append(recorder_factory(bag_dir)(ctx))
             return recorder[-1]
 
@@ -219,7 +238,7 @@ def record_run(bag_dir, duration_s, setpoint, plant=None, controller=None,
         rclpy.try_shutdown(context=context)
 
 
-def describe(m):
+def describe(m: Dict[str, Optional[float]]) -> str:
     """Return one log line of a run's metrics, with units."""
     parts = []
     for key, value in m.items():
@@ -232,7 +251,7 @@ def describe(m):
     return ', '.join(parts)
 
 
-def main(args=None):
+def main(args: Optional[Sequence[str]] = None) -> None:
     """Run the demo from the command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--name', default=time.strftime('demo_%Y%m%d_%H%M%S'),

@@ -21,10 +21,13 @@ PI (8 backlash-with-saturation elements), the thermal step response of eq. (7) (
 discretisation against a fine ODE reference) and the fit to measured morphing-wing loops.
 Writes PNGs and figures.json (the real-data NRMSE figures).
 """
+from __future__ import annotations
+
 import argparse
 import json
 import os
 from pathlib import Path
+from typing import Any, Dict, Optional, Sequence, Tuple, TYPE_CHECKING
 
 import matplotlib
 matplotlib.use('Agg')
@@ -38,6 +41,10 @@ from .core.hysteresis import (ModifiedPrandtlIshlinskii, PrandtlIshlinskii,  # n
 from .core.major_loop import MajorLoopHysteresis  # noqa: E402
 from .core.thermal import thermal_step  # noqa: E402
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
 # the measured loops ship in the workspace's shared/ folder beside the repository
 REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR',
                                     Path(__file__).resolve().parents[2] / 'shared'))
@@ -45,24 +52,25 @@ REAL_DATA = str(Path(os.environ.get('SMA_SHARED_DIR',
 N_PI = 8
 
 
-def decaying_sine(amplitude=1.0, cycles=6, n=3000, floor=0.15):
-    """Sine whose amplitude decays linearly from `amplitude` to floor*amplitude (inner loops)."""
+def decaying_sine(amplitude: float = 1.0, cycles: int = 6, n: int = 3000,
+                  floor: float = 0.15) -> np.ndarray:
+    """Return a sine decaying linearly from `amplitude` to floor*amplitude (inner loops)."""
     t = np.linspace(0.0, 1.0, n)
     return amplitude * (1.0 - (1.0 - floor) * t) * np.sin(2 * np.pi * cycles * t)
 
 
-def paper_pi():
-    """Classical PI of Figs. 8-9: 8 backlash elements h_i = i/8, K_i = 1/8 (total h = 1, K = 1)."""
+def paper_pi() -> PrandtlIshlinskii:
+    """Return the classical PI of Figs. 8-9: h_i = i/8, K_i = 1/8, i = 1..8 (total h = K = 1)."""
     h = np.arange(1, N_PI + 1) / N_PI
     return PrandtlIshlinskii(h, np.full(N_PI, 1.0 / N_PI))
 
 
-def paper_modified_pi(u_m=2.5, k1_ratio=0.1):
+def paper_modified_pi(u_m: float = 2.5, k1_ratio: float = 0.1) -> ModifiedPrandtlIshlinskii:
     """
-    Modify PI of Fig.
+    Return the modified PI of Fig. 11.
 
-    11: 8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all saturating at u_m (M = u_m (K
-    − K1) − K h from the paper's u_m formula).
+    8 elements of eq. (6), h_i = i/8, K_i = 1/8, K1 = 0.1 K, all saturating at u_m
+    (M = u_m (K − K1) − K h from the paper's u_m formula).
     """
     h = np.arange(1, N_PI + 1) / N_PI
     K = np.full(N_PI, 1.0 / N_PI)
@@ -71,8 +79,8 @@ def paper_modified_pi(u_m=2.5, k1_ratio=0.1):
     return ModifiedPrandtlIshlinskii.from_paper(M, K, K1, h)
 
 
-def fig_main_loop(ax):
-    """Fig. 2: length vs temperature, heating 20 -> 100 °C and back, cosine and Ikuta laws."""
+def fig_main_loop(ax: Axes) -> None:
+    """Draw Fig. 2: length vs temperature, heating 20 -> 100 °C and back, cosine and Ikuta laws."""
     up = np.linspace(20.0, 100.0, 400)
     u = np.concatenate([up, up[::-1]])
     for kind, style in (('cosine', '-'), ('ikuta', '--')):
@@ -86,16 +94,16 @@ def fig_main_loop(ax):
     ax.legend()
 
 
-def fig_preisach(ax):
-    """Fig. 5: Preisach operator, 231 relays on [-1, 1], weights 1, decaying sine input."""
+def fig_preisach(ax: Axes) -> None:
+    """Draw Fig. 5: Preisach operator, 231 relays on [-1, 1], weights 1, decaying sine input."""
     model = PreisachModel.grid(21, -1.0, 1.0, mu=1.0)
     u = decaying_sine(1.1)
     ax.plot(u, model.simulate(u), lw=0.8)
     ax.set(xlabel='u', ylabel='y', title=f'Fig. 5: Preisach, {len(model.alpha)} relays')
 
 
-def fig_pi(ax_major, ax_inner):
-    """Figs. 8-9: classical PI, major loop and inner loops of a decaying sine."""
+def fig_pi(ax_major: Axes, ax_inner: Axes) -> None:
+    """Draw Figs. 8-9: classical PI, major loop and inner loops of a decaying sine."""
     model = paper_pi()
     u = 3.0 * np.sin(np.linspace(0, 4 * np.pi, 2000))
     ax_major.plot(u, model.simulate(u))
@@ -105,8 +113,8 @@ def fig_pi(ax_major, ax_inner):
     ax_inner.set(xlabel='u', ylabel='y', title='Fig. 9: inner loops, 8 elements')
 
 
-def fig_modified_pi(ax):
-    """Fig. 11: modified PI (eq. 6) with saturation beyond u_m."""
+def fig_modified_pi(ax: Axes) -> None:
+    """Draw Fig. 11: modified PI (eq. 6) with saturation beyond u_m."""
     model = paper_modified_pi()
     u = decaying_sine(4.0, floor=0.2)
     ax.plot(u, model.simulate(u), lw=0.8)
@@ -116,9 +124,11 @@ def fig_modified_pi(ax):
            title='Fig. 11: modified PI, 8 saturated elements (|u| > u_m = 2.5: slope ΣK1)')
 
 
-def thermal_response(dt=0.25, t_end=12.0, tau=2.0, tau_fast=0.3, theta_amb=22.0, gain=70.0):
+def thermal_response(dt: float = 0.25, t_end: float = 12.0, tau: float = 2.0,
+                     tau_fast: float = 0.3, theta_amb: float = 22.0,
+                     gain: float = 70.0) -> Tuple[np.ndarray, ...]:
     """
-    Step response of eq. (7) by the exact step (7d)/(7f) at dt and by solve_ivp (reference).
+    Compute the step response of eq. (7): exact step (7d)/(7f) at dt, and solve_ivp (reference).
 
     Returns (t, exact_1lag, exact_2lag, t_ref, ref_1lag, ref_2lag).
     """
@@ -139,8 +149,8 @@ def thermal_response(dt=0.25, t_end=12.0, tau=2.0, tau_fast=0.3, theta_amb=22.0,
     return t, out[0], out[1], t_ref, one, two
 
 
-def fig_thermal(ax):
-    """Thermal step response: exact discretisation (markers, dt = 0.25 s) vs fine reference."""
+def fig_thermal(ax: Axes) -> None:
+    """Draw the thermal step response: exact discretisation (dt = 0.25 s) vs fine reference."""
     t, e1, e2, tr, r1, r2 = thermal_response()
     ax.plot(tr, r1, 'C0-', label='reference, T = 2 s')
     ax.plot(t, e1, 'C0o', ms=3, label='exact step (7d), dt = 0.25 s')
@@ -150,16 +160,20 @@ def fig_thermal(ax):
     ax.legend(fontsize=7)
 
 
-def load_real(path=REAL_DATA):
-    """(curve, voltage, deflection) arrays of the morphing-wing CSV ('#' comments, header row)."""
+def load_real(path: str = REAL_DATA) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (curve, voltage [V], deflection [mm]) of the morphing-wing CSV ('#' comments)."""
     with open(path) as f:
         rows = [line.strip().split(',') for line in f if line.strip() and not line.startswith('#')]
     data = np.array(rows[1:], dtype=float)
     return data[:, 0].astype(int), data[:, 1], data[:, 2]
 
 
-def fig_real(axes, path=REAL_DATA):
-    """Classical (nonneg=False) and modified PI fitted on even curves; odd curves validate."""
+def fig_real(axes: Sequence[Axes], path: str = REAL_DATA) -> Dict[str, Dict[str, float]]:
+    """
+    Fit and draw classical (nonneg=False) and modified PI on the measured loops.
+
+    Even curves train, odd curves validate; return the NRMSE figures per kind.
+    """
     curve, u, y = load_real(path)
     result = {}
     for ax, kind, nonneg in zip(axes, ('classical', 'modified'), (False, True)):
@@ -182,7 +196,8 @@ def fig_real(axes, path=REAL_DATA):
     return result
 
 
-def _save(fig, out, name):
+def _save(fig: Figure, out: str, name: str) -> str:
+    """Write `fig` as out/name (PNG) and close it; return the path."""
     path = os.path.join(out, name)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -190,8 +205,8 @@ def _save(fig, out, name):
     return path
 
 
-def render(out, data_path=REAL_DATA):
-    """Render every figure into directory `out`; returns the figures.json content."""
+def render(out: str, data_path: str = REAL_DATA) -> Dict[str, Any]:
+    """Render every figure into directory `out`; return the figures.json content."""
     os.makedirs(out, exist_ok=True)
     files = []
     for name, draw in (('fig02_main_loop.png', fig_main_loop),
@@ -214,8 +229,8 @@ def render(out, data_path=REAL_DATA):
     return summary
 
 
-def main(argv=None):
-    """Console script `model_figures [--out DIR] [--data CSV]`."""
+def main(argv: Optional[Sequence[str]] = None) -> None:
+    """Run the console script `model_figures [--out DIR] [--data CSV]`."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='runs/figures', help='output directory')
     parser.add_argument('--data', default=REAL_DATA, help='morphing-wing loops CSV')

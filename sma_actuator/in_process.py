@@ -21,6 +21,8 @@ until `duration_s` of sim time have passed and returns the probe's `Trace`. The 
 talk only over the real topics. `attach` hooks let a caller add more nodes (e.g. a bag
 recorder) to the same executor for the run.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 import functools
 import time
@@ -81,15 +83,19 @@ class TraceProbe(Node):
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
     def _sp(self, msg: Float64) -> None:
+        """Keep the latest setpoint [rad]."""
         self.setpoint = msg.data
 
     def _duty(self, msg: Float64MultiArray) -> None:
+        """Keep the latest duty pair."""
         self.duty = tuple(msg.data)
 
     def _temp(self, wire: int, msg: Temperature) -> None:
+        """Keep the latest temperature [°C] of wire 0 (a) or 1 (b)."""
         self.theta[wire] = msg.temperature
 
     def _js(self, msg: JointState) -> None:
+        """Add a trace row: the joint state with the latest setpoint, duty and temperatures."""
         if self.setpoint is None:      # the loop starts with the first setpoint
             return
         t = self.trace
@@ -100,6 +106,7 @@ class TraceProbe(Node):
         t.theta.append(tuple(self.theta))
 
     def sim_time(self) -> float:
+        """Return the sim time covered by the trace so far [s]."""
         return self.trace.time_s[-1] - self.trace.time_s[0] if self.trace.time_s else 0.0
 
 
@@ -121,6 +128,7 @@ class ExcitationSource(Node):
         self.create_subscription(JointState, c.JOINT_STATES, self._js, c.SENSOR_QOS)
 
     def _js(self, msg: JointState) -> None:
+        """Answer a joint state with the next duty (zero duty once the sequence is done)."""
         if self.k >= len(self.sequence):
             self.pub.publish(Float64MultiArray(data=[0.0, 0.0]))
             return
@@ -178,6 +186,7 @@ def run_excitation(context: Context, duty_a: ArrayLike, duty_b: ArrayLike,
 
 
 def _overrides(d: Optional[Dict[str, Any]]) -> List[Parameter]:
+    """Return parameter overrides as a list of rclpy Parameters."""
     return [Parameter(k, value=v) for k, v in (d or {}).items()]
 
 

@@ -19,18 +19,24 @@ Each node gets, in this order (later entries win): its installed config YAML
 profile, use_sim_time, ...) and the optional `params_file` (a ROS parameter file with
 `/**:` or per-node sections, e.g. `/**/controller:`).
 """
+from __future__ import annotations
+
 import os
+from typing import Any, Dict, List, Optional, TYPE_CHECKING
 
 from ament_index_python.packages import get_package_share_directory
 from launch.actions import DeclareLaunchArgument
 from launch_ros.actions import Node
+
+if TYPE_CHECKING:
+    from launch import LaunchContext
 
 PACKAGE = 'sma_actuator'
 MODES = ('pi', 'pi_inverse', 'on_off')
 PROFILES = ('constant', 'step', 'ramp', 'sine', 'square', 'chirp')
 
 
-def common_arguments(use_sim_time='false'):
+def common_arguments(use_sim_time: str = 'false') -> List[DeclareLaunchArgument]:
     """Return the launch arguments every launch file declares."""
     return [
         DeclareLaunchArgument('namespace', default_value='sma', description=(
@@ -57,22 +63,23 @@ def common_arguments(use_sim_time='false'):
     ]
 
 
-def arg(context, name):
+def arg(context: LaunchContext, name: str) -> str:
     """Return the value of launch argument `name` (a string)."""
     return context.launch_configurations.get(name, '')
 
 
-def flag(context, name):
+def flag(context: LaunchContext, name: str) -> bool:
     """Return launch argument `name` as a bool ('true'/'false')."""
     return arg(context, name).lower() == 'true'
 
 
-def config_file(name):
+def config_file(name: str) -> str:
     """Return the installed config/<name> path."""
     return os.path.join(get_package_share_directory(PACKAGE), 'config', name)
 
 
-def node(context, executable, overrides=None, config=None):
+def node(context: LaunchContext, executable: str, overrides: Optional[Dict[str, Any]] = None,
+         config: Optional[str] = None) -> Node:
     """
     Return a launch_ros Node for `executable` in the launch's namespace.
 
@@ -90,17 +97,17 @@ def node(context, executable, overrides=None, config=None):
                 output='screen', emulate_tty=False)
 
 
-def controller(context):
+def controller(context: LaunchContext) -> Node:
     """Return the controller Node (mode from the `mode` argument)."""
     return node(context, 'controller', {'mode': arg(context, 'mode')})
 
 
-def setpoint(context):
+def setpoint(context: LaunchContext) -> Node:
     """Return the setpoint Node (profile from the `profile` argument)."""
     return node(context, 'setpoint', {'profile': arg(context, 'profile')})
 
 
-def recorder(context):
+def recorder(context: LaunchContext) -> List[Node]:
     """Return the recorder Node when `record` is true (as a list: [] or [Node])."""
     if not flag(context, 'record'):
         return []

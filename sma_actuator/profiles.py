@@ -25,8 +25,11 @@ With A = amplitude, r0 = offset, P = period_s and τ = t − delay_s (r = r0 for
   chirp     r = r0 + A sin(2π (f0 τ + (f1 − f0) τ² / (2 D))), f0 = 1/P, sweeping
             linearly to f1 = chirp_end_hz over D = chirp_duration_s, then staying at f1
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 import math
+from typing import Tuple
 
 from .core.validate import finite_scalar
 
@@ -45,7 +48,8 @@ class Profile:
     chirp_end_hz: float = 0.2
     chirp_duration_s: float = 60.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
+        """Check the kind and that every number is finite and in range."""
         if self.kind not in PROFILES:
             raise ValueError(f'profile must be one of {PROFILES}, got {self.kind!r}')
         for name in ('amplitude', 'offset', 'period_s', 'delay_s', 'chirp_end_hz',
@@ -56,15 +60,15 @@ class Profile:
         if self.delay_s < 0:
             raise ValueError(f'delay_s must be non-negative, got {self.delay_s}')
 
-    def bounds(self):
-        """(min, max) of r over all time [rad], for checking against the controller's range."""
+    def bounds(self) -> Tuple[float, float]:
+        """Return (min, max) of r over all time [rad] (to check against the controller's range)."""
         lo, hi = sorted((self.offset, self.offset + self.amplitude))
         if self.kind in ('sine', 'square', 'chirp'):
             lo, hi = self.offset - abs(self.amplitude), self.offset + abs(self.amplitude)
         return (self.offset, self.offset) if self.kind == 'constant' else (lo, hi)
 
-    def __call__(self, t):
-        """r(t) [rad] at time t [s] since the profile started."""
+    def __call__(self, t: float) -> float:
+        """Return r(t) [rad] at time t [s] since the profile started."""
         tau = finite_scalar('t', t) - self.delay_s
         if self.kind == 'constant' or tau < 0:
             return self.offset
@@ -79,8 +83,8 @@ class Profile:
             return self.offset + (a if (tau % p) < 0.5 * p else -a)
         return self.offset + a * math.sin(2 * math.pi * self._chirp_cycles(tau))
 
-    def _chirp_cycles(self, tau):
-        """Accumulated cycles of the linear chirp (its phase / 2π) at τ [s]."""
+    def _chirp_cycles(self, tau: float) -> float:
+        """Return the accumulated cycles of the linear chirp (its phase / 2π) at τ [s]."""
         f0, f1, d = 1.0 / self.period_s, self.chirp_end_hz, self.chirp_duration_s
         if tau <= d:
             return f0 * tau + (f1 - f0) * tau * tau / (2 * d)

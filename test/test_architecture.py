@@ -29,7 +29,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / 'sma_actuator'
 ALLOWED = {
     'core': set(),
     'bag': set(),
-    'control': {'core', 'workbench'},
+    'control': {'core'},
     'workbench': {'core', 'bag'},
     'hardware': {'core', 'control'},
     'profiles': {'core'},

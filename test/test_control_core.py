@@ -15,7 +15,7 @@
 """ControllerCore (modes pi, pi_inverse, on_off) in closed loop with the core plant, no ROS."""
 import numpy as np
 import pytest
-from sma_actuator.control.core import ControllerCore, ControllerSettings
+from sma_actuator.control.law import ControllerCore, ControllerSettings
 from sma_actuator.control.metrics import summarize
 from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator
 from sma_actuator.profiles import Profile

@@ -12,12 +12,12 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Excitation sequences (control.excitation) and model files (control.model_file)."""
+"""Excitation sequences (control.excitation) and model files (core.model_file)."""
 import numpy as np
 import pytest
 from sma_actuator.control.excitation import multilevel
-from sma_actuator.control.model_file import load_model, save_model
 from sma_actuator.core.actuator import ActuatorParams
+from sma_actuator.core.model_file import load_model, save_model
 import yaml
 
 

@@ -115,7 +115,7 @@ def test_a_model_that_misses_the_plant_gets_no_handover():
 
 
 def test_reference_reversal_is_seen_coming_on_a_sine_but_not_on_a_ramp():
-    from sma_actuator.control.core import ReferencePredictor
+    from sma_actuator.control.law import ReferencePredictor
     sine, ramp = ReferencePredictor(), ReferencePredictor()
     for k in range(200):       # up to 0.5 s before the peak of the 0.05 Hz sine at 6 s
         t = 0.5 + k * DT

@@ -20,10 +20,10 @@ import pytest
 
 from sma_actuator.control import ControllerCore, ControllerSettings
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
-from sma_actuator.control.core import SensorMap
 from sma_actuator.control.estimator import (DRIFT_OFFSET_BOUND_RAD, DRIFT_STROKE_BOUND,
                                             DriftEstimator)
 from sma_actuator.control.feedforward import current_limit_inverse, InverseFeedforward
+from sma_actuator.control.law import SensorMap
 from sma_actuator.control.tuning import KI_RANGE, KP_RANGE, simc_gains
 from sma_actuator.core.actuator import ActuatorParams, sensor_polynomial, simulate
 from sma_actuator.profiles import Profile

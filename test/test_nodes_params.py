@@ -30,7 +30,7 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from sma_actuator.core.actuator import ActuatorParams  # noqa: E402
+from sma_actuator.core.actuator import ActuatorParams, PARAMETERS  # noqa: E402
 from sma_actuator.nodes import common as c  # noqa: E402
 from sma_actuator.nodes.controller import Controller  # noqa: E402
 from sma_actuator.nodes.plant_sim import EFFECTS, PlantSim  # noqa: E402
@@ -68,16 +68,17 @@ def test_every_actuator_effect_is_a_plant_parameter():
                 'offset_rad', 'hysteresis'}
     effects = set(ActuatorParams.__dataclass_fields__) - physical
     assert effects == {name for name, *_ in EFFECTS}
+    assert effects == {name for name, spec in PARAMETERS.items() if spec.effect}
 
 
 def test_every_plant_effect_range_lies_within_the_workbench_fit_bounds():
     # data made with any plant setting can be fitted by `sma-model` (same parameter names)
     from sma_actuator.workbench.effects import BUILTIN
-    bounds = {k: v[:2] for cls in BUILTIN.values() for k, v in cls.parameters.items()}
+    bounds = {k: v for cls in BUILTIN.values() for k, v in cls.parameters.items()}
     for name, lo, hi, _ in EFFECTS:
-        if name == 'duty_limit_sharpness':
-            continue  # the plant's 0 is a hard corner (sharpness -> inf): the fit's 30 is its knee
-        assert bounds[name][0] <= lo and hi <= bounds[name][1], (name, lo, hi, bounds[name])
+        spec = PARAMETERS[name]
+        assert bounds[name] == spec.fit, name     # the catalog fits the declared bounds
+        assert spec.fit_covers(lo) and spec.fit_covers(hi), (name, lo, hi, spec.fit)
 
 
 def test_plant_effect_parameters_reach_the_model(ros_context):

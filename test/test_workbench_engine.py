@@ -154,14 +154,19 @@ class DeadTime(Effect):
                 np.clip((duty_b - d0) / (1 - d0), 0, 1), ambient)
 
 
+def dead_time_record(dead_duty=0.2, seed=4, duration_s=240.0):
+    """Return a plant record whose PWM loses the first `dead_duty` of every period."""
+    rng = np.random.default_rng(seed)
+    n = int(duration_s / DT)
+    da, db = multilevel_duty(n, DT, rng)
+    heat = [np.clip((d - dead_duty) / (1 - dead_duty), 0, 1) for d in (da, db)]
+    y = act.simulate(act.ActuatorParams(), heat[0], heat[1], DT).position_rad
+    return idn.DynamicData(np.arange(n) * DT, da, db, y + rng.normal(0, 0.002, n))
+
+
 @pytest.mark.slow
 def test_plugin_ablation_uses_its_neutral_value():
-    rng = np.random.default_rng(4)
-    n = int(240 / DT)
-    da, db = multilevel_duty(n, DT, rng)
-    heat = [np.clip((d - 0.2) / 0.8, 0, 1) for d in (da, db)]
-    y = act.simulate(act.ActuatorParams(), heat[0], heat[1], DT).position_rad
-    data = idn.DynamicData(np.arange(n) * DT, da, db, y + rng.normal(0, 0.002, n))
+    data = dead_time_record()
     register_effect(DeadTime)
     try:
         diag = engine.diagnose(data, candidates=['test_dead_time', 'delay'])

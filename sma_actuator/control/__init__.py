@@ -35,13 +35,17 @@ Modules:
 * `handover`: pi_inverse at a zero crossing: the incoming wire heated early, the
   outgoing one let go, never both within the interlock's dead time.
 * `on_off`: the paper's fully-heated / fully-cooled relay mode.
-* `core`: `ControllerCore`, the three modes assembled into one step function.
-* `model_file`: `load_model`, the package's one model file format.
+* `law`: the control law, `ControllerCore`: the three modes assembled into one step function.
 * `inputs`: validation of setpoints and duties (reject, keep the last valid value).
 * `metrics`: rms / max error and settling time of a tracking run.
 * `excitation`: open-loop duty sequences for identification runs.
+* `interlock`: the dead-time rule between the two wires (also used by plant_sim and the bridge).
+* `closed_loop`: a `ControllerCore` against any plant, sample by sample (benchmarks, tests).
+
+`load_model` is `core.model_file.load_model`, re-exported here: the package's one model
+file is read and written in `core.model_file` (docs/workbench.md, "The model file").
 """
-from .core import ControllerCore, ControllerSettings, ControlStep
-from .model_file import load_model
+from .law import ControllerCore, ControllerSettings, ControlStep
+from ..core.model_file import load_model
 
 __all__ = ['ControllerCore', 'ControllerSettings', 'ControlStep', 'load_model']

@@ -21,37 +21,55 @@ measured ambient [°C]. `CorePlant` is the package's own plant, the core actuato
 plant node's potentiometer (`core.sensor.Potentiometer`: noise, 12-bit ADC), as plant_sim
 steps it. Used by the tracking benchmark and the controller tests.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import Callable, Protocol, TYPE_CHECKING
 
 import numpy as np
 
 from .metrics import summarize
-from ..core.actuator import AntagonisticActuator
-from ..core.sensor import Potentiometer
+from ..core.actuator import ActuatorParams, AntagonisticActuator
+from ..core.sensor import POT_RANGE_RAD, Potentiometer
+
+if TYPE_CHECKING:
+    from .law import ControllerCore
+
+
+class Plant(Protocol):
+    """What `run_tracking` needs of a plant (`ambient_c()` [°C] is optional)."""
+
+    def measure(self) -> float:
+        """Return the reading [rad] now."""
+
+    def step(self, duty_a: float, duty_b: float) -> float:
+        """Hold the duties for one control period; return the reading then [rad]."""
 
 
 class CorePlant:
     """`core.AntagonisticActuator` + plant_sim's potentiometer, stepped every dt_s."""
 
-    def __init__(self, params, dt_s=0.025, noise_rad=0.001, seed=7, bits=12):
+    def __init__(self, params: ActuatorParams, dt_s: float = 0.025, noise_rad: float = 0.001,
+                 seed: int = 7, bits: int = 12):
         self.actuator = AntagonisticActuator(params)
-        self.pot = Potentiometer(bits, -1.2, 1.2, noise_rad)
+        self.pot = Potentiometer(bits, *POT_RANGE_RAD, noise_rad)
         self.rng = np.random.default_rng(seed)
         self.dt_s = dt_s
         self.reading = self._read(self.actuator.reading_now)
 
-    def _read(self, angle):
+    def _read(self, angle: float) -> float:
+        """Return the potentiometer's reading [rad] of shaft angle `angle` [rad]."""
         return self.pot.angle(self.pot.counts(angle, self.rng))
 
-    def measure(self):
+    def measure(self) -> float:
         """Return the reading [rad] now."""
         return self.reading
 
-    def ambient_c(self):
+    def ambient_c(self) -> float:
         """Measured ambient [°C]: the model's constant ambient."""
         return self.actuator.params.ambient_c
 
-    def step(self, duty_a, duty_b):
+    def step(self, duty_a: float, duty_b: float) -> float:
         """Hold the duties for dt_s; return the reading then [rad]."""
         self.reading = self._read(self.actuator.step(duty_a, duty_b, self.dt_s))
         return self.reading
@@ -66,12 +84,13 @@ class TrackingRun:
     position: np.ndarray
     duty: np.ndarray
 
-    def summary(self, t_start, tolerance_rad=0.025):
+    def summary(self, t_start: float, tolerance_rad: float = 0.025) -> dict:
         """`metrics.summarize` from t_start [s]: rms_error, max_error, settling_time."""
         return summarize(self.time_s, self.setpoint, self.position, tolerance_rad, t_start)
 
 
-def run_tracking(controller, plant, reference, seconds, dt_s=0.025):
+def run_tracking(controller: ControllerCore, plant: Plant, reference: Callable[[float], float],
+                 seconds: float, dt_s: float = 0.025) -> TrackingRun:
     """
     Run `controller` against `plant` for `seconds`; reference(t) -> setpoint [rad].
 

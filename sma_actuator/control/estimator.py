@@ -44,11 +44,14 @@ stroke. The inverse uses an estimate only once it leaves a dead band around the 
 value (`DRIFT_DEADBAND_RAD`, `DRIFT_DEADBAND_STROKE` of g): the regressor Δŷ carries the
 model's own errors, which bias g' low by about 2 % on a matched plant.
 """
+from __future__ import annotations
+
 from collections import deque
+from typing import Optional, Sequence
 
 import numpy as np
 
-from ..core.actuator import AntagonisticActuator
+from ..core.actuator import ActuatorParams, AntagonisticActuator
 
 DRIFT_OFFSET_BOUND_RAD = 0.15
 DRIFT_STROKE_BOUND = 0.3
@@ -62,36 +65,37 @@ DRIFT_DEADBAND_STROKE = 0.05
 class WireEstimator:
     """θ̂_a, θ̂_b [°C] and ŷ_a, ŷ_b [0..1] from the model and the commanded duty history."""
 
-    def __init__(self, params):
+    def __init__(self, params: ActuatorParams):
         self.params = params
         self.model = AntagonisticActuator(params)
         self.reading_delayed = 0.0
 
-    def reset(self):
+    def reset(self) -> None:
         """Both wires at the model's ambient, cold (martensite)."""
         self.model.reset()
         self.reading_delayed = self.model.reading_now
 
-    def update(self, duty_a, duty_b, dt, ambient_c=None):
+    def update(self, duty_a: float, duty_b: float, dt: float,
+               ambient_c: Optional[float] = None) -> np.ndarray:
         """Advance by dt [s] with the duties that were applied over it; return θ̂ [°C] (2,)."""
         self.reading_delayed = self.model.step(duty_a, duty_b, dt, ambient_c)
         return self.model.temperature_c
 
     @property
-    def temperature_c(self):
+    def temperature_c(self) -> np.ndarray:
         """Estimated wire temperatures [θ̂_a, θ̂_b] in °C."""
         return self.model.temperature_c
 
     @property
-    def contraction(self):
+    def contraction(self) -> np.ndarray:
         """Estimated contraction fractions [ŷ_a, ŷ_b]."""
         return self.model.contraction
 
-    def smith_correction(self):
+    def smith_correction(self) -> float:
         """ŷ(t) − ŷ(t − D) [rad]: add to the measurement to predict it D ahead."""
         return self.model.reading_now - self.reading_delayed
 
-    def hysteresis_inputs(self):
+    def hysteresis_inputs(self) -> np.ndarray:
         """Return each wire's hysteresis input θ̂_j − σ ŷ_other [°C] (actuator step 3)."""
         th, y = self.temperature_c, self.contraction
         sigma = self.params.stress_k
@@ -101,7 +105,7 @@ class WireEstimator:
 class DriftEstimator:
     """Slow offset φ0' [rad] and stroke g' [rad] from measurements (module docstring)."""
 
-    def __init__(self, params, time_s=30.0):
+    def __init__(self, params: ActuatorParams, time_s: float = 30.0):
         self.offset0, self.stroke0 = params.offset_rad, params.stroke_rad
         self.ratio_b = params.stroke_ratio_b
         self.delay_s = params.delay_s
@@ -109,20 +113,20 @@ class DriftEstimator:
         self.reset()
 
     @property
-    def offset(self):
+    def offset(self) -> float:
         """Offset φ0' [rad] for the inverse: the estimate outside the dead band, else φ0."""
         if abs(self.offset_est - self.offset0) > DRIFT_DEADBAND_RAD:
             return self.offset_est
         return self.offset0
 
     @property
-    def stroke(self):
+    def stroke(self) -> float:
         """Stroke g' [rad] for the inverse: the estimate outside the dead band, else g."""
         if abs(self.stroke_est - self.stroke0) > DRIFT_DEADBAND_STROKE * abs(self.stroke0):
             return self.stroke_est
         return self.stroke0
 
-    def reset(self):
+    def reset(self) -> None:
         """Back to the model's offset and stroke."""
         self.offset_est, self.stroke_est = self.offset0, self.stroke0
         self._p = np.diag([1e-2, 1e-2])     # covariance of (offset, stroke) [rad²]
@@ -130,7 +134,8 @@ class DriftEstimator:
         self._recent = deque()              # Δŷ over the forgetting memory
         self._t = 0.0
 
-    def update(self, contraction, angle_measured_rad, dt):
+    def update(self, contraction: Sequence[float], angle_measured_rad: float,
+               dt: float) -> None:
         """Add one sample: model contractions (ŷ_a, ŷ_b) now, linearised measured angle."""
         self._t += dt
         dy = float(contraction[0] - self.ratio_b * contraction[1])

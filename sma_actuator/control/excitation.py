@@ -21,13 +21,19 @@ time constant to show. `multilevel` builds that: alternating wires, each segment
 duty level drawn from `levels` for a random hold in [hold_min_s, hold_max_s], with the
 other wire cold; some segments step down or up within the same wire (minor loops).
 """
+from __future__ import annotations
+
+from typing import Sequence, Tuple
+
 import numpy as np
 
 from ..core.validate import finite_scalar
 
 
-def multilevel(duration_s, dt, seed=0, levels=(0.25, 0.32, 0.38, 0.45, 0.55, 0.7),
-               hold_min_s=1.5, hold_max_s=5.0, rest_probability=0.2):
+def multilevel(duration_s: float, dt: float, seed: int = 0,
+               levels: Sequence[float] = (0.25, 0.32, 0.38, 0.45, 0.55, 0.7),
+               hold_min_s: float = 1.5, hold_max_s: float = 5.0,
+               rest_probability: float = 0.2) -> Tuple[np.ndarray, np.ndarray]:
     """(duty_a, duty_b) arrays of n = duration_s/dt samples (held per sample), seeded."""
     duration_s, dt = finite_scalar('duration_s', duration_s), finite_scalar('dt', dt)
     if duration_s <= 0 or dt <= 0 or hold_min_s <= 0 or hold_max_s < hold_min_s:

@@ -20,7 +20,7 @@ Chain (actuator steps 4 -> 1 inverted, model = the identified `ActuatorParams`):
   1. shaft   Δy* = (φ* − φ0) / g                      contraction difference (step 4)
   2. split   Δy* >= 0: y_a* = Δy*, wire b idle;  Δy* < 0: y_b* = −Δy* / s_b, wire a idle
   3. H^-1    u_j* = H^-1[y_j*] from the wire's current hysteresis state (exact inverse of
-             the modified PI, eq. 6, `core.kernels.play_inverse`), θ_j* = u_j* + σ ŷ_other
+             the modified PI, eq. 6, `InversePlayHysteresis`), θ_j* = u_j* + σ ŷ_other
   4. thermal d_j = (θ_j* − θa) / G_j                    static map of eq. (7), clipped
              or, with horizon_s = h > 0, the exact inverse of the thermal step (7d) over h:
              the duty that takes the estimated θ̂_j to θ_j* in h seconds,
@@ -46,7 +46,6 @@ feed-forward: holding it at the temperature where y just reaches 0 would only wa
 """
 import numpy as np
 
-from ..core import kernels
 from ..core.actuator import CONVECTION_REF_K
 from ..core.hysteresis import PlayHysteresis
 from ..core.thermal import thermal_step
@@ -70,6 +69,8 @@ class InverseFeedforward:
         if (h.w < 0).any() or h.k1 < 0:
             raise ValueError('model hysteresis is not invertible (negative weights)')
         self._plays = [PlayHysteresis.from_dict(h.to_dict()) for _ in range(2)]
+        # H^-1 of each wire, solved from the wire's estimated state (`track`), not its own
+        self._inverses = [play.inverse() for play in self._plays]
         # derived model constants (the model is fixed for the life of this object)
         self._y_max = h.output_range()[1]
         self._gains = (params.gain_k, params.gain_k * params.gain_ratio_b)
@@ -168,7 +169,6 @@ class InverseFeedforward:
         """Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
-        h = p.hysteresis
         duties, temps = [0.0, 0.0], [amb, amb]
         targets = self.target_contractions(angle_rad, offset_rad, stroke_rad)
         for j, y_star in enumerate(targets):
@@ -183,9 +183,8 @@ class InverseFeedforward:
             if ahead * self._direction[j] > 0:
                 u_star = self._u[j]       # hold: see "branch holding" in the module doc
             else:
-                u_star = float(kernels.play_inverse(
-                    np.array([y_star]), h.r, h.lo, h.hi, h.w, h.k1, h.y0, self._plays[j].state,
-                    self._u[j], amb - 50.0, amb + gain * self.duty_max)[0][0])
+                u_star = self._inverses[j].solve(y_star, self._plays[j].state, self._u[j],
+                                                 amb - 50.0, amb + gain * self.duty_max)
             theta = u_star + p.stress_k * float(contraction[1 - j])
             temps[j] = theta
             est = None if theta_est is None else float(theta_est[j])

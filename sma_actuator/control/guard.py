@@ -28,8 +28,13 @@ The gain used is the worst case over the model's phase-resistance factor (1 + κ
 the fast lag τ (tau_fast_s) the lag state is taken at its steady value G d, so the bound
 then holds within about 1 K: leave that margin in max_temp_c.
 """
+from __future__ import annotations
+
+from typing import Optional, Sequence, Tuple
+
 import numpy as np
 
+from ..core.actuator import ActuatorParams
 from ..core.thermal import thermal_step
 from ..core.validate import finite_scalar
 
@@ -37,7 +42,8 @@ from ..core.validate import finite_scalar
 class ThermalGuard:
     """Per-wire duty limits from estimated temperatures (model `ActuatorParams`)."""
 
-    def __init__(self, params, max_temp_c=110.0, horizon_s=0.5):
+    def __init__(self, params: ActuatorParams, max_temp_c: float = 110.0,
+                 horizon_s: float = 0.5):
         self.params = params
         self.max_temp_c = finite_scalar('max_temp_c', max_temp_c)
         self.horizon_s = finite_scalar('horizon_s', horizon_s)
@@ -45,7 +51,7 @@ class ThermalGuard:
             raise ValueError(f'horizon_s must be positive, got {horizon_s}')
         self._wires = None     # derived once: the model does not change under a guard
 
-    def _wire(self, j):
+    def _wire(self, j: int) -> Tuple[float, float]:
         """(worst-case gain G [K], time constant T [s]) of wire j, from the model."""
         if self._wires is None:
             p = self.params
@@ -53,7 +59,8 @@ class ThermalGuard:
             self._wires = ((gain, tau), (gain * p.gain_ratio_b, tau * p.tau_ratio_b))
         return self._wires[j]
 
-    def limits(self, theta_c, last_duty=(0.0, 0.0), ambient_c=None):
+    def limits(self, theta_c: Sequence[float], last_duty: Sequence[float] = (0.0, 0.0),
+               ambient_c: Optional[float] = None) -> Tuple[float, float]:
         """(limit_a, limit_b) in [0, 1] for estimated temperatures θ̂ [°C] (2,)."""
         amb = self.params.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         out = []

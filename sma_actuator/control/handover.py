@@ -42,7 +42,13 @@ With t_c = (φ0 − p⁻¹(r)) / ṙ the predicted time to the crossing (`Contro
 
 A step (ṙ = 0) or a reference that does not head for a crossing gets neither.
 """
+from __future__ import annotations
+
 import math
+from typing import Optional, Sequence, Tuple, TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .feedforward import InverseFeedforward
 
 
 # early handover: at most this far ahead [s]; start at LEAD t_need; hold burst HOLD t_c,
@@ -66,7 +72,8 @@ MIN_RATE_RAD_S = 0.01
 class Preheat:
     """Early handover planner (module docstring), one call per sample."""
 
-    def __init__(self, feedforward, theta_start_c, dead_time_s=0.05):
+    def __init__(self, feedforward: InverseFeedforward, theta_start_c: float,
+                 dead_time_s: float = 0.05):
         self.feedforward = feedforward
         self.theta_start_c = float(theta_start_c)
         self.dead_time_s = float(dead_time_s)
@@ -74,12 +81,12 @@ class Preheat:
         self.mismatch_ms = 0.0
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget a running handover."""
         self.incoming = None
         self.burst_c = None     # θ the outgoing wire is heated to before it is let go
 
-    def observe(self, mismatch_rad, dt):
+    def observe(self, mismatch_rad: float, dt: float) -> None:
         """
         Track how well the model's open-loop reading follows the measurement.
 
@@ -90,15 +97,16 @@ class Preheat:
         self.mismatch_ms += (mismatch_rad ** 2 - self.mismatch_ms) * min(dt / TRUST_TIME_S, 1.0)
 
     @property
-    def trusted(self):
+    def trusted(self) -> bool:
         """Whether the model's reading has followed the measurement (m < `TRUST_RAD`)."""
         return self.mismatch_ms < TRUST_RAD ** 2
 
-    def gap(self, dt):
+    def gap(self, dt: float) -> int:
         """Return n_g = ceil(dead_time / dt), the interlock's dead time in samples."""
         return max(1, int(math.ceil(self.dead_time_s / dt - 1e-6))) if self.dead_time_s > 0 else 0
 
-    def _free_preheat(self, incoming, t_cross_s, theta_est, ambient, dt, u):
+    def _free_preheat(self, incoming: int, t_cross_s: float, theta_est: Sequence[float],
+                      ambient: float, dt: float, u: float) -> Optional[Tuple[float, float]]:
         """
         Heat the incoming wire towards θpre while the loop lets the outgoing one coast.
 
@@ -117,7 +125,7 @@ class Preheat:
             return None     # the loop already heats it more (it pulls the shaft)
         return tuple(out)
 
-    def time_needed_s(self, j, theta_est, ambient):
+    def time_needed_s(self, j: int, theta_est: float, ambient: float) -> float:
         """
         Return t_heat = T ln((G − (θ̂ − θa)) / (G − (θs − θa))) [s] of wire j.
 
@@ -132,7 +140,9 @@ class Preheat:
             return math.inf
         return tau * math.log((gain - x0) / (gain - x1))
 
-    def duties(self, incoming, t_cross_s, theta_est, ambient, dt, theta_target=None, u=0.0):
+    def duties(self, incoming: Optional[int], t_cross_s: float, theta_est: Sequence[float],
+               ambient: float, dt: float, theta_target: Optional[Sequence[float]] = None,
+               u: float = 0.0) -> Optional[Tuple[float, float]]:
         """
         Return (d_a, d_b) of this sample, or None when the loop drives the wires.
 

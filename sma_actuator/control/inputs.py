@@ -13,10 +13,13 @@
 # limitations under the License.
 
 """Validation of incoming setpoints and duties: reject bad values, keep the last valid one."""
+from __future__ import annotations
+
 import math
+from typing import Any, Callable, Iterable, Optional
 
 
-def setpoint_problem(value, lower, upper):
+def setpoint_problem(value: Any, lower: float, upper: float) -> Optional[str]:
     """Why a setpoint [rad] is unusable (NaN, ±inf, outside [lower, upper]), or None if fine."""
     try:
         x = float(value)
@@ -29,7 +32,7 @@ def setpoint_problem(value, lower, upper):
     return None
 
 
-def duty_problem(values):
+def duty_problem(values: Iterable[float]) -> Optional[str]:
     """Why a duty pair is unusable (wrong length, NaN, ±inf, outside [0, 1]), or None."""
     values = list(values)
     if len(values) != 2:
@@ -45,13 +48,13 @@ def duty_problem(values):
 class LastValid:
     """Holds the last accepted value of an input stream and counts rejections."""
 
-    def __init__(self, check, initial=None):
+    def __init__(self, check: Callable[[Any], Optional[str]], initial: Any = None):
         self.check = check          # value -> problem string or None
         self.value = initial
         self.rejected = 0
         self.last_problem = None
 
-    def offer(self, value):
+    def offer(self, value: Any) -> Optional[str]:
         """Accept `value` if `check` finds no problem; return the problem (None if accepted)."""
         problem = self.check(value)
         if problem is None:

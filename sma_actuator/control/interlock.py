@@ -26,7 +26,10 @@ its C++ twin, checked through the "mcu" scenarios of firmware/test_vectors.json.
 Times are in whatever unit the caller uses (s on the host, µs ticks on the MCU); pass
 `elapsed(now, then)` for a wrapping tick counter.
 """
+from __future__ import annotations
+
 import operator
+from typing import Callable, Optional, Tuple
 
 BOTH_REQUESTED = 'both wires requested at once'
 DEAD_TIME = 'other wire still inside the dead time'
@@ -35,7 +38,8 @@ DEAD_TIME = 'other wire still inside the dead time'
 class DeadTimeInterlock:
     """Gate a requested duty pair so that the applied pair obeys the dead-time rule."""
 
-    def __init__(self, dead_time, elapsed=operator.sub):
+    def __init__(self, dead_time: float,
+                 elapsed: Callable[[float, float], float] = operator.sub):
         if not dead_time >= 0:
             raise ValueError(f'interlock dead time must be >= 0, got {dead_time}')
         self.dead_time = dead_time
@@ -45,7 +49,8 @@ class DeadTimeInterlock:
         self.off_since = [None, None]
         self.held = 0       # requests in which a wire was held off
 
-    def apply(self, duty_a, duty_b, now):
+    def apply(self, duty_a: float, duty_b: float,
+              now: float) -> Tuple[Tuple[float, float], Optional[str]]:
         """
         Return (applied pair, reason or None) for the requested pair at time `now`.
 
@@ -71,13 +76,13 @@ class DeadTimeInterlock:
             self.held += 1
         return self.applied, reason
 
-    def expire(self, now):
+    def expire(self, now: float) -> None:
         """Forget turn-off times older than the dead time (call often on a wrapping clock)."""
         for wire in (0, 1):
             then = self.off_since[wire]
             if then is not None and self.elapsed(now, then) >= self.dead_time:
                 self.off_since[wire] = None
 
-    def reset(self, now):
+    def reset(self, now: float) -> Tuple[float, float]:
         """Apply zero to both wires now (watchdog, link loss, shutdown)."""
         return self.apply(0 * self.applied[0], 0 * self.applied[1], now)[0]

@@ -33,14 +33,18 @@ x(t) ≈ a sin ωt + b cos ωt + c of r and of φ give the phases θ = atan2(b, 
              φ trails r
   gain       sqrt(a² + b²) of φ over that of r (amplitude ratio)
 """
+from __future__ import annotations
+
 import math
+from typing import Dict, Optional, Tuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.validate import finite_array
 
 
-def tracking_errors(setpoint, position):
+def tracking_errors(setpoint: ArrayLike, position: ArrayLike) -> np.ndarray:
     """E = r − φ [rad] as an array."""
     r, y = finite_array('setpoint', setpoint), finite_array('position', position)
     if r.shape != y.shape:
@@ -48,17 +52,18 @@ def tracking_errors(setpoint, position):
     return r - y
 
 
-def rms_error(setpoint, position):
+def rms_error(setpoint: ArrayLike, position: ArrayLike) -> float:
     """Root-mean-square tracking error [rad]."""
     return float(np.sqrt(np.mean(tracking_errors(setpoint, position) ** 2)))
 
 
-def max_error(setpoint, position):
+def max_error(setpoint: ArrayLike, position: ArrayLike) -> float:
     """Largest absolute tracking error [rad]."""
     return float(np.max(np.abs(tracking_errors(setpoint, position))))
 
 
-def settling_time(time_s, setpoint, position, tolerance_rad, t_start=None):
+def settling_time(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike,
+                  tolerance_rad: float, t_start: Optional[float] = None) -> Optional[float]:
     """Time [s] from t_start (default: first sample) until |e| <= tolerance for good, or None."""
     t = finite_array('time_s', time_s)
     e = np.abs(tracking_errors(setpoint, position))
@@ -74,7 +79,8 @@ def settling_time(time_s, setpoint, position, tolerance_rad, t_start=None):
     return float(t[last + 1] - t0)
 
 
-def summarize(time_s, setpoint, position, tolerance_rad, t_start=None):
+def summarize(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike, tolerance_rad: float,
+              t_start: Optional[float] = None) -> Dict[str, Optional[float]]:
     """{'rms_error', 'max_error', 'settling_time'} over samples with t >= t_start."""
     t = finite_array('time_s', time_s)
     keep = t >= (t[0] if t_start is None else t_start)
@@ -83,7 +89,9 @@ def summarize(time_s, setpoint, position, tolerance_rad, t_start=None):
             'settling_time': settling_time(t[keep], r, y, tolerance_rad, t_start)}
 
 
-def _window(time_s, setpoint, position, t_start):
+def _window(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike,
+            t_start: Optional[float]) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (t [s], r, φ [rad]) checked (finite, one length) from t_start on."""
     t = finite_array('time_s', time_s)
     r, y = finite_array('setpoint', setpoint), finite_array('position', position)
     if not t.shape == r.shape == y.shape:
@@ -94,7 +102,8 @@ def _window(time_s, setpoint, position, t_start):
     return t[keep], r[keep], y[keep]
 
 
-def rise_time(time_s, setpoint, position, t_start=None):
+def rise_time(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike,
+              t_start: Optional[float] = None) -> Optional[float]:
     """Return the 10-90 % rise time [s] of a step response, or None if 90 % is not reached."""
     t, r, y = _window(time_s, setpoint, position, t_start)
     y0, h = y[0], r[-1] - y[0]
@@ -107,7 +116,8 @@ def rise_time(time_s, setpoint, position, t_start=None):
     return float(t[at90[0]] - t[at10[0]])
 
 
-def overshoot_pct(time_s, setpoint, position, t_start=None):
+def overshoot_pct(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike,
+                  t_start: Optional[float] = None) -> float:
     """Return the overshoot of a step response beyond its final setpoint [% of the step]."""
     t, r, y = _window(time_s, setpoint, position, t_start)
     h = r[-1] - y[0]
@@ -116,21 +126,23 @@ def overshoot_pct(time_s, setpoint, position, t_start=None):
     return float(100.0 * max(0.0, np.max(np.sign(h) * (y - r[-1]))) / abs(h))
 
 
-def steady_state_error(time_s, setpoint, position, window_s=2.0):
+def steady_state_error(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike,
+                       window_s: float = 2.0) -> float:
     """Return the mean error r − φ over the last `window_s` of the run [rad]."""
     t, r, y = _window(time_s, setpoint, position, None)
     keep = t >= t[-1] - window_s
     return float(np.mean(r[keep] - y[keep]))
 
 
-def _phase_amplitude(t, x, omega):
+def _phase_amplitude(t: np.ndarray, x: np.ndarray, omega: float) -> Tuple[float, float]:
     """Fit x ≈ a sin ωt + b cos ωt + c; return (phase atan2(b, a) [rad], amplitude)."""
     basis = np.column_stack([np.sin(omega * t), np.cos(omega * t), np.ones_like(t)])
     (a, b, _), *_ = np.linalg.lstsq(basis, x, rcond=None)
     return math.atan2(b, a), math.hypot(a, b)
 
 
-def phase_lag(time_s, setpoint, position, period_s, t_start=None):
+def phase_lag(time_s: ArrayLike, setpoint: ArrayLike, position: ArrayLike, period_s: float,
+              t_start: Optional[float] = None) -> Dict[str, float]:
     """
     Return {'phase_lag_s', 'phase_lag_deg', 'gain'} of φ against a sine reference r.
 

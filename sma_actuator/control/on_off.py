@@ -22,24 +22,26 @@ heats wire b, in between the previous choice is kept; the relay's hysteresis sto
 setpoint that dithers around φ0 from toggling the wires. The measured angle is not used:
 the end stops (full contraction) are the positions.
 """
+from __future__ import annotations
+
 from ..core.validate import finite_scalar
 
 
 class OnOffRelay:
     """Signed command ±on_duty from the setpoint offset r − φ0 [rad] with a ±band relay."""
 
-    def __init__(self, band_rad=0.05, on_duty=1.0):
+    def __init__(self, band_rad: float = 0.05, on_duty: float = 1.0):
         self.band_rad = finite_scalar('band_rad', band_rad)
         self.on_duty = finite_scalar('on_duty', on_duty)
         if self.band_rad < 0 or not 0 <= self.on_duty <= 1:
             raise ValueError('band_rad must be >= 0 and on_duty in [0, 1]')
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Relay off (both wires cooling) until the setpoint leaves the band."""
         self.state = 0
 
-    def step(self, offset_rad):
+    def step(self, offset_rad: float) -> float:
         """Signed command for r − φ0 [rad]: +on_duty heats a, −on_duty heats b, 0 both cool."""
         x = finite_scalar('offset_rad', offset_rad)
         if x > self.band_rad:

@@ -26,29 +26,32 @@ is kept inside [u_min − u_ff, u_max − u_ff] so a limit change (thermal guard
 a wound-up state behind. Units: e in rad, u in duty (signed, see `split`), Kp in 1/rad,
 Ki in 1/(rad s).
 """
+from __future__ import annotations
+
 from ..core.validate import finite_scalar
 
 
 class DiscretePI:
     """PI with conditional-integration anti-windup; limits may change every step."""
 
-    def __init__(self, kp, ki):
+    def __init__(self, kp: float, ki: float):
         self.set_gains(kp, ki)
         self.reset()
 
-    def set_gains(self, kp, ki):
+    def set_gains(self, kp: float, ki: float) -> None:
         """Change Kp [1/rad] and Ki [1/(rad s)]; the integral state is kept (bumpless)."""
         kp, ki = finite_scalar('kp', kp), finite_scalar('ki', ki)
         if kp < 0 or ki < 0:
             raise ValueError(f'gains must be non-negative, got kp={kp}, ki={ki}')
         self.kp, self.ki = kp, ki
 
-    def reset(self, integral=0.0):
+    def reset(self, integral: float = 0.0) -> None:
         """Clear the integrator (to `integral`, in command units)."""
         self.integral = finite_scalar('integral', integral)
         self.saturated = False
 
-    def step(self, error, dt, u_min, u_max, feedforward=0.0):
+    def step(self, error: float, dt: float, u_min: float, u_max: float,
+             feedforward: float = 0.0) -> float:
         """One sample: return u(k) in [u_min, u_max] for error e(k) [rad] held over dt [s]."""
         error, dt = finite_scalar('error', error), finite_scalar('dt', dt)
         if dt <= 0:

@@ -20,16 +20,20 @@ duty_b = clip(−u, 0, lim_b). `exclusive` then enforces the invariant that the 
 are never both driven above a threshold (two hot wires only fight each other and
 overstress the pair): if both exceed it, the smaller one is cut to the threshold.
 """
+from __future__ import annotations
+
+from typing import Tuple
+
 from ..core.validate import finite_scalar
 
 
-def split(u, limit_a=1.0, limit_b=1.0):
+def split(u: float, limit_a: float = 1.0, limit_b: float = 1.0) -> Tuple[float, float]:
     """Signed command u [duty] -> (duty_a, duty_b), each in [0, its limit]."""
     u = finite_scalar('u', u)
     return min(max(u, 0.0), limit_a), min(max(-u, 0.0), limit_b)
 
 
-def exclusive(duty_a, duty_b, threshold):
+def exclusive(duty_a: float, duty_b: float, threshold: float) -> Tuple[float, float]:
     """Enforce min(duty_a, duty_b) <= threshold by cutting the smaller duty."""
     if duty_a > threshold and duty_b > threshold:
         if duty_a >= duty_b:

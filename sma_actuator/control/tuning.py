@@ -42,10 +42,14 @@ delay is taken out of the nominal loop (θ without D) but kept as a lower bound 
 prediction is only as good as the model, and what it gets wrong still comes back through
 the delay.
 """
+from __future__ import annotations
+
 import math
+from typing import Tuple
 
 import numpy as np
 
+from ..core.actuator import ActuatorParams
 from ..core.hysteresis import PlayHysteresis
 
 # lower bound of the closed-loop time constant [s]: within the transformation the branch
@@ -57,7 +61,7 @@ KP_RANGE = (0.05, 20.0)
 KI_RANGE = (0.01, 40.0)
 
 
-def heating_branch(params):
+def heating_branch(params: ActuatorParams) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return (u [°C], y) of the model's heating branch from the cold wire at ambient.
 
@@ -70,7 +74,7 @@ def heating_branch(params):
     return u, np.maximum.accumulate(h.simulate(u, h.initial_state(amb)))
 
 
-def heating_slope_per_k(params):
+def heating_slope_per_k(params: ActuatorParams) -> float:
     """
     Return the secant slope h' [1/K] of the heating branch, ambient to 90 % contraction.
 
@@ -86,7 +90,7 @@ def heating_slope_per_k(params):
     return 0.9 * span / max(u90 - amb, 1.0)
 
 
-def transformation_start_c(params, fraction=0.02):
+def transformation_start_c(params: ActuatorParams, fraction: float = 0.02) -> float:
     """
     Return θs [°C], the model's As: where a heated cold wire starts to move.
 
@@ -100,7 +104,8 @@ def transformation_start_c(params, fraction=0.02):
     return float(u[np.argmax(y >= y[0] + fraction * span)])
 
 
-def process_model(params, dt_s=0.025, smith=False):
+def process_model(params: ActuatorParams, dt_s: float = 0.025,
+                  smith: bool = False) -> Tuple[float, float, float]:
     """
     Return (K [rad/duty], T [s], θ [s]) of the first-order-plus-delay process (module doc).
 
@@ -111,7 +116,8 @@ def process_model(params, dt_s=0.025, smith=False):
     return max(k, 1e-3), params.tau_s, delay + params.tau_fast_s + 0.5 * dt_s
 
 
-def simc_gains(params, dt_s=0.025, smith=False, tau_c_min_s=TAU_C_MIN_S):
+def simc_gains(params: ActuatorParams, dt_s: float = 0.025, smith: bool = False,
+               tau_c_min_s: float = TAU_C_MIN_S) -> Tuple[float, float]:
     """
     Return SIMC (kp [duty/rad], ki [duty/(rad s)]) for the model (module docstring).
 

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Pure numerical core (no ROS): hysteresis operators, thermal dynamics, actuator, identification.
+Pure numerical core (no ROS): hysteresis, thermal dynamics, actuator, identification, model file.
 
 Equation numbers refer to Solc & Vasina, "Modeling and Control of SMA Actuator"
 (shared/reference): (1)-(2) cosine major loop, (3)-(4) Preisach, (5) Prandtl-Ishlinskii,

@@ -45,10 +45,15 @@ maps. With every effect parameter at its neutral value this is exactly the paper
 hardware emulator, the controller's thermal guard and the model workbench all call this
 module, so there is one implementation of the physics.
 """
+from collections import namedtuple
 from dataclasses import asdict, dataclass, field, fields, replace
+import math
+from operator import attrgetter
+from typing import Any, Dict, Optional, Tuple
 
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .hysteresis import PlayHysteresis
 from .thermal import on_current_a, thermal_step, time_constant_s
@@ -68,7 +73,7 @@ from .validate import finite_array, finite_scalar
 # ----------------------------------------------------------------------------------------
 
 
-def flexinol_hysteresis(n_widths=4, n_centres=4):
+def flexinol_hysteresis(n_widths: int = 4, n_centres: int = 4) -> PlayHysteresis:
     """
     Return the default modified-PI hysteresis, temperature [°C] -> contraction fraction [0, 1].
 
@@ -92,51 +97,173 @@ def flexinol_hysteresis(n_widths=4, n_centres=4):
                           -float(np.sum((c - band) / (2 * band * n))))
 
 
+# excess temperature at which T and G are given when the convection law is on [K]
+CONVECTION_REF_K = 50.0
+# ambient temperatures the nodes accept, measured or nominal [°C]: a reading outside is a
+# broken sensor, not weather
+AMBIENT_RANGE_C = (-40.0, 80.0)
+
+# identification roles (`ParamSpec.role`): 'feedback' parameters feed the hysteresis output
+# back into its own regressors; 'linear' ones are solved with the weights (no outer
+# search) and are feedback parameters as well
+FEEDBACK = 'feedback'
+LINEAR = 'linear'
+ROLES = (FEEDBACK, LINEAR)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """
+    Declaration of one physical parameter: everything the package derives from it.
+
+    unit and description (what `plant_sim` and the docs show), neutral: the value at which
+    its effect is off (the ablation value of a plug-in parameter); effect: the catalog
+    effect that frees it (None: a base-model parameter); plant: the plant node's accepted
+    range (None: not a plant parameter); fit: the workbench's (lower, upper, start) when
+    its effect is fitted; fit_stand_in: (plant value outside the fit bounds, the fit value
+    that represents it); role: FEEDBACK, LINEAR or None (`core.identification`);
+    kernel: read by the compiled kernel (its slot is its place in `KERNEL_PARAMS`).
+    """
+
+    unit: str
+    description: str
+    neutral: Optional[float] = None
+    effect: Optional[str] = None
+    plant: Optional[Tuple[float, float]] = None
+    fit: Optional[Tuple[float, float, float]] = None
+    fit_stand_in: Optional[Tuple[float, float]] = None
+    role: Optional[str] = None
+    kernel: bool = False
+
+    def __post_init__(self) -> None:
+        if self.role not in (None,) + ROLES:
+            raise ValueError(f'role must be one of {ROLES} or None, got {self.role!r}')
+        if self.fit is not None and not self.fit[0] <= self.fit[2] <= self.fit[1]:
+            raise ValueError(f'fit start {self.fit[2]} outside its bounds {self.fit[:2]}')
+
+    @property
+    def label(self) -> str:
+        """Return the description with its unit, as a person reads it."""
+        return f'{self.description} [{self.unit}]' if self.unit else self.description
+
+    def fit_covers(self, value: float) -> bool:
+        """Return True if the fit can represent plant value `value` (bounds or stand-in)."""
+        if self.fit_stand_in is not None and value == self.fit_stand_in[0]:
+            value = self.fit_stand_in[1]
+        return self.fit is not None and self.fit[0] <= value <= self.fit[1]
+
+
+SPEC = 'spec'   # the dataclass field metadata key of a ParamSpec
+
+
+def declare(default: float, unit: str, description: str, **spec: Any) -> Any:
+    """
+    Return a dataclass field of `ActuatorParams` with its `ParamSpec`.
+
+    The neutral value defaults to `default` (an effect is off at its default, except
+    where `neutral` says otherwise).
+    """
+    spec.setdefault('neutral', default)
+    return field(default=default, metadata={SPEC: ParamSpec(unit, description, **spec)})
+
+
 @dataclass
 class ActuatorParams:
     """
     Physical parameters of the antagonistic actuator and its switchable effects.
 
-    Every effect parameter's default is its neutral value (effect off), except
-    ambient_gain = 1: a simulated wire feels the ambient it is given.
+    Every parameter is declared here once, with its `ParamSpec`; the kernel vector, the
+    plant node's parameters, the catalog effects' fit tables and identification's role
+    sets derive from these declarations (docs/architecture.md). Every effect parameter's
+    default is its neutral value (effect off), except ambient_gain = 1: a simulated wire
+    feels the ambient it is given.
     """
 
     # wire and amplifier (Flexinol 150 um LT, 250 mm; see module comment for sources)
-    length_m: float = 0.25
-    resistance_ohm_per_m: float = 55.0
-    supply_v: float = 5.0
-    current_limit_a: float = 0.35
-    heat_capacity_j_per_k: float = 0.0239
-    conductance_w_per_k: float = 0.01195
-    ambient_c: float = 22.0
+    length_m: float = declare(0.25, 'm', 'wire length')
+    resistance_ohm_per_m: float = declare(55.0, 'ohm/m', 'wire resistance per length')
+    supply_v: float = declare(5.0, 'V', 'amplifier supply voltage')
+    current_limit_a: float = declare(0.35, 'A', 'amplifier current limit')
+    heat_capacity_j_per_k: float = declare(0.0239, 'J/K', 'heat capacity C of one wire')
+    conductance_w_per_k: float = declare(0.01195, 'W/K', 'heat transfer hA of one wire')
+    ambient_c: float = declare(22.0, '°C', 'nominal ambient temperature', kernel=True)
     # shaft and sensor
-    stroke_rad: float = 1.0          # g: shaft angle per unit contraction-fraction difference
-    offset_rad: float = 0.0          # φ0
+    stroke_rad: float = declare(1.0, 'rad',
+                                'g: shaft angle per unit contraction-fraction difference')
+    offset_rad: float = declare(0.0, 'rad', 'φ0: shaft angle with both wires cold')
     # effects (neutral values = off)
-    tau_fast_s: float = 0.0          # fast_dynamics: lag on the heat input [s]
-    delay_s: float = 0.0             # delay: transport delay of the measured position [s]
-    convection_exponent: float = 0.0  # convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n
-    # ambient_drift: weight of measured ambient deviations (1 = physical; the workbench base
-    # model uses 0)
-    ambient_gain: float = 1.0
-    phase_kappa: float = 0.0         # phase_resistance: power factor 1 + κ (1 − y)
-    stress_k: float = 0.0            # stress_coupling: shift [K] per unit antagonist contraction
-    gain_ratio_b: float = 1.0        # asymmetric_wires: heating gain of wire b relative to a
-    tau_ratio_b: float = 1.0         # asymmetric_wires: time constant of wire b relative to a
-    stroke_ratio_b: float = 1.0      # asymmetric_wires: stroke of wire b relative to a
-    sensor_c2_rad: float = 0.0       # sensor_nonlinearity: quadratic term [rad at 1 rad]
-    sensor_c3_rad: float = 0.0       # sensor_nonlinearity: cubic term [rad at 1 rad]
-    sensor_c4_rad: float = 0.0       # sensor_nonlinearity: 4th-order term [rad at 1 rad]
-    sensor_c5_rad: float = 0.0       # sensor_nonlinearity: 5th-order term [rad at 1 rad]
-    fatigue_offset_rad: float = 0.0  # fatigue_drift: zero drift from wire a after shakedown [rad]
-    fatigue_offset_b_rad: float = 0.0  # fatigue_drift: zero drift from wire b [rad]
-    fatigue_stroke: float = 0.0      # fatigue_drift: stroke loss fraction after shakedown
-    fatigue_cycles: float = 20.0     # fatigue_drift: shakedown constant N_f [cycles of a wire]
-    duty_limit: float = 1.0          # current_limit: duty above which mean current saturates
-    duty_limit_sharpness: float = 0.0  # current_limit: p-norm sharpness n (0 = hard min)
+    tau_fast_s: float = declare(
+        0.0, 's', 'fast dynamics: lag on the heat input (Fig. 13 tau)', effect='fast_dynamics',
+        plant=(0.0, 2.0), fit=(0.0, 3.0, 0.15), kernel=True)
+    delay_s: float = declare(
+        0.0, 's', 'transport delay of the measured position', effect='delay',
+        plant=(0.0, 1.0), fit=(0.0, 1.5, 0.05))
+    convection_exponent: float = declare(
+        0.0, '', 'convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n', effect='convection',
+        plant=(0.0, 1.0), fit=(-0.2, 1.0, 0.2), kernel=True)
+    # 1 is physical; the workbench base model uses the neutral 0 (constant ambient)
+    ambient_gain: float = declare(
+        1.0, '', 'weight of measured ambient deviations', neutral=0.0, effect='ambient_drift',
+        plant=(0.0, 2.0), fit=(0.0, 3.0, 1.0), kernel=True)
+    # NiTi resistivity differs by roughly 10-25 % between the phases; the fit bound leaves
+    # room for a current limiter that is not perfectly stiff
+    phase_kappa: float = declare(
+        0.0, '', 'phase resistance: heating factor 1 + κ (1 − y)', effect='phase_resistance',
+        plant=(-0.5, 0.5), fit=(-0.5, 0.5, 0.1), role=FEEDBACK, kernel=True)
+    stress_k: float = declare(
+        0.0, 'K', 'stress coupling: shift per unit antagonist contraction',
+        effect='stress_coupling', plant=(0.0, 50.0), fit=(0.0, 50.0, 4.0), role=FEEDBACK,
+        kernel=True)
+    gain_ratio_b: float = declare(
+        1.0, '', 'asymmetric wires: heating gain of wire b relative to a',
+        effect='asymmetric_wires', plant=(0.5, 2.0), fit=(0.5, 2.0, 1.0), kernel=True)
+    tau_ratio_b: float = declare(
+        1.0, '', 'asymmetric wires: time constant of wire b relative to a',
+        effect='asymmetric_wires', plant=(0.5, 2.0), fit=(0.5, 2.0, 1.0), kernel=True)
+    stroke_ratio_b: float = declare(
+        1.0, '', 'asymmetric wires: stroke of wire b relative to a',
+        effect='asymmetric_wires', plant=(0.5, 2.0), fit=(0.5, 2.0, 1.0))
+    # fit bounds: each term alone keeps p monotone over about ±1 rad of travel (together
+    # they may turn earlier: `sensor_inverse` then falls back to first order)
+    sensor_c2_rad: float = declare(
+        0.0, 'rad at 1 rad', 'potentiometer quadratic term', effect='sensor_nonlinearity',
+        plant=(-0.2, 0.2), fit=(-0.25, 0.25, 0.0))
+    sensor_c3_rad: float = declare(
+        0.0, 'rad at 1 rad', 'potentiometer cubic term', effect='sensor_nonlinearity',
+        plant=(-0.2, 0.2), fit=(-0.3, 0.3, 0.0))
+    sensor_c4_rad: float = declare(
+        0.0, 'rad at 1 rad', 'potentiometer 4th-order term', effect='sensor_nonlinearity',
+        plant=(-0.15, 0.15), fit=(-0.15, 0.15, 0.0))
+    sensor_c5_rad: float = declare(
+        0.0, 'rad at 1 rad', 'potentiometer 5th-order term', effect='sensor_nonlinearity',
+        plant=(-0.15, 0.15), fit=(-0.15, 0.15, 0.0))
+    # the zero drifts are solved linearly with the weights, each within ± half the measured
+    # travel (`core.identification`), so their fit bounds are open
+    fatigue_offset_rad: float = declare(
+        0.0, 'rad', 'fatigue: zero drift from wire a after shakedown', effect='fatigue_drift',
+        plant=(-0.3, 0.3), fit=(-math.inf, math.inf, 0.0), role=LINEAR)
+    fatigue_offset_b_rad: float = declare(
+        0.0, 'rad', 'fatigue: zero drift from wire b after shakedown', effect='fatigue_drift',
+        plant=(-0.3, 0.3), fit=(-math.inf, math.inf, 0.0), role=LINEAR)
+    fatigue_stroke: float = declare(
+        0.0, '', 'fatigue: stroke loss fraction after shakedown', effect='fatigue_drift',
+        plant=(0.0, 0.5), fit=(-0.5, 0.8, 0.05), role=FEEDBACK)
+    # N_f >= 2 cycles in the fit: a faster shakedown ends within the first transformation,
+    # where g_a − g_b with huge cancelling offsets only fits the start-up transient
+    fatigue_cycles: float = declare(
+        20.0, 'cycles of one wire', 'fatigue: shakedown constant N_f', effect='fatigue_drift',
+        plant=(2.0, 5000.0), fit=(2.0, 5000.0, 20.0), role=FEEDBACK)
+    duty_limit: float = declare(
+        1.0, '', 'current limit: duty above which the mean current saturates',
+        effect='current_limit', plant=(0.05, 1.0), fit=(0.02, 1.0, 0.9), kernel=True)
+    # the fit's sharpness n runs from ~2 (very soft) to 30 (practically a hard corner),
+    # which stands in for the plant's 0 (a hard min, n -> inf)
+    duty_limit_sharpness: float = declare(
+        0.0, '', 'current limit: p-norm sharpness (0 = hard corner)', effect='current_limit',
+        plant=(0.0, 30.0), fit=(2.0, 30.0, 6.0), fit_stand_in=(0.0, 30.0), kernel=True)
     hysteresis: PlayHysteresis = field(default_factory=flexinol_hysteresis)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in fields(self):
             if f.name != 'hysteresis':
                 setattr(self, f.name, finite_scalar(f.name, getattr(self, f.name)))
@@ -153,41 +280,38 @@ class ActuatorParams:
             raise ValueError(f'duty_limit must be in (0, 1], got {self.duty_limit}')
 
     @property
-    def resistance_ohm(self):
-        """Wire resistance R [ohm]."""
+    def resistance_ohm(self) -> float:
+        """Return the wire resistance R [ohm]."""
         return self.resistance_ohm_per_m * self.length_m
 
     @property
-    def tau_s(self):
+    def tau_s(self) -> float:
         """Return the basic thermal time constant T = C / hA [s] (Fig. 13)."""
         return time_constant_s(self.heat_capacity_j_per_k, self.conductance_w_per_k)
 
     @property
-    def gain_k(self):
-        """Steady temperature rise at full duty G = R i_on² / hA [K]."""
+    def gain_k(self) -> float:
+        """Return the steady temperature rise at full duty G = R i_on² / hA [K]."""
         i_on = on_current_a(self.supply_v, self.resistance_ohm, self.current_limit_a)
         return self.resistance_ohm * i_on ** 2 / self.conductance_w_per_k
 
-    def kernel_vector(self):
-        """Parameter vector of `simulate_wires` (see KERNEL_PARAMS for the order)."""
-        return np.array([self.tau_s, self.gain_k, self.ambient_c, self.tau_fast_s,
-                         self.convection_exponent, self.ambient_gain, self.phase_kappa,
-                         self.stress_k, self.gain_ratio_b, self.tau_ratio_b, self.duty_limit,
-                         self.duty_limit_sharpness])
+    def kernel_vector(self) -> np.ndarray:
+        """Return the parameter vector of `simulate_wires`: `KERNEL_PARAMS` in `SLOT` order."""
+        return np.array(_kernel_values(self))
 
-    def with_changes(self, **changes):
+    def with_changes(self, **changes: Any) -> 'ActuatorParams':
         """Return a copy with some fields changed (validated)."""
         return replace(self, **changes)
 
-    def to_dict(self):
-        """Plain-data form (YAML model files)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Return the plain-data form (YAML model files)."""
         d = asdict(self)
         d['hysteresis'] = self.hysteresis.to_dict()
         return d
 
     @classmethod
-    def from_dict(cls, d):
-        """Inverse of `to_dict`; unknown keys raise."""
+    def from_dict(cls, d: Dict[str, Any]) -> 'ActuatorParams':
+        """Return the inverse of `to_dict`; unknown keys raise."""
         d = dict(d)
         known = {f.name for f in fields(cls)}
         unknown = set(d) - known
@@ -198,54 +322,103 @@ class ActuatorParams:
         return cls(**d)
 
 
-# reference excess temperature of the convection law [K]: T and G are the values there
-CONVECTION_REF_K = 50.0
-KERNEL_PARAMS = ('tau_s', 'gain_k', 'ambient_c', 'tau_fast_s', 'convection_exponent',
-                 'ambient_gain', 'phase_kappa', 'stress_k', 'gain_ratio_b', 'tau_ratio_b',
-                 'duty_limit', 'duty_limit_sharpness')
+# ------------------------------------------------------------------ derived from the declaration
+#: name -> ParamSpec of every declared parameter, in field order
+PARAMETERS: Dict[str, ParamSpec] = {f.name: f.metadata[SPEC] for f in fields(ActuatorParams)
+                                    if SPEC in f.metadata}
+#: parameters of the catalog effects, effect name -> names
+EFFECT_PARAMETERS: Dict[str, Tuple[str, ...]] = {}
+for _name, _spec in PARAMETERS.items():
+    if _spec.effect:
+        EFFECT_PARAMETERS.setdefault(_spec.effect, ())
+        EFFECT_PARAMETERS[_spec.effect] += (_name,)
+#: parameters with a range in the plant node (every effect parameter)
+PLANT_PARAMETERS = tuple(k for k, s in PARAMETERS.items() if s.plant is not None)
+FEEDBACK_PARAMS = tuple(k for k, s in PARAMETERS.items() if s.role in ROLES)
+LINEAR_PARAMS = tuple(k for k, s in PARAMETERS.items() if s.role == LINEAR)
+#: the kernel's parameters: T and G (derived from the wire fields), then the declared ones
+KERNEL_PARAMS = ('tau_s', 'gain_k') + tuple(k for k, s in PARAMETERS.items() if s.kernel)
+KernelParams = namedtuple('KernelParams', KERNEL_PARAMS)
+#: each kernel parameter's slot in the vector: the kernel reads p[SLOT.tau_s], ...
+SLOT = KernelParams(*range(len(KERNEL_PARAMS)))
+_kernel_values = attrgetter(*KERNEL_PARAMS)
+
+
+def fit_table(effect: str) -> Dict[str, Tuple[float, float, float]]:
+    """
+    Return {parameter: (lower, upper, start)} of the parameters `effect` frees.
+
+    In declaration order, searched parameters first and the LINEAR ones (solved with the
+    weights) last.
+    """
+    names = EFFECT_PARAMETERS.get(effect, ())
+    ordered = sorted(names, key=lambda k: PARAMETERS[k].role == LINEAR)
+    return {k: PARAMETERS[k].fit for k in ordered}
+
+
+# kernel state layout: wire j's entry is at offset + j; the element states of wire j follow
+# STATE_ELEMENTS + j m (m elements each), then the two hysteresis inputs
+STATE_THETA = 0         # wire temperatures θ_a, θ_b [°C]
+STATE_HEAT = 2          # heat-input lags q_a, q_b [K]
+STATE_CONTRACTION = 4   # contraction fractions y_a, y_b
+STATE_ELEMENTS = 6      # play element states s_a (m), s_b (m)
+
+
+# argument tuples of `simulate_wires`
+KernelInputs = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+KernelHysteresis = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]
+KernelFeatures = Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]
 
 
 @njit(cache=True)
-def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1, y0, state,
-                   feat_a, feat_b, u_a, u_b, feat_start, feat_step):
+def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelHysteresis,
+                   state: np.ndarray, features: KernelFeatures
+                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """
     Step 1-3 of the module docstring for n samples; returns (y_a, y_b, θ_a, θ_b).
 
-    duty_*, ambient [°C], disturbance [K]: length-n inputs, sample k held over
-    [t_k, t_k + dt). Outputs follow the sampled-data convention: sample k is the state at
-    t_k, before duty k acts (a measurement taken when the command is sent).
-    p: `ActuatorParams.kernel_vector()`; r, lo, hi, w, k1, y0: the shared hysteresis.
-    state (updated in place, ends at t_n): [θ_a, θ_b, q_a, q_b, y_a, y_b, s_a (N), s_b (N),
-    u_a, u_b] with u the hysteresis inputs.
-    feat_a/feat_b (R, N) and u_a/u_b (R,): when R > 0, filled with the element states and
-    hysteresis inputs at samples feat_start + i feat_step, i < R (the regressors of
-    identification, recorded only at the regression rows: the full-rate arrays would be
-    mostly thrown away); ignored when R = 0.
+    inputs = (duty_a, duty_b, ambient [°C], disturbance [K]): length-n arrays, sample k held
+    over [t_k, t_k + dt). Outputs follow the sampled-data convention: sample k is the state
+    at t_k, before duty k acts (a measurement taken when the command is sent).
+    p: `ActuatorParams.kernel_vector()`, read by name (p[SLOT.tau_s], ...);
+    hyst = (r, lo, hi, w, k1, y0): the shared hysteresis of eq. (K1)-(K2) (`core.kernels`).
+    state (updated in place, ends at t_n): the layout of the STATE_* offsets,
+    [θ_a, θ_b, q_a, q_b, y_a, y_b, s_a (N), s_b (N), u_a, u_b] with u the hysteresis inputs.
+    features = (feat_a, feat_b, u_a, u_b, start, step), feat (R, N) and u (R,): when R > 0,
+    filled with the element states and hysteresis inputs at samples start + i step, i < R
+    (the regressors of identification, recorded only at the regression rows: the
+    full-rate arrays would be mostly thrown away); `NO_FEATURES` records none.
     """
+    duty_a, duty_b, ambient, disturbance = inputs
+    r, lo, hi, w, k1, y0 = hyst
+    feat_a, feat_b, u_a, u_b, feat_start, feat_step = features
+    tau, gain, amb0, tau_f = p[SLOT.tau_s], p[SLOT.gain_k], p[SLOT.ambient_c], p[SLOT.tau_fast_s]
+    conv_n, k_amb, kappa = p[SLOT.convection_exponent], p[SLOT.ambient_gain], p[SLOT.phase_kappa]
+    sigma, g_b, t_b = p[SLOT.stress_k], p[SLOT.gain_ratio_b], p[SLOT.tau_ratio_b]
+    d_lim, sharp = p[SLOT.duty_limit], p[SLOT.duty_limit_sharpness]
     n = duty_a.shape[0]
     m = r.shape[0]
-    tau, gain, amb0, tau_f, conv_n, k_amb, kappa, sigma, g_b, t_b, d_lim, sharp = (
-        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11])
     out_ya = np.empty(n)
     out_yb = np.empty(n)
     out_ta = np.empty(n)
     out_tb = np.empty(n)
     n_rows = feat_a.shape[0]
-    iu = 6 + 2 * m
+    iu = STATE_ELEMENTS + 2 * m
     for k in range(n):
         # record the state at t_k
-        out_ta[k], out_tb[k], out_ya[k], out_yb[k] = state[0], state[1], state[4], state[5]
+        out_ta[k], out_tb[k] = state[STATE_THETA], state[STATE_THETA + 1]
+        out_ya[k], out_yb[k] = state[STATE_CONTRACTION], state[STATE_CONTRACTION + 1]
         row = (k - feat_start) // feat_step
         if k >= feat_start and row < n_rows and (k - feat_start) % feat_step == 0:
             for i in range(m):
-                feat_a[row, i] = state[6 + i]
-                feat_b[row, i] = state[6 + m + i]
+                feat_a[row, i] = state[STATE_ELEMENTS + i]
+                feat_b[row, i] = state[STATE_ELEMENTS + m + i]
             u_a[row] = state[iu]
             u_b[row] = state[iu + 1]
         # advance to t_k + dt
         th_amb = amb0 + k_amb * (ambient[k] - amb0)
-        y_prev_a = state[4]
-        y_prev_b = state[5]
+        y_prev_a = state[STATE_CONTRACTION]
+        y_prev_b = state[STATE_CONTRACTION + 1]
         for j in range(2):
             d = duty_a[k] if j == 0 else duty_b[k]
             d = max(d, 0.0)
@@ -258,33 +431,43 @@ def simulate_wires(duty_a, duty_b, ambient, disturbance, dt, p, r, lo, hi, w, k1
             y_other = y_prev_b if j == 0 else y_prev_a
             g = gain if j == 0 else gain * g_b
             t = tau if j == 0 else tau * t_b
-            theta = state[j]
+            theta = state[STATE_THETA + j]
             if conv_n != 0.0:   # hA(θ) / hA_ref; below 0.5 K excess the law is held constant
                 f = max((max(abs(theta - th_amb), 0.5) / CONVECTION_REF_K) ** conv_n, 0.05)
                 g = g / f
                 t = t / f
             q_inf = g * d * (1.0 + kappa * (1.0 - y_own))
-            theta, q = thermal_step(theta, state[2 + j], th_amb, q_inf, dt, t, tau_f)
-            state[j] = theta
-            state[2 + j] = q
+            theta, q = thermal_step(theta, state[STATE_HEAT + j], th_amb, q_inf, dt, t, tau_f)
+            state[STATE_THETA + j] = theta
+            state[STATE_HEAT + j] = q
             u = theta + disturbance[k] - sigma * y_other
             state[iu + j] = u
             acc = y0 + k1 * u
-            base = 6 + j * m
+            base = STATE_ELEMENTS + j * m
             for i in range(m):
                 v = min(max(state[base + i], u - r[i]), u + r[i])
                 v = min(max(v, lo[i]), hi[i])
                 state[base + i] = v
                 acc += w[i] * v
-            state[4 + j] = acc
+            state[STATE_CONTRACTION + j] = acc
     return out_ya, out_yb, out_ta, out_tb
 
 
+#: `simulate_wires` features argument that records no regressors
 NO_FEATURES = (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0), 0, 1)
 
 
-def initial_state(params, theta_c=None):
-    """Kernel state at rest: both wires at ambient (or theta_c), cold branch of the hysteresis."""
+def kernel_hysteresis(h: PlayHysteresis) -> KernelHysteresis:
+    """Return the hyst argument of `simulate_wires`, (r, lo, hi, w, k1, y0) of `h`."""
+    return h.r, h.lo, h.hi, h.w, h.k1, h.y0
+
+
+def initial_state(params: ActuatorParams, theta_c: Optional[float] = None) -> np.ndarray:
+    """
+    Return the kernel state at rest (STATE_* layout).
+
+    Both wires at ambient (or theta_c), no heat in the lag, cold branch of the hysteresis.
+    """
     h = params.hysteresis
     theta = params.ambient_c if theta_c is None else finite_scalar('theta_c', theta_c)
     s = h.initial_state(theta)
@@ -292,9 +475,11 @@ def initial_state(params, theta_c=None):
     return np.concatenate([[theta, theta, 0.0, 0.0, y, y], s, s, [theta, theta]])
 
 
-def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
+def shaft_angle(params: ActuatorParams, y_a: ArrayLike, y_b: ArrayLike,
+                cycles_a: Optional[ArrayLike] = None,
+                cycles_b: Optional[ArrayLike] = None) -> np.ndarray:
     """
-    Step 4.
+    Return the shaft angle of step 4 [rad].
 
     φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b [rad], g_j = g(N_j)
     the fatigue shakedown of wire j after N_j cycles (none if cycles are None).
@@ -309,7 +494,7 @@ def shaft_angle(params, y_a, y_b, cycles_a=None, cycles_b=None):
         + params.fatigue_offset_rad * g_a + params.fatigue_offset_b_rad * g_b)
 
 
-def transformation_cycles(y, n0=0.0):
+def transformation_cycles(y: ArrayLike, n0: float = 0.0) -> np.ndarray:
     """
     Return the accumulated transformation cycles of one wire, N = n0 + Σ|Δy| / 2 per sample.
 
@@ -319,12 +504,12 @@ def transformation_cycles(y, n0=0.0):
     return n0 + 0.5 * np.cumsum(np.abs(np.diff(y, prepend=y[0])))
 
 
-def fatigue_progress(params, cycles):
-    """Shakedown fraction g(N) = 1 − exp(−N / N_f) of functional fatigue."""
+def fatigue_progress(params: ActuatorParams, cycles: ArrayLike) -> np.ndarray:
+    """Return the shakedown fraction g(N) = 1 − exp(−N / N_f) of functional fatigue."""
     return -np.expm1(-np.asarray(cycles) / params.fatigue_cycles)
 
 
-def sensor_polynomial(params, phi):
+def sensor_polynomial(params: ActuatorParams, phi: ArrayLike) -> np.ndarray:
     """
     Return the potentiometer reading, step 5 without the delay.
 
@@ -334,9 +519,10 @@ def sensor_polynomial(params, phi):
         params.sensor_c4_rad + phi * params.sensor_c5_rad)))
 
 
-def sensor_inverse(params, reading, n_grid=8193):
+def sensor_inverse(params: ActuatorParams, reading: ArrayLike,
+                   n_grid: int = 8193) -> np.ndarray:
     """
-    Angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
+    Return the angle φ with p(φ) = reading, `sensor_polynomial` inverted [rad].
 
     p is evaluated on a dense grid over the readings' span widened by that span each
     side, and inverted by interpolation on its rising branch through the middle of the
@@ -360,8 +546,12 @@ def sensor_inverse(params, reading, n_grid=8193):
     return 2.0 * y - sensor_polynomial(params, y)
 
 
-def delay_signal(x, dt, delay_s):
-    """x(t − D) on the sample grid, linear interpolation, holding the first value before t0."""
+def delay_signal(x: np.ndarray, dt: float, delay_s: float) -> np.ndarray:
+    """
+    Return x(t − D) on the sample grid.
+
+    Linear interpolation, holding the first value before t0.
+    """
     if delay_s <= 0:
         return x
     t = np.arange(len(x)) * dt
@@ -379,9 +569,11 @@ class Trajectory:
     y_b: np.ndarray
 
 
-def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, state=None):
+def simulate(params: ActuatorParams, duty_a: ArrayLike, duty_b: ArrayLike, dt: float,
+             ambient_c: Optional[ArrayLike] = None, disturbance_k: Optional[ArrayLike] = None,
+             state: Optional[np.ndarray] = None) -> Trajectory:
     """
-    Free-run simulation of the whole actuator (steps 1-5) for duty sequences at step dt [s].
+    Simulate the whole actuator (steps 1-5) free-running for duty sequences at step dt [s].
 
     ambient_c: measured ambient [°C] per sample (defaults to params.ambient_c);
     disturbance_k: temperature disturbance x of Fig. 13 [K]. Returns a `Trajectory`.
@@ -400,13 +592,16 @@ def simulate(params, duty_a, duty_b, dt, ambient_c=None, disturbance_k=None, sta
            else finite_array('ambient_c', np.broadcast_to(ambient_c, (n,))))
     dist = (np.zeros(n) if disturbance_k is None
             else finite_array('disturbance_k', np.broadcast_to(disturbance_k, (n,))))
-    h = params.hysteresis
     st = initial_state(params) if state is None else state
-    ya, yb, ta, tb = simulate_wires(duty_a, duty_b, amb, dist, dt, params.kernel_vector(),
-                                    h.r, h.lo, h.hi, h.w, h.k1, h.y0, st, *NO_FEATURES)
+    ya, yb, ta, tb = simulate_wires((duty_a, duty_b, amb, dist), dt, params.kernel_vector(),
+                                    kernel_hysteresis(params.hysteresis), st, NO_FEATURES)
     phi = shaft_angle(params, ya, yb, transformation_cycles(ya), transformation_cycles(yb))
     phi = sensor_polynomial(params, phi)
     return Trajectory(delay_signal(phi, dt, params.delay_s), ta, tb, ya, yb)
+
+
+_THETA = slice(STATE_THETA, STATE_THETA + 2)
+_CONTRACTION = slice(STATE_CONTRACTION, STATE_CONTRACTION + 2)
 
 
 class AntagonisticActuator:
@@ -417,38 +612,40 @@ class AntagonisticActuator:
     (phase resistance, stress coupling, convection) stay accurate at any call rate.
     """
 
-    def __init__(self, params=None, max_substep_s=0.005):
+    def __init__(self, params: Optional[ActuatorParams] = None,
+                 max_substep_s: float = 0.005) -> None:
         self.params = ActuatorParams() if params is None else params
         self.max_substep_s = float(max_substep_s)
         self.reset()
 
-    def reset(self, theta_c=None):
-        """Both wires at ambient (or theta_c), cold and fully martensitic, shaft at rest."""
+    def reset(self, theta_c: Optional[float] = None) -> None:
+        """Put both wires at ambient (or theta_c), cold and fully martensitic, shaft at rest."""
         self._state = initial_state(self.params, theta_c)
         self._time = 0.0
         self._cycles = np.zeros(2)         # per wire
-        self._history = [(0.0, self._measured(self._state[4], self._state[5]))]
+        self._history = [(0.0, self._measured(*self._state[_CONTRACTION]))]
 
     @property
-    def temperature_c(self):
+    def temperature_c(self) -> np.ndarray:
         """Wire temperatures [θ_a, θ_b] in °C."""
-        return self._state[:2].copy()
+        return self._state[_THETA].copy()
 
     @property
-    def contraction(self):
+    def contraction(self) -> np.ndarray:
         """Contraction fractions [y_a, y_b] (0 cold, 1 fully contracted)."""
-        return self._state[4:6].copy()
+        return self._state[_CONTRACTION].copy()
 
     @property
-    def reading_now(self):
+    def reading_now(self) -> float:
         """Sensed shaft angle [rad] at the present time, before the transport delay."""
         return self._history[-1][1]
 
-    def _measured(self, y_a, y_b):
+    def _measured(self, y_a: float, y_b: float) -> float:
         phi = shaft_angle(self.params, y_a, y_b, self._cycles[0], self._cycles[1])
         return float(sensor_polynomial(self.params, phi))
 
-    def step(self, duty_a, duty_b, dt, ambient_c=None, disturbance_k=0.0):
+    def step(self, duty_a: float, duty_b: float, dt: float, ambient_c: Optional[float] = None,
+             disturbance_k: float = 0.0) -> float:
         """Hold the duties for dt seconds; return the (delayed, sensed) shaft angle [rad]."""
         for name, d in (('duty_a', duty_a), ('duty_b', duty_b)):
             d = finite_scalar(name, d)
@@ -460,18 +657,17 @@ class AntagonisticActuator:
         amb = self.params.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         dist = finite_scalar('disturbance_k', disturbance_k)
         n_sub = max(1, int(np.ceil(dt / self.max_substep_s)))
-        h = self.params.hysteresis
-        y_before = self._state[4:6].copy()
-        simulate_wires(np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
-                       np.full(n_sub, amb), np.full(n_sub, dist), dt / n_sub,
-                       self.params.kernel_vector(), h.r, h.lo, h.hi, h.w, h.k1,
-                       h.y0, self._state, *NO_FEATURES)
-        self._cycles += 0.5 * np.abs(self._state[4:6] - y_before)
+        y_before = self._state[_CONTRACTION].copy()
+        inputs = (np.full(n_sub, float(duty_a)), np.full(n_sub, float(duty_b)),
+                  np.full(n_sub, amb), np.full(n_sub, dist))
+        simulate_wires(inputs, dt / n_sub, self.params.kernel_vector(),
+                       kernel_hysteresis(self.params.hysteresis), self._state, NO_FEATURES)
+        self._cycles += 0.5 * np.abs(self._state[_CONTRACTION] - y_before)
         self._time += dt
-        self._history.append((self._time, self._measured(self._state[4], self._state[5])))
+        self._history.append((self._time, self._measured(*self._state[_CONTRACTION])))
         return self._delayed()
 
-    def _delayed(self):
+    def _delayed(self) -> float:
         delay = self.params.delay_s
         t_query = self._time - delay
         # drop history older than needed, keep one sample before t_query for interpolation

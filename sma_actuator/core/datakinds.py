@@ -37,8 +37,13 @@ import numpy as np
 
 from .validate import finite_array, same_length
 
-# the training share of a time split (the rest is held out)
+# share of a single record's time that trains when no records are held out
 TRAIN_FRACTION = 0.7
+# sum of the two duties' ranges below which a record cannot identify the thermal and
+# hysteresis parameters (the wires hardly move through their loops)
+MIN_DUTY_EXCITATION = 0.05
+# largest spread of the sample steps, relative to their median, of uniformly sampled data
+SAMPLING_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -167,8 +172,9 @@ class DynamicData(_Data):
             k = int(np.flatnonzero(steps <= 0)[0])
             raise ValueError(f'time must be strictly increasing (row {k + 1}: {self.time[k + 1]} '
                              f'after {self.time[k]})')
-        if np.ptp(steps) > 0.01 * np.median(steps):
-            raise ValueError('time must be uniformly sampled (steps vary by more than 1 %)')
+        if np.ptp(steps) > SAMPLING_TOLERANCE * np.median(steps):
+            raise ValueError('time must be uniformly sampled (steps vary by more than '
+                             f'{100 * SAMPLING_TOLERANCE:g} %)')
         for name in ('duty_a', 'duty_b'):
             d = getattr(self, name)
             if (d < 0).any() or (d > 1).any():
@@ -215,7 +221,7 @@ class DynamicData(_Data):
 
     def excitation_problem(self) -> Optional[str]:
         """Return why the record cannot identify the model: duties or position constant."""
-        if np.ptp(self.duty_a) + np.ptp(self.duty_b) < 0.05:
+        if np.ptp(self.duty_a) + np.ptp(self.duty_b) < MIN_DUTY_EXCITATION:
             return (f'duty_a and duty_b hardly vary (ranges {np.ptp(self.duty_a):.3g}, '
                     f'{np.ptp(self.duty_b):.3g}), the thermal and hysteresis parameters '
                     'cannot be identified')

@@ -30,7 +30,12 @@ w = a, r = K h / (K - K1), lo/hi = -/+ M / (K - K1) (shifted by an optional cent
 and the K1 u terms of all elements add to one linear term k1 = sum K1.
 The saturation thresholds u_m = (K h + M)/(K - K1) of the paper are then hi + r.
 """
+from __future__ import annotations
+
+from typing import Any, Dict, Optional, Tuple
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import kernels
 from .validate import finite_array, finite_scalar, non_negative_array, same_length
@@ -47,7 +52,8 @@ class PlayHysteresis:
     wire cold and fully martensitic) and the virgin state for unsaturated ones.
     """
 
-    def __init__(self, r, lo, hi, w, k1=0.0, y0=0.0):
+    def __init__(self, r: ArrayLike, lo: ArrayLike, hi: ArrayLike, w: ArrayLike,
+                 k1: float = 0.0, y0: float = 0.0):
         self.r = non_negative_array('r (play half-widths)', r)
         self.lo = np.asarray(lo, dtype=float)
         self.hi = np.asarray(hi, dtype=float)
@@ -63,13 +69,13 @@ class PlayHysteresis:
         self._u_last = None
 
     @property
-    def n_operators(self):
+    def n_operators(self) -> int:
         """Return the number of play operators."""
         return self.r.shape[0]
 
-    def initial_state(self, u0):
+    def initial_state(self, u0: float) -> np.ndarray:
         """
-        Reset state at input u0.
+        Return the reset element states s_i at input u0.
 
         Saturated elements start on the lower branch, s = clip(u0 - r, lo, hi) (cold, fully
         martensitic wire). Unsaturated (classical, eq. 5) elements start from the virgin
@@ -80,17 +86,17 @@ class PlayHysteresis:
         virgin = np.clip(0.0, u0 - self.r, u0 + self.r)
         return np.where(np.isfinite(self.lo) | np.isfinite(self.hi), lower, virgin)
 
-    def reset(self, u0=0.0):
+    def reset(self, u0: float = 0.0) -> None:
         """Reset the streaming state to the lower branch at input u0."""
         self._s = self.initial_state(u0)
         self._u_last = float(u0)
 
     @property
-    def state(self):
-        """Copy of the element states s_i (None before reset)."""
+    def state(self) -> Optional[np.ndarray]:
+        """Return a copy of the element states s_i (None before reset)."""
         return None if self._s is None else self._s.copy()
 
-    def step(self, u):
+    def step(self, u: float) -> float:
         """Advance one sample with input u; return the output (eq. K2)."""
         u = finite_scalar('u', u)
         if self._s is None:
@@ -100,22 +106,22 @@ class PlayHysteresis:
         self._u_last = u
         return self.y0 + self.k1 * u + float(self.w @ self._s)
 
-    def features(self, u, s0=None):
-        """Element states over a batch, shape (n, N): the regressors of a least-squares fit."""
+    def features(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
+        """Return the element states over a batch, shape (n, N): least-squares regressors."""
         u = finite_array('u', u)
         s0 = self.initial_state(u[0]) if s0 is None else finite_array('s0', s0)
         out, _ = kernels.play_features(u, self.r, self.lo, self.hi, s0)
         return out
 
-    def simulate(self, u, s0=None):
-        """Output for an input sequence, from the reset state at u[0] (or state s0)."""
+    def simulate(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
+        """Return the output for an input sequence, from the reset state at u[0] (or s0)."""
         u = finite_array('u', u)
         s0 = self.initial_state(u[0]) if s0 is None else finite_array('s0', s0)
         y, _ = kernels.play_output(u, self.r, self.lo, self.hi, self.w, self.k1, self.y0, s0)
         return y
 
-    def output_range(self):
-        """(y_min, y_max) reachable for inputs within the saturation bands (finite bands only)."""
+    def output_range(self) -> Tuple[float, float]:
+        """Return (y_min, y_max) reachable for inputs within the (finite) saturation bands."""
         lo = np.where(np.isfinite(self.lo), self.lo, 0.0)
         hi = np.where(np.isfinite(self.hi), self.hi, 0.0)
         u_lo = float(np.min(lo - self.r)) if self.n_operators else 0.0
@@ -123,18 +129,19 @@ class PlayHysteresis:
         return (self.y0 + self.k1 * u_lo + float(self.w @ lo),
                 self.y0 + self.k1 * u_hi + float(self.w @ hi))
 
-    def inverse(self, u_min=-1e9, u_max=1e9):
+    def inverse(self, u_min: float = -1e9,
+                u_max: float = 1e9) -> InversePlayHysteresis:
         """Return the inverse operator H^-1: output targets -> inputs (`InversePlayHysteresis`)."""
         return InversePlayHysteresis(self, u_min, u_max)
 
-    def to_dict(self):
-        """Plain-data parameters (for YAML model files)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Return the parameters as plain data (for YAML model files)."""
         return {'r': self.r.tolist(), 'lo': self.lo.tolist(), 'hi': self.hi.tolist(),
                 'w': self.w.tolist(), 'k1': self.k1, 'y0': self.y0}
 
     @classmethod
-    def from_dict(cls, d):
-        """Inverse of `to_dict`."""
+    def from_dict(cls, d: Dict[str, Any]) -> PlayHysteresis:
+        """Build the operator from `to_dict` data (its inverse)."""
         return cls(d['r'], d['lo'], d['hi'], d['w'], d.get('k1', 0.0), d.get('y0', 0.0))
 
 
@@ -146,7 +153,7 @@ class PrandtlIshlinskii(PlayHysteresis):
     non-negative for a well-posed, invertible operator.
     """
 
-    def __init__(self, h, K, y0=0.0):
+    def __init__(self, h: ArrayLike, K: ArrayLike, y0: float = 0.0):
         K = non_negative_array('K (backlash slopes)', K)
         h = non_negative_array('h (backlash half-widths)', h)
         n = len(h)
@@ -162,12 +169,13 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
     """
 
     @classmethod
-    def from_paper(cls, M, K, K1, h, c=0.0, y0=0.0):
+    def from_paper(cls, M: ArrayLike, K: ArrayLike, K1: ArrayLike, h: ArrayLike,
+                   c: ArrayLike = 0.0, y0: float = 0.0) -> ModifiedPrandtlIshlinskii:
         """
-        Elements of eq.
+        Build the operator from the elements of eq. (6).
 
-        (6): saturation M, backlash slope K, saturated slope K1 < K, half-width h, centred at input
-        c (the paper uses c = 0).
+        Each element has saturation M, backlash slope K, saturated slope K1 < K and
+        half-width h, centred at input c (the paper uses c = 0).
         """
         M = non_negative_array('M (saturation levels)', M)
         K = finite_array('K (backlash slopes)', K)
@@ -186,11 +194,12 @@ class ModifiedPrandtlIshlinskii(PlayHysteresis):
         return cls(r, lo, hi, a, float(np.sum(K1)), y0)
 
 
-def backlash_saturation_reference(u, M, K, K1, h):
+def backlash_saturation_reference(u: np.ndarray, M: float, K: float, K1: float,
+                                  h: float) -> np.ndarray:
     """
-    One element of eq. (6) stepped literally as printed in the paper (pure Python).
+    Step one element of eq. (6) literally as printed in the paper (pure Python).
 
-    Kept as an executable transcription of eq. (6) to check the compiled kernel against.
+    It is an executable transcription of eq. (6) to check the compiled kernel against.
     Starts on the lower saturation line at u[0].
     """
     u_m = (K * h + M) / (K - K1)
@@ -225,7 +234,7 @@ class InversePlayHysteresis:
     (inputs limited to [u_min, u_max]).
     """
 
-    def __init__(self, forward, u_min=-1e9, u_max=1e9):
+    def __init__(self, forward: PlayHysteresis, u_min: float = -1e9, u_max: float = 1e9):
         if (forward.w < 0).any():
             raise ValueError('w (weights) must be non-negative for the operator to be invertible')
         if forward.k1 < 0:
@@ -235,32 +244,47 @@ class InversePlayHysteresis:
         self._s = None
         self._u = None
 
-    def reset(self, u0=0.0):
+    def reset(self, u0: float = 0.0) -> None:
         """Reset to the forward operator's lower-branch state at input u0."""
         self._s = self.forward.initial_state(u0)
         self._u = float(u0)
 
-    def step(self, y):
+    def step(self, y: float) -> float:
         """Return the input that drives the operator to output y from the current state."""
         if self._s is None:
             self.reset(self.u_min if np.isfinite(self.u_min) and self.u_min > -1e8 else 0.0)
-        u, self._s = kernels.play_inverse(np.array([finite_scalar('y', y)]), *self._args(),
-                                          self._s, self._u, self.u_min, self.u_max)
+        u, self._s = self._solve(np.array([finite_scalar('y', y)]), self._s, self._u,
+                                 self.u_min, self.u_max)
         self._u = float(u[0])
         return self._u
 
-    def simulate(self, y, u0=0.0):
-        """Input for a target sequence y, from the lower-branch state at u0."""
+    def solve(self, y: float, state: np.ndarray, u: float, u_min: Optional[float] = None,
+              u_max: Optional[float] = None) -> float:
+        """
+        Return the input that drives the operator from `state` to output y, keeping no state.
+
+        state: element states s_i, u: the input they were reached with (a forward
+        operator's `state` and last input); u_min, u_max: the input limits of this solve
+        (default: the inverse's own).
+        """
+        lo = self.u_min if u_min is None else u_min
+        hi = self.u_max if u_max is None else u_max
+        u_out, _ = self._solve(np.array([finite_scalar('y', y)]), state, u, lo, hi)
+        return float(u_out[0])
+
+    def simulate(self, y: ArrayLike, u0: float = 0.0) -> np.ndarray:
+        """Return the input for a target sequence y, from the lower-branch state at u0."""
         y = finite_array('y', y)
         self.reset(u0)
-        u, self._s = kernels.play_inverse(y, *self._args(), self._s, self._u,
-                                          self.u_min, self.u_max)
+        u, self._s = self._solve(y, self._s, self._u, self.u_min, self.u_max)
         self._u = float(u[-1])
         return u
 
-    def _args(self):
+    def _solve(self, y: np.ndarray, s: np.ndarray, u: float, u_min: float,
+               u_max: float) -> Tuple[np.ndarray, np.ndarray]:
+        """Return `kernels.play_inverse` of targets y from state (s, u): (inputs, last state)."""
         f = self.forward
-        return f.r, f.lo, f.hi, f.w, f.k1, f.y0
+        return kernels.play_inverse(y, f.r, f.lo, f.hi, f.w, f.k1, f.y0, s, u, u_min, u_max)
 
 
 class PreisachModel:
@@ -271,7 +295,7 @@ class PreisachModel:
     The reset state is all relays at -1 (input from far below).
     """
 
-    def __init__(self, alpha, beta, mu, y0=0.0):
+    def __init__(self, alpha: ArrayLike, beta: ArrayLike, mu: ArrayLike, y0: float = 0.0):
         self.alpha = finite_array('alpha (relay up thresholds)', alpha)
         self.beta = finite_array('beta (relay down thresholds)', beta)
         self.mu = finite_array('mu (relay weights)', mu)
@@ -282,7 +306,8 @@ class PreisachModel:
         self.reset()
 
     @classmethod
-    def grid(cls, n_levels=21, lo=-1.0, hi=1.0, mu=1.0, y0=0.0):
+    def grid(cls, n_levels: int = 21, lo: float = -1.0, hi: float = 1.0,
+             mu: ArrayLike = 1.0, y0: float = 0.0) -> PreisachModel:
         """Build relays on an even grid alpha >= beta in [lo, hi]: n(n+1)/2 (21 -> 231, Fig. 5)."""
         if int(n_levels) < 1:
             raise ValueError(f'n_levels must be >= 1, got {n_levels}')
@@ -292,21 +317,21 @@ class PreisachModel:
         alpha, beta = a[keep], b[keep]
         return cls(alpha, beta, np.broadcast_to(np.asarray(mu, float), alpha.shape).copy(), y0)
 
-    def reset(self):
-        """All relays down (-1)."""
+    def reset(self) -> None:
+        """Set all relays down (-1)."""
         self._x = -np.ones(len(self.alpha), dtype=np.int8)
 
-    def features(self, u):
-        """Relay states over a batch, (n, N) int8, from the reset state."""
+    def features(self, u: ArrayLike) -> np.ndarray:
+        """Return the relay states over a batch, (n, N) int8, from the reset state."""
         self.reset()
         out, self._x = kernels.relay_states(finite_array('u', u), self.alpha, self.beta, self._x)
         return out
 
-    def simulate(self, u):
-        """Output for an input sequence from the reset state."""
+    def simulate(self, u: ArrayLike) -> np.ndarray:
+        """Return the output for an input sequence from the reset state."""
         return self.y0 + self.features(u) @ self.mu
 
-    def step(self, u):
+    def step(self, u: float) -> float:
         """Advance one sample; return the output."""
         out, self._x = kernels.relay_states(np.array([finite_scalar('u', u)]), self.alpha,
                                             self.beta, self._x)

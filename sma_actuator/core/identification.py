@@ -46,15 +46,15 @@ from scipy.optimize import least_squares, lsq_linear, nnls
 
 from . import actuator as act
 from . import kernels
-from .datakinds import DynamicData, Split, TRAIN_FRACTION
+from .datakinds import (DynamicData, MIN_DUTY_EXCITATION, SAMPLING_TOLERANCE, Split,  # noqa: F401
+                        TRAIN_FRACTION)
 from .hysteresis import PlayHysteresis, PreisachModel
 from .validate import finite_array, same_length
 
-# parameters that feed the hysteresis output back into its own regressors
-FEEDBACK_PARAMS = ('phase_kappa', 'stress_k', 'fatigue_stroke', 'fatigue_cycles',
-                   'fatigue_offset_rad', 'fatigue_offset_b_rad')
-# parameters solved linearly with the weights (no outer search)
-LINEAR_PARAMS = ('fatigue_offset_rad', 'fatigue_offset_b_rad')
+# parameters that feed the hysteresis output back into its own regressors, and those
+# solved linearly with the weights (no outer search): the roles declared in `ActuatorParams`
+FEEDBACK_PARAMS = act.FEEDBACK_PARAMS
+LINEAR_PARAMS = act.LINEAR_PARAMS
 # feedback fixed-point iterations per settle (see `_settle`): 1 -> 4 took a phase-resistance
 # fit at the true kappa from 0.48 % to 0.13 % training NRMSE; 8 gave the same
 FIXED_POINT_STEPS = 4
@@ -326,10 +326,10 @@ class _Problem:
         ua, ub = np.empty(len(at)), np.empty(len(at))
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(values or {})
-        ya, yb, _, _ = act.simulate_wires(da[:n], db[:n], amb[:n], np.zeros(n), d.dt,
-                                          params.kernel_vector(), g.r, g.lo, g.hi, ref.w,
-                                          ref.k1, ref.y0, st, fa, fb, ua, ub,
-                                          at.start, max(at.step, 1))
+        ya, yb, _, _ = act.simulate_wires((da[:n], db[:n], amb[:n], np.zeros(n)), d.dt,
+                                          params.kernel_vector(),
+                                          (g.r, g.lo, g.hi, ref.w, ref.k1, ref.y0), st,
+                                          (fa, fb, ua, ub, at.start, max(at.step, 1)))
         sb = params.stroke_ratio_b
         drift = any(k in self.names for k in LINEAR_PARAMS)
         if self.fatigued(params):
@@ -498,10 +498,10 @@ def narrow_bands(params: act.ActuatorParams, duty_a: np.ndarray, duty_b: np.ndar
     if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()) or n == 0:
         return params
     fa, fb = np.empty((n, h.n_operators)), np.empty((n, h.n_operators))
-    act.simulate_wires(np.asarray(duty_a, float), np.asarray(duty_b, float),
-                       np.asarray(ambient, float), np.zeros(n), dt, params.kernel_vector(),
-                       h.r, h.lo, h.hi, h.w, h.k1, h.y0, act.initial_state(params),
-                       fa, fb, np.empty(n), np.empty(n), 0, 1)
+    act.simulate_wires((np.asarray(duty_a, float), np.asarray(duty_b, float),
+                        np.asarray(ambient, float), np.zeros(n)), dt, params.kernel_vector(),
+                       act.kernel_hysteresis(h), act.initial_state(params),
+                       (fa, fb, np.empty(n), np.empty(n), 0, 1))
     lo, hi = _state_range(fa, fb)
     return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
 
@@ -845,7 +845,7 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
     for k, (lo, hi, x0) in free.items():
         if not lo <= x0 <= hi:
             raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
-    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < 0.05:
+    if np.ptp(data.duty_a) + np.ptp(data.duty_b) < MIN_DUTY_EXCITATION:
         raise ValueError('too little excitation: the duties hardly vary, so the thermal and '
                          'hysteresis parameters cannot be identified')
     if np.ptp(data.position) <= 0:

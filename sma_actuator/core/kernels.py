@@ -29,13 +29,16 @@ r_i is the half-width of the play (input units), [lo_i, hi_i] its saturation ban
 See `hysteresis.ModifiedPrandtlIshlinskii` for the mapping from the paper's
 (M, K, K1, h) parameters to (r, lo, hi, w, k1).
 """
+from typing import Tuple
+
 from numba import njit
 import numpy as np
 
 
 @njit(cache=True, fastmath=False)
-def play_features(u, r, lo, hi, s0):
-    """States s_i(k) of every element, eq. (K1), as an (n, N) array, and the last state."""
+def play_features(u: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  s0: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Return the states s_i(k) of every element, eq. (K1), as an (n, N) array, and the last."""
     n = u.shape[0]
     m = r.shape[0]
     out = np.empty((n, m))
@@ -60,9 +63,10 @@ def play_features(u, r, lo, hi, s0):
 
 
 @njit(cache=True, fastmath=True)
-def play_output(u, r, lo, hi, w, k1, y0, s0):
+def play_output(u: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray, w: np.ndarray,
+                k1: float, y0: float, s0: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     """
-    Operator output y(k), eq. (K2), without storing the element states; returns (y, s_last).
+    Return the operator output y(k), eq. (K2), without storing the element states, and s_last.
 
     This is the benchmarked kernel (operator updates per second). The inner loop is
     branch-free min/max so LLVM can vectorise it across elements.
@@ -84,8 +88,9 @@ def play_output(u, r, lo, hi, w, k1, y0, s0):
 
 
 @njit(cache=True)
-def _branch_value(u, s, r, lo, hi, w, k1, y0, up):
-    """Output reached by moving the input monotonically from the current state to u."""
+def _branch_value(u: float, s: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  w: np.ndarray, k1: float, y0: float, up: bool) -> float:
+    """Return the output reached by moving the input monotonically from the state s to u."""
     acc = y0 + k1 * u
     for i in range(r.shape[0]):
         if up:
@@ -98,9 +103,11 @@ def _branch_value(u, s, r, lo, hi, w, k1, y0, up):
 
 
 @njit(cache=True)
-def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
+def play_inverse(y_target: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                 w: np.ndarray, k1: float, y0: float, s0: np.ndarray, u0: float, u_min: float,
+                 u_max: float) -> Tuple[np.ndarray, np.ndarray]:
     """
-    Right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), and the final state.
+    Return the right inverse of eq. (K2): inputs u(k) with H[u](k) = y_target(k), last state.
 
     From the current state, the output reached by a monotone input move is a
     non-decreasing piecewise-linear function of the end point (every element is a
@@ -161,7 +168,8 @@ def play_inverse(y_target, r, lo, hi, w, k1, y0, s0, u0, u_min, u_max):
 
 
 @njit(cache=True)
-def relay_states(u, alpha, beta, x0):
+def relay_states(u: np.ndarray, alpha: np.ndarray, beta: np.ndarray,
+                 x0: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     """Return Preisach relay states (n, N) int8, eq. (4): +1 above alpha, -1 below beta."""
     n = u.shape[0]
     m = alpha.shape[0]
@@ -179,7 +187,7 @@ def relay_states(u, alpha, beta, x0):
 
 
 @njit(cache=True)
-def column_range(a, b):
+def column_range(a: np.ndarray, b: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return (lowest, highest) value of each column over the rows of both (n, m) arrays.
 

@@ -32,8 +32,13 @@ through the reversal point (Liang-Rogers / Ikuta minor-loop rule):
       cooling  1 - xi = (1 - xi_r) * (1 - f_c(u)) / (1 - f_c(u_r))
 which is continuous, monotone on each branch and reduces to eqs. (1)-(2) from a full state.
 """
+from __future__ import annotations
+
+from typing import Optional
+
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .validate import finite_array, finite_scalar
 
@@ -42,8 +47,9 @@ _LN19 = np.log(19.0)
 
 
 @njit(cache=True)
-def _branch(kind, heating, u, a_s, a_f, m_s, m_f):
-    """Major-loop martensite fraction f_h(u) (heating) or f_c(u) (cooling)."""
+def _branch(kind: int, heating: bool, u: float, a_s: float, a_f: float, m_s: float,
+            m_f: float) -> float:
+    """Return the major-loop martensite fraction f_h(u) (heating) or f_c(u) (cooling)."""
     lo, hi = (a_s, a_f) if heating else (m_f, m_s)
     if kind == COSINE:
         if u <= lo:
@@ -59,8 +65,13 @@ def _branch(kind, heating, u, a_s, a_f, m_s, m_f):
 
 
 @njit(cache=True)
-def _simulate(kind, u, a_s, a_f, m_s, m_f, state):
-    """Martensite fraction for each sample; state = [u_prev, xi_prev, direction, u_r, xi_r]."""
+def _simulate(kind: int, u: np.ndarray, a_s: float, a_f: float, m_s: float, m_f: float,
+              state: np.ndarray) -> np.ndarray:
+    """
+    Return the martensite fraction for each sample.
+
+    state = [u_prev, xi_prev, direction, u_r, xi_r] is updated in place.
+    """
     n = u.shape[0]
     xi_out = np.empty(n)
     u_prev, xi, direction, u_r, xi_r = state[0], state[1], state[2], state[3], state[4]
@@ -95,7 +106,8 @@ class MajorLoopHysteresis:
     The reset state is cold and fully martensitic (xi = 1), as the wire is after cooling.
     """
 
-    def __init__(self, As=68.0, Af=78.0, Ms=52.0, Mf=42.0, y0=1.0, kind='cosine'):
+    def __init__(self, As: float = 68.0, Af: float = 78.0, Ms: float = 52.0, Mf: float = 42.0,
+                 y0: float = 1.0, kind: str = 'cosine'):
         self.As, self.Af = finite_scalar('As', As), finite_scalar('Af', Af)
         self.Ms, self.Mf = finite_scalar('Ms', Ms), finite_scalar('Mf', Mf)
         self.y0 = finite_scalar('y0', y0)
@@ -111,24 +123,24 @@ class MajorLoopHysteresis:
         self._kind = COSINE if kind == 'cosine' else IKUTA
         self.reset()
 
-    def reset(self, u0=None):
-        """Cold, fully martensitic state (xi = 1) at temperature u0 (default Mf - 10 °C)."""
+    def reset(self, u0: Optional[float] = None) -> None:
+        """Go to the cold, fully martensitic state (xi = 1) at u0 [°C] (default Mf - 10 °C)."""
         u0 = self.Mf - 10.0 if u0 is None else finite_scalar('u0', u0)
         self._state = np.array([u0, 1.0, -1.0, u0, 1.0])
 
     @property
-    def martensite_fraction(self):
+    def martensite_fraction(self) -> float:
         """Return the current martensite fraction xi in [0, 1]."""
         return float(self._state[1])
 
-    def step(self, u):
+    def step(self, u: float) -> float:
         """Advance by one sample of temperature u [°C]; return the length y."""
         x = _simulate(self._kind, np.array([finite_scalar('u', u)]), self.As, self.Af,
                       self.Ms, self.Mf, self._state)
         return self.y0 * float(x[0])
 
-    def simulate(self, u, reset=True):
-        """Lengths for a temperature sequence u [°C] (from the reset state unless reset=False)."""
+    def simulate(self, u: ArrayLike, reset: bool = True) -> np.ndarray:
+        """Return the lengths for temperatures u [°C] (from the reset state unless reset=False)."""
         u = finite_array('u', u)
         if reset:
             self.reset(min(u[0], self.Mf - 10.0))

@@ -35,37 +35,40 @@ with x0 = θ(k) − θa − q∞ (the τ → T limit uses (dt/T) e^{−dt/T}). T
 Fig. 13 enters as an additive temperature [K] at the hysteresis input.
 """
 import math
+from typing import Tuple
 
 from numba import njit
 
 from .validate import finite_scalar, positive
 
 
-def on_current_a(supply_v, resistance_ohm, current_limit_a):
-    """PWM on-state current [A]: min(V/R, I_max) (the current limiter of section 3)."""
+def on_current_a(supply_v: float, resistance_ohm: float, current_limit_a: float) -> float:
+    """Return the PWM on-state current [A]: min(V/R, I_max) (the current limiter of section 3)."""
     supply_v = positive('supply_v', supply_v)
     resistance_ohm = positive('resistance_ohm', resistance_ohm)
     current_limit_a = positive('current_limit_a', current_limit_a)
     return min(supply_v / resistance_ohm, current_limit_a)
 
 
-def heating_power_w(duty, supply_v, resistance_ohm, current_limit_a):
-    """Mean Joule power [W] at PWM duty d in [0, 1]: P = d R min(V/R, I_max)² (eq. 7's R i²)."""
+def heating_power_w(duty: float, supply_v: float, resistance_ohm: float,
+                    current_limit_a: float) -> float:
+    """Return the mean Joule power [W] at duty d in [0, 1]: P = d R min(V/R, I_max)² (eq. 7)."""
     d = finite_scalar('duty', duty)
     if not 0.0 <= d <= 1.0:
         raise ValueError(f'duty must be in [0, 1], got {d}')
     return d * resistance_ohm * on_current_a(supply_v, resistance_ohm, current_limit_a) ** 2
 
 
-def time_constant_s(heat_capacity_j_per_k, conductance_w_per_k):
+def time_constant_s(heat_capacity_j_per_k: float, conductance_w_per_k: float) -> float:
     """Return the basic time constant T = C / hA [s] of eq. (7)."""
     return positive('heat_capacity_j_per_k', heat_capacity_j_per_k) / positive(
         'conductance_w_per_k', conductance_w_per_k)
 
 
 @njit(cache=True)
-def thermal_step(theta, q, theta_amb, q_inf, dt, tau_s, tau_fast_s):
-    """One exact ZOH step of eq. (7d) (tau_fast_s = 0) or (7f); returns (theta, q) [°C, K]."""
+def thermal_step(theta: float, q: float, theta_amb: float, q_inf: float, dt: float, tau_s: float,
+                 tau_fast_s: float) -> Tuple[float, float]:
+    """Return one exact ZOH step of eq. (7d) (tau_fast_s = 0) or (7f): (theta, q) [°C, K]."""
     a = math.exp(-dt / tau_s)
     if tau_fast_s <= 0.0:
         return theta_amb + (theta - theta_amb) * a + (1.0 - a) * q_inf, q_inf

@@ -13,10 +13,14 @@
 # limitations under the License.
 
 """Argument checks shared by the core: clear errors that name the parameter, never a silent NaN."""
+from __future__ import annotations
+
+from typing import Any
+
 import numpy as np
 
 
-def finite_array(name, value, ndim=1, min_len=1):
+def finite_array(name: str, value: Any, ndim: int = 1, min_len: int = 1) -> np.ndarray:
     """Return `value` as a float64 array of `ndim` dimensions with only finite entries."""
     arr = np.asarray(value, dtype=float)
     if arr.ndim != ndim:
@@ -30,7 +34,7 @@ def finite_array(name, value, ndim=1, min_len=1):
     return arr
 
 
-def finite_scalar(name, value):
+def finite_scalar(name: str, value: Any) -> float:
     """Return `value` as a finite float."""
     try:
         x = float(value)
@@ -41,7 +45,7 @@ def finite_scalar(name, value):
     return x
 
 
-def positive(name, value, allow_zero=False):
+def positive(name: str, value: Any, allow_zero: bool = False) -> float:
     """Return `value` as a finite float > 0 (>= 0 with allow_zero)."""
     x = finite_scalar(name, value)
     if x < 0 or (x == 0 and not allow_zero):
@@ -49,7 +53,7 @@ def positive(name, value, allow_zero=False):
     return x
 
 
-def non_negative_array(name, value):
+def non_negative_array(name: str, value: Any) -> np.ndarray:
     """Return `value` as a finite 1-D array with no negative entry."""
     arr = finite_array(name, value, min_len=0)
     if (arr < 0).any():
@@ -57,7 +61,7 @@ def non_negative_array(name, value):
     return arr
 
 
-def same_length(**arrays):
+def same_length(**arrays: Any) -> None:
     """Raise if the named 1-D arrays differ in length."""
     lengths = {k: len(v) for k, v in arrays.items()}
     if len(set(lengths.values())) > 1:

@@ -15,7 +15,7 @@
 """
 controller: discrete PI (25 ms) with anti-windup, modes pi / pi_inverse / on_off.
 
-The control law (`control.core.ControllerCore`) runs when a fresh /sma/joint_states
+The control law (`control.law.ControllerCore`) runs when a fresh /sma/joint_states
 sample arrives, at most once per `period_s` (0.025 s, the paper's sampling time; the
 plant publishes at 40 Hz), and publishes /sma/duty at once, so the output lags the
 feedback by the computation only. The `period_s` timer on the node clock (sim time
@@ -53,9 +53,11 @@ from .ros_console import (
 )
 from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, Param, ParameterError
-from ..control.core import ControllerCore, ControllerSettings, MODES
 from ..control.inputs import LastValid, setpoint_problem
-from ..control.model_file import load_model, ModelFormatWarning
+from ..control.law import ControllerCore, ControllerSettings, MODES
+from ..core.actuator import AMBIENT_RANGE_C
+from ..core.model_file import load_model, ModelFormatWarning
+from ..core.sensor import ANGLE_LIMIT_RAD
 
 SETPOINT_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -90,12 +92,12 @@ PARAMETERS = (
           read_only=True),
     Param('feedback_timeout_s', 0.2, 'No joint state for this long -> zero duty + ERROR '
           '[s].', (0.01, 10.0)),
-    Param('setpoint_min_rad', -1.0, 'Lowest accepted setpoint [rad].', (-3.2, 3.2),
-          read_only=True),
-    Param('setpoint_max_rad', 1.0, 'Highest accepted setpoint [rad].', (-3.2, 3.2),
-          read_only=True),
-    Param('initial_setpoint_rad', 0.0, 'Setpoint until one arrives [rad].', (-3.2, 3.2),
-          read_only=True),
+    Param('setpoint_min_rad', -1.0, 'Lowest accepted setpoint [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
+    Param('setpoint_max_rad', 1.0, 'Highest accepted setpoint [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
+    Param('initial_setpoint_rad', 0.0, 'Setpoint until one arrives [rad].',
+          (-ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD), read_only=True),
     Param('model_file', '', 'Model file (sma-model fit --out); empty: '
           'config/controller_model.yaml.', read_only=True),
     Param('use_ambient_topic', False, 'Feed /sma/ambient_temperature to the model.',
@@ -190,7 +192,7 @@ class Controller(Node):
 
     def on_ambient(self, msg: Temperature) -> None:
         """Take the ambient temperature for the thermal model when it is plausible."""
-        if -40.0 <= msg.temperature <= 80.0:    # NaN fails both comparisons
+        if AMBIENT_RANGE_C[0] <= msg.temperature <= AMBIENT_RANGE_C[1]:  # NaN fails both
             self.ambient_c = msg.temperature
 
     def on_joint_state(self, msg: JointState, info: Dict[str, int]) -> None:
@@ -201,7 +203,7 @@ class Controller(Node):
             position = msg.position[list(msg.name).index(c.JOINT_NAME)]
         except (ValueError, IndexError):
             position = float('nan')
-        if not -3.2 <= position <= 3.2:          # also rejects NaN/inf
+        if not -ANGLE_LIMIT_RAD <= position <= ANGLE_LIMIT_RAD:   # also rejects NaN/inf
             self.rejected_feedback += 1
             self.get_logger().warn(f'rejected joint state (shaft position {position})',
                                    throttle_duration_sec=1.0)

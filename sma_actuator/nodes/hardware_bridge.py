@@ -57,6 +57,7 @@ from .ros_console import (
 )
 from .ros_diagnostics import Diagnostics, LEVELS
 from .ros_params import declare_parameters, Param
+from ..core.sensor import POT_RANGE_RAD, Potentiometer
 from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
 from ..hardware.link import SerialLink
@@ -71,10 +72,10 @@ PARAMETERS = (
     Param('port', '/dev/ttyACM0', 'Serial device or pyserial URL (socket://host:port, '
           'loop://).', read_only=True),
     Param('baud', 115200, 'Serial baud rate [bit/s].', (1200, 4_000_000), read_only=True),
-    Param('adc_offset_rad', -1.2, 'Shaft angle at 0 ADC counts [rad].', (-10.0, 10.0),
-          read_only=True),
-    Param('adc_scale_rad_per_count', 2.4 / 4095, 'Shaft angle per ADC count [rad].',
-          (-1.0, 1.0), read_only=True),
+    Param('adc_offset_rad', POT_RANGE_RAD[0], 'Shaft angle at 0 ADC counts [rad].',
+          (-10.0, 10.0), read_only=True),
+    Param('adc_scale_rad_per_count', Potentiometer().resolution_rad,
+          'Shaft angle per ADC count [rad].', (-1.0, 1.0), read_only=True),
     Param('adc_polynomial', [0.0], 'With 2 or more coefficients: angle [rad] = '
           'polyval(coefficients, counts), highest power first, replacing offset and scale. '
           '[0.0] = not used (YAML has no typed empty list).', read_only=True),

@@ -64,33 +64,16 @@ from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, initial_value, Param, ParameterError
 from ..control.inputs import duty_problem, LastValid
 from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
-from ..control.model_file import load_model
-from ..core.actuator import ActuatorParams, AntagonisticActuator
-from ..core.sensor import Potentiometer
+from ..core import actuator as act
+from ..core.actuator import ActuatorParams, AMBIENT_RANGE_C, AntagonisticActuator
+from ..core.model_file import load_model
+from ..core.sensor import POT_RANGE_RAD, Potentiometer
 
-# (parameter, range, description) for every switchable effect of ActuatorParams; each range
-# lies within the workbench's fit bounds, so any record the plant makes can be diagnosed
-EFFECTS = (
-    ('tau_fast_s', 0.0, 2.0, 'fast dynamics: lag on the heat input [s] (Fig. 13 tau)'),
-    ('delay_s', 0.0, 1.0, 'transport delay of the measured position [s]'),
-    ('convection_exponent', 0.0, 1.0, 'convection: hA(θ) = hA_ref (|θ − θa| / 50 K)^n'),
-    ('ambient_gain', 0.0, 2.0, 'weight of measured ambient deviations'),
-    ('phase_kappa', -0.5, 0.5, 'phase resistance: heating factor 1 + κ (1 − y)'),
-    ('stress_k', 0.0, 50.0, 'stress coupling: shift per unit antagonist contraction [K]'),
-    ('gain_ratio_b', 0.5, 2.0, 'asymmetric wires: heating gain of wire b relative to a'),
-    ('tau_ratio_b', 0.5, 2.0, 'asymmetric wires: time constant of wire b relative to a'),
-    ('stroke_ratio_b', 0.5, 2.0, 'asymmetric wires: stroke of wire b relative to a'),
-    ('sensor_c2_rad', -0.2, 0.2, 'potentiometer quadratic term [rad at 1 rad]'),
-    ('sensor_c3_rad', -0.2, 0.2, 'potentiometer cubic term [rad at 1 rad]'),
-    ('sensor_c4_rad', -0.15, 0.15, 'potentiometer 4th-order term [rad at 1 rad]'),
-    ('sensor_c5_rad', -0.15, 0.15, 'potentiometer 5th-order term [rad at 1 rad]'),
-    ('fatigue_offset_rad', -0.3, 0.3, 'fatigue: zero drift from wire a after shakedown [rad]'),
-    ('fatigue_offset_b_rad', -0.3, 0.3, 'fatigue: zero drift from wire b after shakedown [rad]'),
-    ('fatigue_stroke', 0.0, 0.5, 'fatigue: stroke loss fraction after shakedown'),
-    ('fatigue_cycles', 2.0, 5000.0, 'fatigue: shakedown constant [cycles of one wire]'),
-    ('duty_limit', 0.05, 1.0, 'current limit: duty above which the mean current saturates'),
-    ('duty_limit_sharpness', 0.0, 30.0, 'current limit: p-norm sharpness (0 = hard corner)'),
-)
+# (parameter, lower, upper, description) of every effect parameter, from its declaration in
+# `ActuatorParams`; each range lies within the workbench's fit bounds, so any record the plant
+# makes can be diagnosed
+EFFECTS = tuple((name, *act.PARAMETERS[name].plant, act.PARAMETERS[name].label)
+                for name in act.PLANT_PARAMETERS)
 # wall time between two counts of the duty topic's publishers [s]; count_publishers costs
 # about 18 µs, which matters at 4000 steps/s in accelerated mode
 PUBLISHER_CHECK_PERIOD_S = 0.025
@@ -124,7 +107,7 @@ PARAMETERS = (
           read_only=True),
     Param('model_file', '', 'Optional model file (sma-model fit --out) for the plant; the '
           'effect parameters override it.', read_only=True),
-    Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', (-40.0, 80.0),
+    Param('ambient_c', 22.0, 'Nominal ambient temperature [°C].', AMBIENT_RANGE_C,
           read_only=True),
     Param('use_ambient_topic', False, 'Take the ambient from /sma/ambient_temperature.',
           read_only=True),
@@ -161,7 +144,7 @@ class PlantSim(Node):
         effects = {name: p[name] for name, *_ in EFFECTS}
         self.params = base.with_changes(ambient_c=ambient, **effects)
         self.actuator = AntagonisticActuator(self.params)
-        self.pot = Potentiometer(bits, -1.2, 1.2, noise)
+        self.pot = Potentiometer(bits, *POT_RANGE_RAD, noise)
         self.rng = np.random.default_rng(seed)
 
         self.duty = LastValid(duty_problem, initial=(0.0, 0.0))
@@ -237,7 +220,7 @@ class PlantSim(Node):
     def on_ambient(self, msg: Temperature) -> None:
         """Take a plausible ambient temperature; reject (log, WARN) any other."""
         t = msg.temperature
-        if not (math.isfinite(t) and -40.0 <= t <= 80.0):
+        if not (math.isfinite(t) and AMBIENT_RANGE_C[0] <= t <= AMBIENT_RANGE_C[1]):
             self.get_logger().warn(f'rejected ambient temperature {t}')
             self.diag.publish(WARN, f'rejected ambient temperature {t}', self._status(),
                               self.stamp())

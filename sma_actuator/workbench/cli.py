@@ -28,12 +28,15 @@ Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effect
 stderr: a bar on a terminal, otherwise plain lines for long stages and large files. See
 docs/workbench.md.
 """
+from __future__ import annotations
+
 import argparse
 import json
 import os
 from pathlib import Path
 import sys
 import time
+from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -49,7 +52,7 @@ class UsageError(ValueError):
 class OneLineParser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line `sma-model: error: ...` and exit code 2."""
 
-    def error(self, message):
+    def error(self, message: str) -> None:
         """Print the one-line error and exit 2 (argparse's default prints the usage too)."""
         self.exit(EXIT_BAD_INPUT, f'{PROG}: error: {message} (see {self.prog} --help)\n')
 
@@ -67,7 +70,7 @@ class Progress:
     #: Without a terminal: plain lines, one per 10 %, once a stage has run this long [s].
     LOG_AFTER_S = 5.0
 
-    def __init__(self, stage='', stream=None):
+    def __init__(self, stage: str = '', stream: Optional[IO[str]] = None):
         self.stream = stream or sys.stderr
         self.enabled = bool(getattr(self.stream, 'isatty', lambda: False)())
         self.stage = stage
@@ -75,7 +78,7 @@ class Progress:
         self.started = time.monotonic()
         self.logged = (None, -1)  # (stage, tenths) of the last logged line
 
-    def _log(self, done, total, label):
+    def _log(self, done: int, total: int, label: str) -> None:
         """Print a plain progress line (for logs) each 10 % of a long-running stage."""
         elapsed = time.monotonic() - self.started
         tenths = int(10 * done / total) if total else 10
@@ -86,7 +89,8 @@ class Progress:
                           f'{elapsed:.0f} s)\n')
         self.stream.flush()
 
-    def __call__(self, done, total, label=''):
+    def __call__(self, done: int, total: int, label: str = '') -> None:
+        """Draw the bar at done of total (plain lines instead without a terminal)."""
         if not self.enabled:
             self._log(done, total, label)
             return
@@ -96,7 +100,7 @@ class Progress:
         self.stream.flush()
         self.drawn = True
 
-    def close(self):
+    def close(self) -> None:
         """Erase the bar line."""
         if self.drawn:
             self.stream.write('\r\033[K')
@@ -104,14 +108,14 @@ class Progress:
             self.drawn = False
 
 
-def _note(args, text):
-    """Human-readable line: stdout normally, stderr with --json (stdout holds the JSON)."""
+def _note(args: argparse.Namespace, text: str) -> None:
+    """Print a human-readable line: stdout normally, stderr with --json (stdout holds the JSON)."""
     print(text, file=sys.stderr if args.json else sys.stdout)
 
 
 # ------------------------------------------------------------------------------ shared steps
-def setup_effects(args):
-    """Load entry-point and --plugin effects; returns the catalog."""
+def setup_effects(args: argparse.Namespace) -> Dict[str, Any]:
+    """Load entry-point and --plugin effects; return the catalog (name -> effect)."""
     from . import plugins
     from .effects import CATALOG
     plugins.load_entry_points()
@@ -119,7 +123,7 @@ def setup_effects(args):
     return CATALOG
 
 
-def check_outputs_spare_data(args):
+def check_outputs_spare_data(args: argparse.Namespace) -> None:
     """Raise UsageError if --out or --report would write over DATA itself (even with --force)."""
     inputs = {Path(d).resolve() for d in all_data(args)}
     for option, target in (('--out', getattr(args, 'out', None)),
@@ -128,13 +132,14 @@ def check_outputs_spare_data(args):
             raise UsageError(f'{option} {target} is DATA itself; choose another path')
 
 
-def all_data(args):
+def all_data(args: argparse.Namespace) -> List[str]:
     """Return every DATA path of the command line: DATA, then --validate-on ones not in it."""
     extra = [v for v in (getattr(args, 'validate_on', None) or []) if v not in args.data]
     return list(args.data) + extra
 
 
-def check_effect_names(names, catalog, what='--add'):
+def check_effect_names(names: Sequence[str], catalog: Mapping[str, Any],
+                       what: str = '--add') -> None:
     """Raise UsageError for names not in the catalog."""
     unknown = [n for n in names if n not in catalog]
     if unknown:
@@ -142,9 +147,11 @@ def check_effect_names(names, catalog, what='--add'):
                          f'{", ".join(sorted(catalog))}')
 
 
-def load_checked_data(args):
+def load_checked_data(args: argparse.Namespace) -> Any:
     """
     Load every DATA record, check each and join them; return the data object.
+
+    The result is static curves or a dynamic record (`workbench.data`).
 
     One record: as it is (the time split applies). Several dynamic records: joined at
     rest by `records.join`, the last one (or the --validate-on ones) held out. Mixed static
@@ -187,7 +194,7 @@ def load_checked_data(args):
     return data
 
 
-def data_lines(data):
+def data_lines(data: Any) -> List[str]:
     """Return one line per record of `data`: 'NAME: dynamic record: ...' (role if joined)."""
     from .data import describe, is_static
     from .records import segment_view
@@ -202,14 +209,14 @@ def data_lines(data):
     return out
 
 
-def read_model_spec(path, catalog):
-    """MODEL.yaml as a checked dict (effects known to the catalog)."""
-    from .modelfile import read_model
+def read_model_spec(path: str, catalog: Mapping[str, Any]) -> Dict[str, Any]:
+    """Return MODEL.yaml as a checked dict (effects known to the catalog)."""
+    from ..core.model_file import read_model
     return read_model(path, known_effects=catalog)
 
 
-def model_signals(fit, data):
-    """Model wire temperatures for the comparison: the fit's, or re-simulated, or none."""
+def model_signals(fit: Any, data: Any) -> Dict[str, np.ndarray]:
+    """Return the model wire temperatures [°C] to compare: the fit's, re-simulated or none."""
     if fit.signals:
         return fit.signals
     params = getattr(fit, 'params', None)
@@ -220,9 +227,9 @@ def model_signals(fit, data):
     return {}
 
 
-def json_safe(obj):
-    """Plain JSON data: numpy -> Python, non-finite floats -> None."""
-    from .modelfile import to_plain
+def json_safe(obj: Any) -> Any:
+    """Return plain JSON data: numpy -> Python, non-finite floats -> None."""
+    from ..core.model_file import to_plain
     obj = to_plain(obj)
     if isinstance(obj, dict):
         return {k: json_safe(v) for k, v in obj.items()}
@@ -233,16 +240,18 @@ def json_safe(obj):
     return obj
 
 
-def print_json(obj):
+def print_json(obj: Any) -> None:
     """Print strict JSON (no NaN) to stdout."""
     print(json.dumps(json_safe(obj), indent=2, allow_nan=False))
 
 
-def _pct(x):
+def _pct(x: Optional[float]) -> str:
+    """Return the fraction x as a percentage text ('n/a' for None)."""
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
-def score_line(part, s, unit='', width=10):
+def score_line(part: str, s: Optional[Dict[str, Any]], unit: str = '',
+               width: int = 10) -> str:
     """
     Return 'validation: NRMSE 1.23 %  RMSE 0.1 mm ...' for a scores dict (or n/a).
 
@@ -260,7 +269,7 @@ def score_line(part, s, unit='', width=10):
             f'{s["fit_percent"]:.1f} %  max error {s["max_error"]:.4g}{u}')
 
 
-def model_line(effects, kind):
+def model_line(effects: Sequence[str], kind: str) -> str:
     """Return 'modified PI base + saturation, delay' ('... (the paper's model)' if none)."""
     if effects:
         return f'{kind} PI base + {", ".join(effects)}'
@@ -268,10 +277,10 @@ def model_line(effects, kind):
 
 
 # ------------------------------------------------------------------------------ fit
-def cmd_fit(args):
-    """sma-model fit: fit the base model plus effects; print scores; write FITTED.yaml."""
+def cmd_fit(args: argparse.Namespace) -> int:
+    """Run `sma-model fit`: fit the base model plus effects; print scores; write FITTED.yaml."""
     from .engine import fit_model
-    from .modelfile import check_writable, write_model
+    from ..core.model_file import check_writable, write_model
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
     if args.out:
@@ -308,12 +317,12 @@ def cmd_fit(args):
     return 0
 
 
-def unit_of(data):
+def unit_of(data: Any) -> str:
     """Return the output unit of `data` ('' for static curves, whose unit is not known)."""
     return getattr(data, 'position_unit', '') or ''
 
 
-def per_record(fit, data):
+def per_record(fit: Any, data: Any) -> List[Dict[str, Any]]:
     """Return the per-record scores of a dynamic fit ([] for static curves)."""
     from .data import is_static
     from .engine import record_scores
@@ -322,7 +331,8 @@ def per_record(fit, data):
     return record_scores(data, fit.prediction, fit.split)
 
 
-def fit_json(fit, out, records=()):
+def fit_json(fit: Any, out: Optional[str],
+             records: Sequence[Dict[str, Any]] = ()) -> Dict[str, Any]:
     """Return the `fit --json` document."""
     val = fit.validation or {}
     doc = {'effects': list(fit.effects), 'kind': fit.kind,
@@ -337,12 +347,12 @@ def fit_json(fit, out, records=()):
 
 
 # ------------------------------------------------------------------------------ compare
-def cmd_compare(args):
-    """sma-model compare: score a fitted model on DATA, break the error down, test residual."""
+def cmd_compare(args: argparse.Namespace) -> int:
+    """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, summary_lines
     from .data import is_static
     from .engine import load_fit, record_scores, Split
-    from .modelfile import is_fitted, is_static_model
+    from ..core.model_file import is_fitted, is_static_model
     from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -396,7 +406,7 @@ def cmd_compare(args):
     return 0
 
 
-def check_rig(spec, data, source):
+def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:
     """Raise UsageError if the model file's position unit or layout differ from the data's."""
     for key, value in (('position_unit', data.position_unit), ('layout', data.layout)):
         want = spec.get(key)
@@ -405,8 +415,11 @@ def check_rig(spec, data, source):
                              f'(give --{key.replace("_", "-")} {want} if that is wrong)')
 
 
-def _write_report(args, comparison, title, data_line, model, diagnosis=None, alternative=None,
-                  unit=''):
+def _write_report(args: argparse.Namespace, comparison: Any, title: str, data_line: str,
+                  model: Mapping[str, Any], diagnosis: Optional[Dict[str, Any]] = None,
+                  alternative: Optional[Tuple[str, np.ndarray]] = None,
+                  unit: str = '') -> None:
+    """Write the HTML report of --report and name its index on the note stream."""
     from .report import write_report
     comparison.unit = unit
     index = write_report(args.report, comparison, title, data_line=data_line, model=model,
@@ -415,8 +428,8 @@ def _write_report(args, comparison, title, data_line, model, diagnosis=None, alt
 
 
 # ------------------------------------------------------------------------------ diagnose
-def cmd_diagnose(args):
-    """sma-model diagnose: refit with each candidate effect, rank by held-out improvement."""
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    """Run `sma-model diagnose`: refit with each candidate effect, rank by held-out improvement."""
     from .compare import compare
     from .data import is_static
     from .engine import diagnose_rounds, fit_model, Split
@@ -482,7 +495,7 @@ def cmd_diagnose(args):
     return 0
 
 
-def rounds_lines(doc, limit):
+def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
     """Return the text of the add-and-refit rounds: the validation error falling."""
     lines = [f'rounds: baseline validation NRMSE {_pct(doc["baseline"]["validation_nrmse"])}']
     for i, r in enumerate(doc['rounds'], 1):
@@ -493,8 +506,8 @@ def rounds_lines(doc, limit):
     return lines
 
 
-def diagnosis_lines(doc, kind):
-    """Text table of a diagnosis document, best candidate first."""
+def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
+    """Return the text table of a diagnosis document, best candidate first."""
     base = doc['baseline']
     lines = [f'baseline: {model_line(base["effects"], kind)}, validation NRMSE '
              f'{_pct(base["validation_nrmse"])}',
@@ -514,8 +527,8 @@ def diagnosis_lines(doc, kind):
 
 
 # ------------------------------------------------------------------------------ batch
-def cmd_batch(args):
-    """sma-model batch: fit, compare and diagnose every record on a Dask cluster."""
+def cmd_batch(args: argparse.Namespace) -> int:
+    """Run `sma-model batch`: fit, compare and diagnose every record on a Dask cluster."""
     from .batch import BatchOptions, BatchProgress, find_records, run_batch, start_client
     from .fleet import write_index, write_table
     catalog = setup_effects(args)
@@ -529,7 +542,7 @@ def cmd_batch(args):
     if any(out.resolve() == p for p in paths):
         raise UsageError(f'--out {out} is one of the records; choose another path')
     out.mkdir(parents=True, exist_ok=True)
-    from .modelfile import is_fitted
+    from ..core.model_file import is_fitted
     options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
                            candidates=tuple(args.candidates) if args.candidates else None,
                            rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
@@ -560,7 +573,7 @@ def cmd_batch(args):
     return 0
 
 
-def _close_client(client):
+def _close_client(client: Any) -> None:
     """Close the client and, if it started one, its local cluster."""
     cluster = client.cluster
     client.close()
@@ -569,8 +582,8 @@ def _close_client(client):
 
 
 # ------------------------------------------------------------------------------ effects
-def cmd_effects(args):
-    """sma-model effects: list the catalog (with plug-ins): parameters, signature, physics."""
+def cmd_effects(args: argparse.Namespace) -> int:
+    """Run `sma-model effects`: list the catalog (plug-ins too): parameters, signature, physics."""
     catalog = setup_effects(args)
     doc = [{'effect': name, 'parameters': {k: list(v[:2]) for k, v in e.parameters.items()},
             'needs_dynamic': bool(e.needs_dynamic), 'signature': e.signature, 'physics': e.doc}
@@ -587,7 +600,7 @@ def cmd_effects(args):
 
 
 # ------------------------------------------------------------------------------ parser
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument('data', metavar='DATA', nargs='+',
@@ -679,7 +692,8 @@ def build_parser():
     return parser
 
 
-def _positive_float(text):
+def _positive_float(text: str) -> float:
+    """Parse a positive rate [Hz] within the accepted range (argparse type)."""
     from .limits import MAX_RATE_HZ, MIN_RATE_HZ, parse_number
     try:
         value = parse_number(text)
@@ -693,14 +707,16 @@ def _positive_float(text):
     return value
 
 
-def _positive_int(text):
+def _positive_int(text: str) -> int:
+    """Parse an integer >= 1 (argparse type)."""
     value = _non_negative_int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f'{text!r} is not a positive integer')
     return value
 
 
-def _non_negative_int(text):
+def _non_negative_int(text: str) -> int:
+    """Parse an integer >= 0 (argparse type)."""
     try:
         value = int(text)
     except ValueError:
@@ -710,8 +726,8 @@ def _non_negative_int(text):
     return value
 
 
-def error_text(err):
-    """One line for an input error (OSError: file and reason)."""
+def error_text(err: BaseException) -> str:
+    """Return one line for an input error (OSError: file and reason)."""
     if isinstance(err, OSError) and err.strerror:
         text = f'{err.filename}: {err.strerror}' if err.filename else err.strerror
     else:
@@ -719,7 +735,7 @@ def error_text(err):
     return ' '.join(text.split())
 
 
-def main(argv=None):
+def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of `sma-model`; returns the exit code (0 ok, 2 bad input, 130 interrupt)."""
     args = build_parser().parse_args(argv)
     try:

@@ -15,18 +15,24 @@
 """
 Catalog of physical effects the base model (the paper's) may lack.
 
-Each effect is a small class: its docstring states the physics, `parameters` maps the
-`ActuatorParams` fields it frees to (lower, upper, start) bounds, and `signature` says
-what the residual of a model without it looks like. The physics itself lives in
-`sma_actuator.core.actuator` (one implementation, shared with the plant node).
+Each effect is a small class for behaviour only: its docstring states the physics and
+`signature` says what the residual of a model without it looks like. Its `parameters`,
+the `ActuatorParams` fields it frees with their (lower, upper, start) fit bounds, derive
+from the fields' declarations (`ParamSpec.effect`, `core.actuator`); the physics itself
+lives in `sma_actuator.core.actuator` (one implementation, shared with the plant node).
+docs/architecture.md has the recipe for a new effect.
 
 Plug-in point: subclass `Effect` in your own module and call `register_effect(cls)`
 (or expose the module under the `sma_actuator.effects` entry-point group / pass it to
 `sma-model --plugin`). A plug-in effect may free existing ActuatorParams fields and may
 bring parameters of its own that act through `transform_inputs` (duties and ambient
-before the thermal model), e.g. a supply that sags with load or a PWM dead time.
+before the thermal model), e.g. a supply that sags with load or a PWM dead time. Such
+parameters are declared once too, as `ParamSpec`s in `declares`, from which `parameters`
+and `neutral` follow.
 """
 import numpy as np
+
+from ..core.actuator import fit_table
 
 
 class Effect:
@@ -44,6 +50,23 @@ class Effect:
     own_grid = False
     # acts between the two wires: not applicable to a single wire against a bias spring
     needs_two_wires = False
+    # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (fit and neutral used)
+    declares = {}
+
+    def __init_subclass__(cls, **kwargs):
+        """
+        Derive `parameters` (and `neutral`) from the declarations.
+
+        The `ActuatorParams` fields declared with this effect's name, then its own
+        `declares`; a class that declares nothing keeps what it states or inherits.
+        """
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__.get('declares', {})
+        table = dict(fit_table(cls.name), **{k: spec.fit for k, spec in own.items()})
+        if table and 'parameters' not in cls.__dict__:
+            cls.parameters = table
+        if own and 'neutral' not in cls.__dict__:
+            cls.neutral = {k: spec.neutral for k, spec in own.items()}
 
     def scratch_start(self, params):
         """
@@ -124,17 +147,15 @@ class Saturation(Effect):
 
 class FastDynamics(Effect):
     """
-    Unmodelled fast dynamics tau of the paper's Fig.
+    Unmodelled fast dynamics τ of the paper's Fig. 13.
 
-    13: a first-order lag on the heat input (heat spreading from core to surface, amplifier
+    A first-order lag on the heat input (heat spreading from core to surface, amplifier
     filtering), so the wire responds to a duty step with an S-shaped rather than exponential
     temperature rise.
     """
 
     name = 'fast_dynamics'
-    parameters = {'tau_fast_s': (0.0, 3.0, 0.15)}
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
-    # (rich simulator M 1.17: +36 % warm-started, +67 % from scratch)
     own_grid = True
 
     def alternative_starts(self, data):
@@ -147,10 +168,9 @@ class FastDynamics(Effect):
 
         The two lags in series are interchangeable (G / ((τ s + 1)(τ_fast s + 1))), and
         from scratch the search can end in the swapped pair, τ at its lower bound and the
-        slow lag in τ_fast, which the hysteresis then fits worse (rich simulator M 0.33:
-        τ 0.2 s, τ_fast 1.41 s, 0.70 % training NRMSE). Keep τ the slow one: the base fit's
-        single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast means
-        τ >= τ_base / 2 (there: τ 1.55 s, τ_fast 48 ms, 0.11 %).
+        slow lag in τ_fast, which the hysteresis then fits worse. Keep τ the slow one: the
+        base fit's single lag has about the pair's mean delay τ + τ_fast, so τ >= τ_fast
+        means τ >= τ_base / 2.
         """
         return {'tau_s': (0.5 * params.tau_s, 20.0, params.tau_s)}
     signature = ('residual spikes right after duty steps, same sign as the step; '
@@ -166,7 +186,6 @@ class Delay(Effect):
     """
 
     name = 'delay'
-    parameters = {'delay_s': (0.0, 1.5, 0.05)}
     # also from scratch, like fast_dynamics: a plant record with a 0.3 s delay refitted
     # warm reached 0.12 % training NRMSE and lost to fast_dynamics from scratch (0.10 %);
     # from scratch the delay fits to the noise (0.05 %, 0.3015 s)
@@ -205,7 +224,6 @@ class Convection(Effect):
     """
 
     name = 'convection'
-    parameters = {'convection_exponent': (-0.2, 1.0, 0.2)}
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
                  'high duty, cooling faster than modelled; residual correlates with temperature')
 
@@ -219,7 +237,6 @@ class AmbientDrift(Effect):
     """
 
     name = 'ambient_drift'
-    parameters = {'ambient_gain': (0.0, 3.0, 1.0)}
     # a drifting ambient shifts every temperature; without it the base fit (often with a
     # wrong time constant) puts its grid where the wires would be at constant ambient
     own_grid = True
@@ -246,9 +263,6 @@ class PhaseResistance(Effect):
     """
 
     name = 'phase_resistance'
-    # NiTi resistivity differs by roughly 10-25 % between the phases; the bound leaves
-    # room for a current limiter that is not perfectly stiff and covers the plant's range
-    parameters = {'phase_kappa': (-0.5, 0.5, 0.1)}
 
     def bounds(self, params):
         """
@@ -267,10 +281,9 @@ class PhaseResistance(Effect):
         return {}
 
     # heating from martensite runs hotter (or cooler) than the base model's, so the base
-    # grid sits where the base put the transformation: at the true kappa its refit was
-    # worse than the base (1.3 % against 0.83 % training NRMSE on the package's own plant),
-    # from scratch it fits to 0.08 %. From scratch the search does not leave kappa ~ 0 (the
-    # coarse grid hides the effect), so that refit starts from a strong effect.
+    # grid sits where the base put the transformation and a refit on it cannot reach the
+    # true kappa; from scratch the search does not leave kappa ~ 0 (the coarse grid hides
+    # the effect), so that refit starts from a strong effect.
     own_grid = True
 
     def scratch_start(self, params):
@@ -291,7 +304,6 @@ class StressCoupling(Effect):
     """
 
     name = 'stress_coupling'
-    parameters = {'stress_k': (0.0, 50.0, 4.0)}
     needs_two_wires = True
     signature = ('loop of each wire shifts with the state of the other: error larger when '
                  'the antagonist is contracted (near the ends of travel), depends on history')
@@ -305,8 +317,6 @@ class AsymmetricWires(Effect):
     """
 
     name = 'asymmetric_wires'
-    parameters = {'gain_ratio_b': (0.5, 2.0, 1.0), 'tau_ratio_b': (0.5, 2.0, 1.0),
-                  'stroke_ratio_b': (0.5, 2.0, 1.0)}
     needs_two_wires = True
     signature = ('error has opposite character on the two sides: one direction too fast or '
                  'too far, the other too slow or short; residual correlates with sign of position')
@@ -322,10 +332,6 @@ class SensorNonlinearity(Effect):
     """
 
     name = 'sensor_nonlinearity'
-    # bounded so each term alone keeps p monotone over about ±1 rad of travel (together
-    # they may turn earlier: `core.actuator.sensor_inverse` then falls back to first order)
-    parameters = {'sensor_c2_rad': (-0.25, 0.25, 0.0), 'sensor_c3_rad': (-0.3, 0.3, 0.0),
-                  'sensor_c4_rad': (-0.15, 0.15, 0.0), 'sensor_c5_rad': (-0.15, 0.15, 0.0)}
     signature = ('static, memoryless error that is a smooth function of the position '
                  '(bow or S-shape in the residual-vs-position plot), same on both branches')
 
@@ -341,12 +347,6 @@ class FatigueDrift(Effect):
     """
 
     name = 'fatigue_drift'
-    # N_f >= 2 cycles: a faster shakedown ends within the first transformation, where
-    # g_a − g_b with huge cancelling offsets only fits the start-up transient
-    parameters = {'fatigue_stroke': (-0.5, 0.8, 0.05), 'fatigue_cycles': (2.0, 5000.0, 20.0),
-                  # solved linearly with the weights, each within ± half the measured travel
-                  'fatigue_offset_rad': (-float('inf'), float('inf'), 0.0),
-                  'fatigue_offset_b_rad': (-float('inf'), float('inf'), 0.0)}
 
     def alternative_starts(self, data):
         """Slow (nearly linear) drift is a different basin from a quick shakedown."""
@@ -365,8 +365,6 @@ class CurrentLimit(Effect):
     """
 
     name = 'current_limit'
-    # sharpness n of the p-norm limiter: ~2 (very soft) to 30 (practically a hard corner)
-    parameters = {'duty_limit': (0.02, 1.0, 0.9), 'duty_limit_sharpness': (2.0, 30.0, 6.0)}
     signature = ('model over-heats only at the highest duties: error at full contraction '
                  'after large duty steps, none at small duties')
 

@@ -23,9 +23,12 @@ Files written into the batch directory (each replaced atomically):
 NRMSE columns are fractions of the record's measured output range (0.01 = 1 %);
 parameter columns are ``param.<name>`` with the unit in the name (``param.delay_s``).
 """
+from __future__ import annotations
+
 from collections import Counter
 import html
 from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -40,8 +43,8 @@ INTEGER_COLUMNS = ('samples',)
 PARAMETER_PREFIX = 'param.'
 
 
-def table_rows(results):
-    """Flat rows (one per record, sorted by record path) with a column per parameter."""
+def table_rows(results: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
+    """Return flat rows (one per record, sorted by record path) with a column per parameter."""
     names = sorted({k for r in results for k in (r.get('parameters') or {})})
     rows = []
     for r in sorted(results, key=lambda r: r['record']):
@@ -52,8 +55,9 @@ def table_rows(results):
     return rows
 
 
-def write_table(out_dir, results):
-    """Write batch.parquet and batch.csv; returns their paths."""
+def write_table(out_dir: Union[str, Path],
+                results: Sequence[Dict[str, Any]]) -> Tuple[Path, Path]:
+    """Write batch.parquet and batch.csv; return their paths."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
@@ -72,8 +76,9 @@ def write_table(out_dir, results):
     return paths
 
 
-def plot_parameters(out_dir, rows):
-    """Strip plot of every fitted parameter across records (one panel each); None if none."""
+def plot_parameters(out_dir: Union[str, Path],
+                    rows: Sequence[Dict[str, Any]]) -> Optional[Path]:
+    """Write the strip plot of every fitted parameter across records; None if none."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     names = [c for c in (rows[0] if rows else {}) if c.startswith(PARAMETER_PREFIX)]
@@ -101,8 +106,8 @@ def plot_parameters(out_dir, rows):
     return path
 
 
-def effect_recurrence(rows):
-    """{effect: [records where it was named]} over every round, most frequent first."""
+def effect_recurrence(rows: Sequence[Dict[str, Any]]) -> Dict[str, List[str]]:
+    """Return {effect: [records where it was named]} over every round, most frequent first."""
     where = {}
     for row in rows:
         for name in (row.get('effects_added') or '').split():
@@ -111,12 +116,14 @@ def effect_recurrence(rows):
     return {k: where[k] for k, _ in counts.most_common()}
 
 
-def _pct(x):
+def _pct(x: Optional[float]) -> str:
+    """Return the fraction x as a percentage text ('' for None)."""
     return '' if x is None else f'{100 * x:.2f} %'
 
 
-def write_index(out_dir, results, title='sma-model batch'):
-    """Write index.html (fleet summary, effect recurrence, a row per record); returns it."""
+def write_index(out_dir: Union[str, Path], results: Sequence[Dict[str, Any]],
+                title: str = 'sma-model batch') -> Path:
+    """Write index.html (fleet summary, effect recurrence, a row per record); return it."""
     rows = table_rows(results)
     plot = plot_parameters(out_dir, [r for r in rows if not r['error']])
     failed = [r for r in rows if r['error']]

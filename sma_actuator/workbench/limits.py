@@ -19,9 +19,12 @@ Numbers in a CSV are plain ASCII decimals (``-1.5``, ``2e-3``, ``.5``): Python's
 also takes ``'١'`` (Arabic-Indic one), ``'１'`` (full-width one) and ``'1_0'`` (ten), which in
 a measurement file are far more likely damage than intent.
 """
+from __future__ import annotations
+
 import re
 import sys
 import time
+from typing import IO, Optional
 
 #: Largest CSV read [bytes] (2 million rows of 6 columns take about 150 MB).
 MAX_CSV_BYTES = 256 * 1024 * 1024
@@ -40,7 +43,7 @@ _NUMBER = re.compile(r'[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?
 _NON_FINITE = re.compile(r'[+-]?(?:nan|inf|infinity)', re.ASCII | re.IGNORECASE)
 
 
-def parse_number(text):
+def parse_number(text: str) -> float:
     """
     Return the float an ASCII decimal number ``text`` spells; raise ValueError otherwise.
 
@@ -52,7 +55,7 @@ def parse_number(text):
     raise ValueError(f'{text[:40]!r} is not a number')
 
 
-def is_number(text):
+def is_number(text: str) -> bool:
     """Return whether ``text`` is a number as :func:`parse_number` reads it."""
     try:
         parse_number(text)
@@ -61,7 +64,7 @@ def is_number(text):
     return True
 
 
-def period_problem(dt_s):
+def period_problem(dt_s: float) -> Optional[str]:
     """Return why a sample period [s] is outside the limits, or None if it is fine."""
     if not MIN_SAMPLE_PERIOD_S <= dt_s <= MAX_SAMPLE_PERIOD_S:
         return (f'sample period {dt_s:g} s is outside {MIN_SAMPLE_PERIOD_S:g} s to '
@@ -77,7 +80,7 @@ class LoadProgress:
     :data:`PROGRESS_MIN_ROWS` rows stay silent.
     """
 
-    def __init__(self, name, total_rows, stream=None):
+    def __init__(self, name: str, total_rows: int, stream: Optional[IO[str]] = None):
         self.name = name
         self.total = total_rows
         self.stream = stream or sys.stderr
@@ -85,7 +88,7 @@ class LoadProgress:
         self.next_percent = PROGRESS_STEP_PERCENT
         self.start = time.monotonic()
 
-    def __call__(self, rows):
+    def __call__(self, rows: int) -> None:
         """Report ``rows`` read so far (prints when the next 10 % step is reached)."""
         if not self.enabled or 100 * rows < self.next_percent * self.total:
             return

@@ -17,24 +17,31 @@ Run independent CPU-bound jobs on every core.
 
 Diagnose's candidate refits, and the hidden-effect tests and benchmark (one record per core).
 """
+from __future__ import annotations
+
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 import multiprocessing
 import os
+from typing import Callable, Iterable, Iterator, Optional, Tuple, TypeVar
 
+T = TypeVar('T')
+R = TypeVar('R')
 BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
-def available_cores():
+def available_cores() -> int:
     """Return the number of cores this process may run on."""
     return len(os.sched_getaffinity(0))
 
 
-def imap_on_cores(fn, items, workers=None):
+def imap_on_cores(fn: Callable[[T], R], items: Iterable[T],
+                  workers: Optional[int] = None) -> Iterator[Tuple[T, R]]:
     """
-    Yield (item, fn(item)) as each finishes, on `workers` processes (default.
+    Yield (item, fn(item)) as each finishes, on `workers` processes.
 
-    The cores this process may use). One BLAS thread per worker (the workers already fill the
-    cores); spawn, not fork: the caller may hold DDS or numba threads that must not be forked.
+    `workers` defaults to the cores this process may use. One BLAS thread per worker (the
+    workers already fill the cores); spawn, not fork: the caller may hold DDS or numba
+    threads that must not be forked.
 
     fn must be importable (a module-level function).
     """

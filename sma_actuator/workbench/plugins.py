@@ -28,12 +28,19 @@ itself or leaves it to discovery: every non-abstract `Effect` subclass defined i
 (not imported into it) whose name does not start with '_' is registered. docs/workbench.md
 shows a complete example.
 """
+from __future__ import annotations
+
 import importlib
 import importlib.metadata
 import importlib.util
 import inspect
 from pathlib import Path
 import sys
+from types import ModuleType, TracebackType
+from typing import Callable, Iterable, List, Literal, Optional, Type, TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .effects import Effect
 
 ENTRY_POINT_GROUP = 'sma_actuator.effects'
 
@@ -42,9 +49,9 @@ class PluginError(ValueError):
     """A plug-in cannot be loaded or registered; the message names it."""
 
 
-def load_plugins(specs):
+def load_plugins(specs: Optional[Iterable[str]]) -> List[str]:
     """
-    Load each --plugin spec (file path or module name); returns names of effects added.
+    Load each --plugin spec (file path or module name); return the names of effects added.
 
     A plug-in may not replace an effect already in the catalog (same name, other class):
     that raises `PluginError` and the catalog is restored.
@@ -60,15 +67,18 @@ def load_plugins(specs):
 class guarded_catalog:
     """Context manager: undo catalog entries that replace an existing effect, then raise."""
 
-    def __init__(self, origin):
+    def __init__(self, origin: str):
         self.origin = origin
 
-    def __enter__(self):
+    def __enter__(self) -> guarded_catalog:
+        """Remember the catalog as it is."""
         from .effects import CATALOG
         self.before = dict(CATALOG)
         return self
 
-    def __exit__(self, exc_type, exc, tb):
+    def __exit__(self, exc_type: Optional[Type[BaseException]], exc: Optional[BaseException],
+                 tb: Optional[TracebackType]) -> Literal[False]:
+        """Restore replaced entries; raise `PluginError` for them if nothing else is raised."""
         from .effects import CATALOG
         clashes = [name for name, effect in self.before.items()
                    if type(CATALOG.get(name)) is not type(effect)]
@@ -79,7 +89,7 @@ class guarded_catalog:
         return False
 
 
-def import_plugin(spec):
+def import_plugin(spec: str) -> ModuleType:
     """Import a plug-in given as a .py path or a module name; errors name the plug-in."""
     path = Path(spec)
     try:
@@ -100,7 +110,8 @@ def import_plugin(spec):
             from None
 
 
-def _import_file(path):
+def _import_file(path: Path) -> ModuleType:
+    """Import a .py file under a name unique to its path (imported once per process)."""
     if not path.is_file():
         raise PluginError(f'plugin {path}: no such file')
     name = f'sma_actuator_plugin_{path.stem}_{abs(hash(str(path.resolve()))):x}'
@@ -119,8 +130,8 @@ def _import_file(path):
     return module
 
 
-def effect_classes(module):
-    """Non-abstract public `Effect` subclasses defined in `module` itself."""
+def effect_classes(module: ModuleType) -> List[Type[Effect]]:
+    """Return the non-abstract public `Effect` subclasses defined in `module` itself."""
     from .effects import Effect
     return [obj for obj in vars(module).values()
             if inspect.isclass(obj) and issubclass(obj, Effect) and obj is not Effect
@@ -128,14 +139,14 @@ def effect_classes(module):
             and not inspect.isabstract(obj)]
 
 
-def is_registered(cls):
+def is_registered(cls: Type[Effect]) -> bool:
     """Return True if an instance of exactly `cls` is in the catalog."""
     from .effects import CATALOG
     return any(type(e) is cls for e in CATALOG.values())
 
 
-def register_class(cls, origin):
-    """register_effect(cls) unless already registered; returns the effect name."""
+def register_class(cls: Type[Effect], origin: str) -> str:
+    """Call register_effect(cls) unless it is registered already; return the effect name."""
     from .effects import CATALOG, register_effect
     if not is_registered(cls):
         try:
@@ -146,7 +157,7 @@ def register_class(cls, origin):
     return next(name for name, e in CATALOG.items() if type(e) is cls)
 
 
-def register_module_effects(module, origin):
+def register_module_effects(module: ModuleType, origin: str) -> List[str]:
     """Register the module's effects (discovery by subclass scan); error if it has none."""
     classes = effect_classes(module)
     if not classes:
@@ -155,7 +166,7 @@ def register_module_effects(module, origin):
     return [register_class(cls, origin) for cls in classes]
 
 
-def load_entry_points(warn=None):
+def load_entry_points(warn: Optional[Callable[[str], None]] = None) -> List[str]:
     """
     Register effects from the `sma_actuator.effects` entry-point group.
 
@@ -175,7 +186,8 @@ def load_entry_points(warn=None):
     return added
 
 
-def _load_entry_point(ep, origin):
+def _load_entry_point(ep: importlib.metadata.EntryPoint, origin: str) -> List[str]:
+    """Register the effects of one entry point (an Effect subclass or a module)."""
     obj = ep.load()
     if inspect.ismodule(obj):
         return register_module_effects(obj, origin)

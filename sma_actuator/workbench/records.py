@@ -30,7 +30,7 @@ from typing import Optional
 import numpy as np
 
 from .data import DataError
-from ..core.datakinds import DynamicData
+from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
 from ..core.identification import flexinol_loop_ratio
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
@@ -154,7 +154,7 @@ def join(records: list, held_out: tuple = (),
     parts, segments, split, at = [], [], None, 0
     gap = int(round(REST_GAP_S / dt))
     for i, (name, d) in enumerate(order):
-        if abs(d.dt - dt) > 0.01 * dt:
+        if abs(d.dt - dt) > SAMPLING_TOLERANCE * dt:
             if notes is not None:
                 notes.append(f'{name}: resampled from {1.0 / d.dt:.4g} Hz to {1.0 / dt:.4g} Hz '
                              f'(the rate of {records[0][0]})')

@@ -232,16 +232,36 @@ def run(p, wires, tab, lo, step, state, n_steps, dt, stride, closed, cmd_a, cmd_
         out[7, s] += cmd[0] / stride
         out[8, s] += cmd[1] / stride
         ring[0, k % (nd + 1)], ring[1, k % (nd + 1)] = cmd[0], cmd[1]
-        a_old0, a_old1 = aus[0], aus[1]
-        for w in range(2):
-            applied = ring[w, (k - nd) % (nd + 1)] if k >= nd else 0.0
-            power = joule_power(p, wires[w], applied, 1.0 - aus[w])
-            th[w, 0], th[w, 1] = rk4_thermal(p, wires[w], power, th[w, 0], th[w, 1], theta_a, dt)
-            own, other = (a_old0, a_old1) if w == 0 else (a_old1, a_old0)
-            u = th[w, 1] - stress_shift(p, own, other)
-            aus[w] = preisach_step(state, w, tab, lo, step, u)
-        cycles[0] += 0.5 * abs(aus[0] - a_old0)
-        cycles[1] += 0.5 * abs(aus[1] - a_old1)
-        phi = p.phi0_rad + (contraction(p, wires[0], aus[0], cycles[0])
-                            - contraction(p, wires[1], aus[1], cycles[1])) / (2.0 * p.pulley_r_m)
+        fine_step(p, wires, tab, lo, step, state, th, aus, cycles, ring, k, theta_a, dt)
+        phi = shaft_angle(p, wires, aus, cycles)
     return out
+
+
+@njit(cache=True)
+def fine_step(p, wires, tab, lo, step, state, th, aus, cycles, ring, k, theta_a, dt):
+    """
+    Advance both wires by fine step k in place (th, aus, cycles, Preisach state).
+
+    Each wire gets its command from the delay line `ring` (zero until the delay has
+    passed), heats by the PWM/current-limit law, moves its 1/2-node thermal network one
+    RK4 step at ambient theta_a and its Preisach fraction at the stress-shifted
+    temperature; cycles accumulate |Δa| / 2.
+    """
+    nd = ring.shape[1] - 1
+    a_old0, a_old1 = aus[0], aus[1]
+    for w in range(2):
+        applied = ring[w, (k - nd) % (nd + 1)] if k >= nd else 0.0
+        power = joule_power(p, wires[w], applied, 1.0 - aus[w])
+        th[w, 0], th[w, 1] = rk4_thermal(p, wires[w], power, th[w, 0], th[w, 1], theta_a, dt)
+        own, other = (a_old0, a_old1) if w == 0 else (a_old1, a_old0)
+        u = th[w, 1] - stress_shift(p, own, other)
+        aus[w] = preisach_step(state, w, tab, lo, step, u)
+    cycles[0] += 0.5 * abs(aus[0] - a_old0)
+    cycles[1] += 0.5 * abs(aus[1] - a_old1)
+
+
+@njit(cache=True)
+def shaft_angle(p, wires, aus, cycles):
+    """Return the true shaft angle [rad]: φ0 + (c_a − c_b) / 2r (antagonistic pulley)."""
+    return p.phi0_rad + (contraction(p, wires[0], aus[0], cycles[0])
+                         - contraction(p, wires[1], aus[1], cycles[1])) / (2.0 * p.pulley_r_m)

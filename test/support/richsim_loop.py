@@ -27,33 +27,20 @@ from numba import njit
 import numpy as np
 
 from .richsim import _everett, _params, build_plant
-from .richsim_kernel import adc, ambient, contraction, joule_power, rk4_thermal, sensor_ideal
-from .richsim_kernel import stress_shift
-from .richsim_preisach import new_state, preisach_step
+from .richsim_kernel import adc, ambient, fine_step, sensor_ideal, shaft_angle
+from .richsim_preisach import new_state
 
 
 @njit(cache=True)
 def _tick(p, wires, tab, lo, step, pstate, th, aus, cycles, ring, k0, n_fine, dt, da, db):
     """Advance n_fine fine steps from fine index k0 with commands (da, db); return phi."""
     nd = ring.shape[1] - 1
-    phi = 0.0
     for i in range(n_fine):
         k = k0 + i
-        theta_a = ambient(p, k * dt)
         ring[0, k % (nd + 1)], ring[1, k % (nd + 1)] = da, db
-        a_old0, a_old1 = aus[0], aus[1]
-        for w in range(2):
-            applied = ring[w, (k - nd) % (nd + 1)] if k >= nd else 0.0
-            power = joule_power(p, wires[w], applied, 1.0 - aus[w])
-            th[w, 0], th[w, 1] = rk4_thermal(p, wires[w], power, th[w, 0], th[w, 1], theta_a, dt)
-            own, other = (a_old0, a_old1) if w == 0 else (a_old1, a_old0)
-            u = th[w, 1] - stress_shift(p, own, other)
-            aus[w] = preisach_step(pstate, w, tab, lo, step, u)
-        cycles[0] += 0.5 * abs(aus[0] - a_old0)
-        cycles[1] += 0.5 * abs(aus[1] - a_old1)
-    phi = p.phi0_rad + (contraction(p, wires[0], aus[0], cycles[0])
-                        - contraction(p, wires[1], aus[1], cycles[1])) / (2.0 * p.pulley_r_m)
-    return phi
+        fine_step(p, wires, tab, lo, step, pstate, th, aus, cycles, ring, k, ambient(p, k * dt),
+                  dt)
+    return shaft_angle(p, wires, aus, cycles)
 
 
 class RichPlant:

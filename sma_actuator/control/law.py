@@ -54,8 +54,11 @@ pi_inverse, effect by effect:
 Gains: kp, ki default to SIMC rules on the model (`tuning`), gentler with a longer delay;
 pi_inverse bounds the closed-loop time constant by `TAU_C_INVERSE_S`.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, replace
 import math
+from typing import Any, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -68,7 +71,7 @@ from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
 from .tuning import simc_gains, TAU_C_MIN_S, transformation_start_c
-from ..core.actuator import sensor_polynomial
+from ..core.actuator import ActuatorParams, sensor_polynomial
 from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
@@ -81,7 +84,7 @@ NOMINAL_DT_S = 0.025
 RATE_TIME_S = 0.1
 ACCEL_TIME_S = 0.2
 # loop reversal anticipated up to this far [s], and no further than where the turn costs
-# this much of the reference's height [rad] (a fast sine: 0.2 Hz sine RMS 0.080 -> 0.067)
+# this much of the reference's height [rad], so a fast sine turns early but not short
 REVERSAL_LEAD_S = 0.9
 REVERSAL_SHORTFALL_RAD = 0.02
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
@@ -89,7 +92,7 @@ REVERSAL_SHORTFALL_RAD = 0.02
 TAU_C_INVERSE_S = 0.25
 
 
-def _elapsed(now, then):
+def _elapsed(now: float, then: float) -> float:
     """Elapsed controller time [s], rounded up by 1 µs: n samples of dt count as n dt."""
     return now - then + 1e-6
 
@@ -103,8 +106,8 @@ class ControllerSettings:
     """
 
     mode: str = 'pi'
-    kp: float = None                # [duty / rad]; None: SIMC from the model
-    ki: float = None                # [duty / (rad s)]; None: SIMC from the model
+    kp: Optional[float] = None      # [duty / rad]; None: SIMC from the model
+    ki: Optional[float] = None      # [duty / (rad s)]; None: SIMC from the model
     duty_max: float = 1.0           # per-wire duty limit
     both_threshold: float = 0.05    # never both duties above this
     max_temp_c: float = 110.0       # thermal guard maximum [°C]
@@ -119,6 +122,7 @@ class ControllerSettings:
     dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
 
     def __post_init__(self):
+        """Check and normalise the settings (a negative gain: from the model)."""
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
         for name in ('kp', 'ki'):
@@ -148,8 +152,8 @@ class ControlStep:
     duty_b: float
     error: float = 0.0
     feedforward: float = 0.0
-    limits: tuple = (1.0, 1.0)
-    theta_est_c: tuple = (0.0, 0.0)
+    limits: Tuple[float, float] = (1.0, 1.0)
+    theta_est_c: Tuple[float, float] = (0.0, 0.0)
     saturated: bool = False
     guard_active: bool = False
 
@@ -166,11 +170,11 @@ class ReferencePredictor:
     def __init__(self):
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget the setpoint history."""
         self.last, self.rate, self.accel = None, 0.0, 0.0
 
-    def update(self, r, dt):
+    def update(self, r: float, dt: float) -> None:
         """Take the setpoint r [rad] of this sample."""
         if self.last is not None:
             raw = (r - self.last) / dt
@@ -183,12 +187,12 @@ class ReferencePredictor:
                 self.rate, self.accel = 0.0, 0.0
         self.last = r
 
-    def ahead(self, r, lead_s):
+    def ahead(self, r: float, lead_s: float) -> float:
         """Extrapolated setpoint lead_s [s] ahead [rad]."""
         shift = self.rate * lead_s
         return r + min(max(shift, -MAX_EXTRAPOLATION_RAD), MAX_EXTRAPOLATION_RAD)
 
-    def reversal(self, r, lead_s):
+    def reversal(self, r: float, lead_s: float) -> Optional[float]:
         """
         Return r(t + L) = r + L ṙ + L² r̈ / 2 when ṙ changes sign within L, else None.
 
@@ -202,7 +206,7 @@ class ReferencePredictor:
 class SensorMap:
     """The model's potentiometer polynomial p and its exact inverse, tabulated once."""
 
-    def __init__(self, params):
+    def __init__(self, params: ActuatorParams):
         self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
                              or params.sensor_c4_rad or params.sensor_c5_rad)
         if not self.identity:
@@ -215,14 +219,14 @@ class SensorMap:
             hi = int(falls[falls >= mid].min()) + 1 if np.any(falls >= mid) else len(angles)
             self._readings, self._angles = readings[lo:hi], angles[lo:hi]
 
-    def angle(self, reading_rad):
+    def angle(self, reading_rad: float) -> float:
         """Return the true angle [rad] of a sensor reading (p^-1 on the tabulated branch)."""
         if self.identity:
             return reading_rad
         return float(np.interp(reading_rad, self._readings, self._angles))
 
 
-def control_model(model):
+def control_model(model: ActuatorParams) -> ActuatorParams:
     """
     Return the model as the controller runs it.
 
@@ -241,7 +245,7 @@ class ControllerCore:
     `duty_a`, `duty_b` in [0, 1]. ambient_c: measured ambient [°C] (None: the model's).
     """
 
-    def __init__(self, model, settings=None):
+    def __init__(self, model: ActuatorParams, settings: Optional[ControllerSettings] = None):
         self.fitted_model = model
         self.model = control_model(model)
         self.settings = ControllerSettings() if settings is None else settings
@@ -255,7 +259,7 @@ class ControllerCore:
         self._apply(self.settings)
         self.reset()
 
-    def gains(self, settings=None):
+    def gains(self, settings: Optional[ControllerSettings] = None) -> Tuple[float, float]:
         """(kp, ki) in use for `settings` (default: the current ones): given or SIMC."""
         s = self.settings if settings is None else settings
         smith = s.mode == 'pi_inverse' and s.smith
@@ -263,7 +267,8 @@ class ControllerCore:
                             tau_c_min_s=TAU_C_INVERSE_S if s.mode == 'pi_inverse' else TAU_C_MIN_S)
         return (kp if s.kp is None else s.kp), (ki if s.ki is None else s.ki)
 
-    def _apply(self, s):
+    def _apply(self, s: ControllerSettings) -> None:
+        """Hand the settings to the PI, inverse, drift estimator, guard, relay and handover."""
         self.pi.set_gains(*self.gains(s))
         self.feedforward.duty_max = s.duty_max
         self.feedforward.horizon_s = s.ff_horizon_s
@@ -272,7 +277,7 @@ class ControllerCore:
         self.relay = OnOffRelay(s.on_off_band_rad, s.on_off_duty)
         self.handover.dead_time_s = s.dead_time_s
 
-    def reset(self):
+    def reset(self) -> None:
         """Back to rest: wires estimated cold, integrator and relay cleared, duties zero."""
         self.estimator.reset()
         self.feedforward.reset()
@@ -287,7 +292,7 @@ class ControllerCore:
         self.clock_s = 0.0
         self.last_duty = (0.0, 0.0)
 
-    def configure(self, **changes):
+    def configure(self, **changes: Any) -> None:
         """Apply validated setting changes at runtime (gains, mode, limits)."""
         new = replace(self.settings, **changes)
         if new.mode != self.settings.mode:
@@ -298,18 +303,20 @@ class ControllerCore:
         self.relay.state = state if new.mode == self.settings.mode else 0
         self.settings = new
 
-    def _advance(self, dt, ambient_c):
+    def _advance(self, dt: float, ambient_c: Optional[float]) -> None:
+        """Step the estimate by dt [s] with the last duties; the inverse follows its state."""
         self.estimator.update(*self.last_duty, dt, ambient_c)
         self.feedforward.track(self.estimator.hysteresis_inputs())
 
-    def _ambient(self, ambient_c):
+    def _ambient(self, ambient_c: Optional[float]) -> float:
         """Ambient [°C] the model's wires feel for a measured ambient (None: model's)."""
         p = self.model
         if ambient_c is None:
             return p.ambient_c
         return p.ambient_c + p.ambient_gain * (ambient_c - p.ambient_c)
 
-    def step(self, setpoint_rad, measured_rad, dt_s, ambient_c=None):
+    def step(self, setpoint_rad: float, measured_rad: float, dt_s: float,
+             ambient_c: Optional[float] = None) -> ControlStep:
         """
         Run one control sample and return its `ControlStep` (duty_a, duty_b, internals).
 
@@ -353,7 +360,9 @@ class ControllerCore:
         return ControlStep(duty_a, duty_b, error, u_ff, (lim_a, lim_b), tuple(theta),
                            self.pi.saturated, min(g_a, g_b) < s.duty_max)
 
-    def _inverse_step(self, r, y, dt, ambient_c, theta, lim_a, lim_b):
+    def _inverse_step(self, r: float, y: float, dt: float, ambient_c: Optional[float],
+                      theta: Sequence[float], lim_a: float,
+                      lim_b: float) -> Tuple[float, float]:
         """Mode pi_inverse (module docstring): (u, u_ff)."""
         s, p = self.settings, self.model
         delay = p.delay_s
@@ -381,7 +390,7 @@ class ControllerCore:
             lo, hi = (0.0 if side > 0 else lo), (0.0 if side < 0 else hi)
         return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
 
-    def _crossing(self, r):
+    def _crossing(self, r: float) -> Tuple[Optional[int], float]:
         """
         Return (incoming wire or None, t_c [s]) of the next zero crossing of the target.
 
@@ -397,7 +406,7 @@ class ControllerCore:
             incoming, t_cross = (0 if rate > 0 else 1), distance / rate
         return incoming, t_cross
 
-    def idle(self, dt, ambient_c=None):
+    def idle(self, dt: float, ambient_c: Optional[float] = None) -> ControlStep:
         """Fault path (stale feedback): zero duty, integrator cleared, estimate keeps running."""
         self._advance(finite_scalar('dt', dt), ambient_c)
         self.pi.reset()

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-MODEL.yaml: which effects a model includes and, once fitted, their values.
+The package's one model file: what ``sma-model fit --out`` writes and everything reads.
 
-Shape (written from the engine's ``ModelFit.to_dict()``, read back by ``load_fit``)::
+The workbench reads and writes it (`sma-model fit --out`, `compare --model`); the
+controller, plant_sim and the ROS-free API read the actuator model out of it with
+`load_model`. The format is described once, in docs/workbench.md ("The model file")::
 
     effects: [saturation, delay]      # catalog effect names (required)
     kind: modified                    # hysteresis base: classical | modified (optional)
@@ -25,26 +27,47 @@ Shape (written from the engine's ``ModelFit.to_dict()``, read back by ``load_fit
                                       # {hysteresis: ...} (static curves) (FITTED.yaml only)
     scores: {train: {...}, validation: {...}}
 
-A hand-written MODEL.yaml needs only ``effects`` (and ``kind`` for a classical base);
-`compare` needs a fitted file (written by ``sma-model fit --out``).
+A hand-written MODEL.yaml needs only ``effects`` (and ``kind`` for a classical base).
+Other top-level keys (provenance, layouts, units added by newer writers) are kept out of
+the way. Files of the old controller format (the `ActuatorParams` fields at the top level,
+as config/ held before) are converted by `load_model`, with a `ModelFormatWarning` that
+says how to rewrite them.
 """
+from __future__ import annotations
+
+from dataclasses import fields
 import os
 from pathlib import Path
 import tempfile
+from typing import Any, Collection, Iterable, Mapping, Optional, Union
+import warnings
 
 import numpy as np
 import yaml
 
+from .actuator import ActuatorParams
+
+__all__ = ['KINDS', 'ModelFileError', 'ModelFormatWarning', 'check_model', 'check_writable',
+           'is_fitted', 'is_static_model', 'load_model', 'read_model', 'save_model',
+           'to_plain', 'write_model']
+
 KINDS = ('classical', 'modified')
+_FIELDS = frozenset(f.name for f in fields(ActuatorParams))
+
+PathLike = Union[str, os.PathLike]
 
 
 class ModelFileError(ValueError):
-    """MODEL.yaml cannot be read or written as asked; the message names the file."""
+    """A model file cannot be read or written as asked; the message names the file."""
 
 
-def read_model(path, known_effects=None):
+class ModelFormatWarning(UserWarning):
+    """A model file was read in an older or newer shape than this package writes."""
+
+
+def read_model(path: PathLike, known_effects: Optional[Collection[str]] = None) -> dict:
     """
-    Read and check MODEL.yaml; returns the dict (effects list, optional kind, ...).
+    Read and check a model file; return the dict (effects list, optional kind, ...).
 
     known_effects: names accepted in ``effects`` (default: no name check).
     """
@@ -66,8 +89,9 @@ def read_model(path, known_effects=None):
     return check_model(spec, path, known_effects)
 
 
-def check_model(spec, source, known_effects=None):
-    """Check the shape of a model dict; raises `ModelFileError` naming `source`."""
+def check_model(spec: Any, source: Union[str, os.PathLike],
+                known_effects: Optional[Collection[str]] = None) -> dict:
+    """Check the shape of a model dict; raise `ModelFileError` naming `source`."""
     if not isinstance(spec, dict):
         raise ModelFileError(f'{source}: expected a mapping with an "effects" list, got '
                              f'{type(spec).__name__}')
@@ -91,17 +115,17 @@ def check_model(spec, source, known_effects=None):
     return dict(spec, effects=list(effects))
 
 
-def is_fitted(spec):
+def is_fitted(spec: Mapping[str, Any]) -> bool:
     """Return True if the model dict carries fitted values (a non-empty 'model' section)."""
     return bool(spec.get('model'))
 
 
-def is_static_model(spec):
+def is_static_model(spec: Mapping[str, Any]) -> bool:
     """Return True if the fitted model is a static hysteresis operator (fitted on curve data)."""
     return set(spec.get('model') or {}) == {'hysteresis'}
 
 
-def check_writable(path, force=False):
+def check_writable(path: PathLike, force: bool = False) -> None:
     """Raise `ModelFileError` if writing `path` would overwrite a file without force."""
     path = Path(path)
     if path.is_dir():
@@ -112,7 +136,7 @@ def check_writable(path, force=False):
         raise ModelFileError(f'{path}: directory {path.parent} does not exist')
 
 
-def to_plain(obj):
+def to_plain(obj: Any) -> Any:
     """Numpy scalars/arrays and tuples -> plain Python (YAML- and JSON-safe)."""
     if isinstance(obj, dict):
         return {str(k): to_plain(v) for k, v in obj.items()}
@@ -125,7 +149,7 @@ def to_plain(obj):
     return obj
 
 
-def write_model(path, spec, force=False):
+def write_model(path: PathLike, spec: Mapping[str, Any], force: bool = False) -> Path:
     """Write the model dict to `path` as YAML (atomically: temporary file, then rename)."""
     check_writable(path, force)
     path = Path(path)
@@ -138,4 +162,57 @@ def write_model(path, spec, force=False):
     except BaseException:
         os.unlink(tmp)
         raise
+    return path
+
+
+def load_model(path: PathLike) -> ActuatorParams:
+    """
+    Return the actuator model (`ActuatorParams`) of a model file.
+
+    path: a file written by ``sma-model fit --out`` (or `save_model`); an old-style file
+    (the `ActuatorParams` fields at the top level) is converted with a
+    `ModelFormatWarning`. Raises `ModelFileError` (a ValueError) with a one-line message
+    naming the file when it cannot be used for control: missing, not YAML, a static
+    (curve-only) fit, or invalid parameter values.
+    """
+    spec = read_model(path)
+    model = spec.get('model')
+    if not model:
+        top = set(spec) - {'effects'}
+        if top and top <= _FIELDS:
+            warnings.warn(f'{path}: old controller model format (ActuatorParams at the top '
+                          'level), converted; rewrite it with sma_actuator.core.model_file.'
+                          'save_model or sma-model fit --out', ModelFormatWarning, stacklevel=2)
+            model = {k: v for k, v in spec.items() if k in _FIELDS}
+        else:
+            raise ModelFileError(f'{path}: no fitted model (the "model" section written by '
+                                 'sma-model fit --out)')
+    if set(model) == {'hysteresis'}:
+        raise ModelFileError(f'{path}: a static (curve) fit has no thermal model; fit a '
+                             'time-series recording for control')
+    unknown = sorted(set(model) - _FIELDS)
+    if unknown:
+        warnings.warn(f'{path}: model keys not known to this version ignored: {unknown}',
+                      ModelFormatWarning, stacklevel=2)
+    try:
+        return ActuatorParams.from_dict({k: v for k, v in model.items() if k in _FIELDS})
+    except (TypeError, ValueError, KeyError) as err:
+        raise ModelFileError(f'{path}: invalid model: {err}') from None
+
+
+def save_model(params: ActuatorParams, path: PathLike, header: str = '',
+               effects: Iterable[str] = (), scores: Optional[Mapping[str, Any]] = None,
+               force: bool = True) -> Path:
+    """
+    Write `params` in the model file format, with a comment header.
+
+    header: provenance lines written as ``# ...`` comments above the YAML; effects: the
+    catalog effects the model carries; scores: optional fit scores.
+    """
+    spec = {'effects': list(effects), 'kind': 'modified', 'parameters': {},
+            'model': to_plain(params.to_dict()), 'scores': to_plain(scores or {})}
+    path = write_model(path, spec, force=force)
+    if header:
+        text = ''.join(f'# {line}\n' for line in header.splitlines())
+        path.write_text(text + Path(path).read_text(encoding='utf-8'), encoding='utf-8')
     return path
