@@ -55,8 +55,8 @@ from .validate import finite_array, same_length
 # solved linearly with the weights (no outer search): the roles declared in `ActuatorParams`
 FEEDBACK_PARAMS = act.FEEDBACK_PARAMS
 LINEAR_PARAMS = act.LINEAR_PARAMS
-# feedback fixed-point iterations per settle (see `_settle`): 1 -> 4 took a phase-resistance
-# fit at the true kappa from 0.48 % to 0.13 % training NRMSE; 8 gave the same
+# feedback fixed-point iterations per settle (see `_settle`): enough for the feedback
+# weights to reach their fixed point; more iterations do not change the fit
 FIXED_POINT_STEPS = 4
 
 # regression rows are thinned to about this rate: the thermal lag (~1 s) makes denser
