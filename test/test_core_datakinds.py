@@ -72,3 +72,26 @@ def test_both_kinds_name_their_report_figures_and_axis():
         assert data.kind in ('dynamic', 'static')
         assert 'residual.png' in dict(data.figures)
         assert data.axis_label
+
+
+def test_the_rig_and_the_scored_split_are_the_records_and_empty_for_curves():
+    assert _dynamic(position_unit='mm', layout='single').rig() == {'position_unit': 'mm',
+                                                                   'layout': 'single'}
+    assert _static().rig() == {}
+    scored = np.ones(100, bool)
+    scored[50:55] = False
+    # 5 gap samples before the split's start drop out; the burn-in is not carried over
+    assert _dynamic(scored=scored).scored_split(Split(60, burn_in=10)) == Split(55)
+    assert _dynamic().scored_split(Split(60)) == Split(60)
+    assert _dynamic(scored=scored).scored_split(None) is None
+    assert _static().scored_split(Split(curves=(1,))) == Split(curves=(1,))
+
+
+def test_both_kinds_say_what_they_are_in_a_table_row_and_a_sentence():
+    row = _dynamic().columns()
+    assert row == {'samples': 100, 'duration_s': pytest.approx(9.9), 'rate_hz': pytest.approx(10),
+                   'layout': 'antagonistic', 'position_unit': 'rad'}
+    assert _static().columns() == {'samples': 20, 'duration_s': None, 'rate_hz': None,
+                                   'layout': 'static curves', 'position_unit': None}
+    assert (_dynamic().noun, _static().noun) == ('a dynamic record', 'static curves')
+    assert _dynamic().joinable and not _static().joinable

@@ -17,7 +17,7 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import check_excitation, DataError, describe, is_static, load_data
+from sma_actuator.workbench.data import check_excitation, DataError, describe, load_data
 
 REAL = real_data_path()
 
@@ -56,7 +56,7 @@ def _rewrite(path, lines):
 def test_dynamic_csv_loads_values_and_optional_ambient(dynamic_csv):
     data = load_data(dynamic_csv)
     t, da, db, pos = _dynamic_rows()
-    assert isinstance(data, DynamicData) and not is_static(data)
+    assert isinstance(data, DynamicData) and data.kind == 'dynamic'
     np.testing.assert_allclose(data.time, t, atol=1e-9)
     np.testing.assert_allclose(data.duty_b, db, atol=1e-6)
     np.testing.assert_allclose(data.position, pos, atol=1e-6)
@@ -77,7 +77,7 @@ def test_column_order_case_and_extra_columns_do_not_matter(tmp_path):
 
 def test_real_morphing_wing_curves_load_as_static_data():
     data = load_data(REAL)
-    assert is_static(data)
+    assert data.kind == 'static'
     assert sorted(set(data.curve.tolist())) == list(range(11))
     assert len(data.input) == 642          # 648 lines - 5 comments - 1 header
     assert data.input.max() == pytest.approx(3.5)
@@ -87,7 +87,7 @@ def test_real_morphing_wing_curves_load_as_static_data():
 def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
     u = np.linspace(0, 1, 12)
     data = load_data(_write(tmp_path / 's.csv', 'input,output', np.column_stack([u, u ** 2])))
-    assert is_static(data)
+    assert data.kind == 'static'
     np.testing.assert_array_equal(data.curve, np.zeros(12, int))
     np.testing.assert_allclose(data.output, u ** 2, atol=1e-6)
 

@@ -28,7 +28,9 @@ Callers ask the data instead of testing its kind:
   train/validation division (a `Split`, one type for both kinds);
 * ``simulate(model)``: the prediction of a fitted model over every sample (one flat array);
 * ``unsupported(effect)``: why an effect cannot be fitted on this data, or None;
-* ``regime_axis`` / ``figures``: the x axis of plots and the figures a report draws.
+* ``regime_axis`` / ``figures``: the x axis of plots and the figures a report draws;
+* ``noun``, ``joinable``, ``rig()``, ``scored_split(split)`` and ``columns()``: what the
+  command line says about the data and checks against a model file.
 """
 from dataclasses import dataclass
 from typing import Any, ClassVar, Optional
@@ -71,6 +73,22 @@ class _Data:
     figures: ClassVar[tuple] = ()
     #: label of the sample axis of residual plots
     axis_label: ClassVar[str] = ''
+    #: what the data is, in a sentence ('a dynamic record', 'static curves')
+    noun: ClassVar[str] = ''
+    #: several files of this kind can be joined into one data set
+    joinable: ClassVar[bool] = False
+
+    def rig(self) -> dict:
+        """Return the rig settings a model fitted on this data must share ({} for none)."""
+        return {}
+
+    def scored_split(self, split: Optional[Split]) -> Optional[Split]:
+        """Return `split` counted over the scored samples only (data with gaps cut out)."""
+        return split
+
+    def columns(self) -> dict:
+        """Return the table columns saying what the data is: samples, duration, rate, rig."""
+        raise NotImplementedError
 
     # `output` (the measured output) is a field or a property of each kind
 
@@ -156,6 +174,8 @@ class DynamicData(_Data):
         ('residual.png', 'Residual e = measured − model'),
         ('hysteresis.png', 'Hysteresis plane: measured and model'))
     axis_label: ClassVar[str] = 'time [s]'
+    noun: ClassVar[str] = 'a dynamic record'
+    joinable: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         """Check the arrays: finite, of one length, time rising uniformly, duties in [0, 1]."""
@@ -219,6 +239,31 @@ class DynamicData(_Data):
             return 'needs two wires (this is a single wire against a bias spring)'
         return effect.applicable(self)
 
+    def rig(self) -> dict:
+        """Return the position unit and wire layout, which a model file fitted here records."""
+        return {'position_unit': self.position_unit, 'layout': self.layout}
+
+    def scored_split(self, split: Optional[Split]) -> Optional[Split]:
+        """
+        Return the time split `split` as an index into the scored samples (no burn-in).
+
+        start' = number of scored samples before `split.start` (the rest gaps are cut out).
+        """
+        if split is None:
+            return None
+        start = split.start
+        if self.scored is not None:
+            start = int(np.count_nonzero(self.scored[:start]))
+        return Split(start)
+
+    def columns(self) -> dict:
+        """Return samples, duration [s], rate [Hz], layout and position unit of the record."""
+        single = not np.any(self.duty_b)
+        return {'samples': len(self), 'duration_s': float(self.time[-1] - self.time[0]),
+                'rate_hz': float(1.0 / self.dt),
+                'layout': self.layout or ('single' if single else 'antagonistic'),
+                'position_unit': self.position_unit or 'rad'}
+
     def excitation_problem(self) -> Optional[str]:
         """Return why the record cannot identify the model: duties or position constant."""
         if np.ptp(self.duty_a) + np.ptp(self.duty_b) < MIN_DUTY_EXCITATION:
@@ -253,6 +298,7 @@ class StaticData(_Data):
          'validation curves)'),
         ('residual.png', 'Residual e = measured − model'))
     axis_label: ClassVar[str] = 'sample (curves in file order)'
+    noun: ClassVar[str] = 'static curves'
 
     def __len__(self) -> int:
         """Return the number of points."""
@@ -301,6 +347,11 @@ class StaticData(_Data):
         if reason is None and effect.needs_dynamic:
             reason = 'needs dynamic (time-series) data'
         return reason
+
+    def columns(self) -> dict:
+        """Return the number of points; curves have no duration, rate or known unit."""
+        return {'samples': len(self), 'duration_s': None, 'rate_hz': None,
+                'layout': 'static curves', 'position_unit': getattr(self, 'unit', None)}
 
     def excitation_problem(self) -> Optional[str]:
         """Return why the curves cannot identify the model: output or input constant."""

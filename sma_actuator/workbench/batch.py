@@ -41,8 +41,6 @@ import sys
 import time
 from typing import Any, Iterator, Optional
 
-import numpy as np
-
 RESULT_FILE = 'result.json'
 TABLE_NAME = 'batch'
 RECORD_SUFFIXES = ('.csv', '.mcap')
@@ -204,15 +202,7 @@ def compare_reference(spec: dict, data: Any) -> float:
 
 def describe_record(data: Any) -> dict:
     """Table columns that say what a record is: size, rate, rig layout, position unit."""
-    from .data import is_static
-    if is_static(data):
-        return {'samples': len(data), 'duration_s': None, 'rate_hz': None,
-                'layout': 'static curves', 'position_unit': getattr(data, 'unit', None)}
-    single = not np.any(data.duty_b)
-    return {'samples': len(data), 'duration_s': float(data.time[-1] - data.time[0]),
-            'rate_hz': float(1.0 / data.dt),
-            'layout': getattr(data, 'layout', None) or ('single' if single else 'antagonistic'),
-            'position_unit': getattr(data, 'position_unit', None) or 'rad'}
+    return data.columns()
 
 
 def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:

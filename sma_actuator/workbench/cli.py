@@ -40,6 +40,8 @@ from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..core.datakinds import DynamicData, Split, StaticData
+
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 PROG = 'sma-model'
@@ -158,7 +160,7 @@ def load_checked_data(args: argparse.Namespace) -> Any:
     and dynamic records, several static files, and records that cannot be fitted together
     are bad input.
     """
-    from .data import check_excitation, is_static, load_data
+    from .data import check_excitation, load_data
     from .records import join
     paths = all_data(args)
     unit = getattr(args, 'position_unit', None)
@@ -167,16 +169,18 @@ def load_checked_data(args: argparse.Namespace) -> Any:
         d = load_data(path, rate_hz=args.rate, position_unit=unit)
         check_excitation(d, path)
         loaded.append((path, d))
-    static = [p for p, d in loaded if is_static(d)]
-    if static and len(static) < len(loaded):
-        dyn = next(p for p, d in loaded if not is_static(d))
-        raise UsageError(f'{static[0]} holds static curves but {dyn} is a dynamic record; '
+    first = loaded[0][1]
+    other = next(((p, d) for p, d in loaded if d.kind != first.kind), None)
+    if other:
+        path_of = {first.kind: loaded[0][0], other[1].kind: other[0]}
+        raise UsageError(f'{path_of[StaticData.kind]} holds static curves but '
+                         f'{path_of[DynamicData.kind]} is a dynamic record; '
                          'fit static and dynamic data separately')
-    if static:
+    if not first.joinable:
         if len(loaded) > 1:
-            raise UsageError(f'{static[1]}: give static curves as one file (curve ids in a '
+            raise UsageError(f'{loaded[1][0]}: give {first.noun} as one file (curve ids in a '
                              'curve column)')
-        return loaded[0][1]
+        return first
     layout = getattr(args, 'layout', None)
     for path, d in loaded:
         if layout == 'single' and np.any(d.duty_b):
@@ -196,9 +200,14 @@ def load_checked_data(args: argparse.Namespace) -> Any:
 
 def data_lines(data: Any) -> List[str]:
     """Return one line per record of `data`: 'NAME: dynamic record: ...' (role if joined)."""
-    from .data import describe, is_static
+    return _KINDS[data.kind].lines(data)
+
+
+def _record_lines(data: DynamicData) -> List[str]:
+    """Return one line per joined record of `data` (its name and role before its description)."""
+    from .data import describe
     from .records import segment_view
-    if is_static(data) or not data.segments:
+    if not data.segments:
         return [describe(data)]
     if len(data.segments) == 1:
         return [f'{data.segments[0][0]}: {describe(data)}']
@@ -207,6 +216,63 @@ def data_lines(data: Any) -> List[str]:
         role = 'validation' if data.split is not None and a >= data.split else 'train'
         out.append(f'{name} ({role}): {describe(segment_view(data, a, b))}')
     return out
+
+
+class _DynamicKind:
+    """What the commands do with a dynamic record: per-record lines and scores, gaps cut."""
+
+    lines = staticmethod(_record_lines)
+
+    @staticmethod
+    def records(data: DynamicData, prediction: np.ndarray,
+                split: Optional[Split] = None) -> List[Dict[str, Any]]:
+        """Return the per-record scores of `prediction` (`engine.record_scores`)."""
+        from .engine import record_scores
+        return record_scores(data, prediction, split)
+
+    @staticmethod
+    def scored(data: DynamicData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
+               split: Optional[Split]) -> tuple:
+        """Return (data, prediction, signals, split) with the rest gaps between records cut."""
+        from .records import scored_view
+        view, pred, sig = scored_view(data, prediction, signals)
+        return view, pred, sig, data.scored_split(split)
+
+    @staticmethod
+    def json(data: DynamicData, records: List[Dict[str, Any]]) -> Dict[str, Any]:
+        """Return the records' scores and the rig settings for `compare --json`."""
+        return {'records': records} | data.rig()
+
+
+class _StaticKind:
+    """What the commands do with static curves: one line, no records, all points scored."""
+
+    @staticmethod
+    def lines(data: StaticData) -> List[str]:
+        """Return the one line describing the curves."""
+        from .data import describe
+        return [describe(data)]
+
+    @staticmethod
+    def records(data: StaticData, prediction: np.ndarray,
+                split: Optional[Split] = None) -> List[Dict[str, Any]]:
+        """Return no per-record scores (the curves are one file)."""
+        return []
+
+    @staticmethod
+    def scored(data: StaticData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
+               split: Optional[Split]) -> tuple:
+        """Return (data, prediction, signals, split) as they are: every point is measured."""
+        return data, prediction, signals, split
+
+    @staticmethod
+    def json(data: StaticData, records: List[Dict[str, Any]]) -> Dict[str, Any]:
+        """Return nothing to add to `compare --json`."""
+        return {}
+
+
+# the command-line handling of each data kind (like compare's _VIEWS: it needs workbench code)
+_KINDS = {DynamicData.kind: _DynamicKind, StaticData.kind: _StaticKind}
 
 
 def read_model_spec(path: str, catalog: Mapping[str, Any]) -> Dict[str, Any]:
@@ -324,11 +390,7 @@ def unit_of(data: Any) -> str:
 
 def per_record(fit: Any, data: Any) -> List[Dict[str, Any]]:
     """Return the per-record scores of a dynamic fit ([] for static curves)."""
-    from .data import is_static
-    from .engine import record_scores
-    if is_static(data):
-        return []
-    return record_scores(data, fit.prediction, fit.split)
+    return _KINDS[data.kind].records(data, fit.prediction, fit.split)
 
 
 def fit_json(fit: Any, out: Optional[str],
@@ -350,10 +412,8 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, summary_lines
-    from .data import is_static
-    from .engine import load_fit, record_scores, Split
+    from .engine import load_fit
     from ..core.model_file import is_fitted, is_static_model
-    from .records import scored_view
     from .report import check_report_dir
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
@@ -365,24 +425,21 @@ def cmd_compare(args: argparse.Namespace) -> int:
                          f'{PROG} fit DATA --out FITTED.yaml first')
     data = load_checked_data(args)
     names = ' '.join(all_data(args))
-    if is_static_model(spec) != is_static(data):
-        kinds = ('static curves', 'a dynamic record')
-        raise UsageError(f'{args.model} was fitted on {kinds[not is_static_model(spec)]} but '
-                         f'{names} is {kinds[not is_static(data)]}')
-    if not is_static(data):
-        check_rig(spec, data, args.model)
+    fitted_on = StaticData if is_static_model(spec) else DynamicData
+    if fitted_on.kind != data.kind:
+        raise UsageError(f'{args.model} was fitted on {fitted_on.noun} but '
+                         f'{names} is {data.noun}')
+    check_rig(spec, data, args.model)
     try:
         fit = load_fit(spec, data=data)
     except (KeyError, TypeError, ValueError) as err:
         what = f'missing {err}' if isinstance(err, KeyError) else str(err)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
-    records = []
-    if is_static(data):
-        result = compare(data, fit.prediction, model_signals(fit, data))
-    else:
-        records = record_scores(data, fit.prediction)
-        view, pred, sig = scored_view(data, fit.prediction, model_signals(fit, data))
-        result = compare(view, pred, sig, split=Split(0) if len(records) > 1 else None)
+    kind = _KINDS[data.kind]
+    records = kind.records(data, fit.prediction)
+    view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
+                                         Split(0) if len(records) > 1 else None)
+    result = compare(view, pred, sig, split=split)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data)
     if args.report:
@@ -391,9 +448,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         doc = {'data': str(args.data[0]) if len(all_data(args)) == 1 else all_data(args),
                'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
         doc |= result.to_json()
-        if not is_static(data):
-            doc |= {'records': records, 'position_unit': data.position_unit,
-                    'layout': data.layout}
+        doc |= kind.json(data, records)
         print_json(doc)
     else:
         print('\n'.join(lines))
@@ -408,7 +463,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:
     """Raise UsageError if the model file's position unit or layout differ from the data's."""
-    for key, value in (('position_unit', data.position_unit), ('layout', data.layout)):
+    for key, value in data.rig().items():
         want = spec.get(key)
         if want is not None and want != value:
             raise UsageError(f'{source}: fitted with {key} {want}, but the data has {value} '
@@ -431,9 +486,7 @@ def _write_report(args: argparse.Namespace, comparison: Any, title: str, data_li
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run `sma-model diagnose`: refit with each candidate effect, rank by held-out improvement."""
     from .compare import compare
-    from .data import is_static
-    from .engine import diagnose_rounds, fit_model, Split
-    from .records import scored_view
+    from .engine import diagnose_rounds, fit_model
     from .report import check_report_dir
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
@@ -464,16 +517,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         b0 = first.baseline
         best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
         pred0, alt_pred = b0.prediction, (best['fit'].prediction if best else None)
-        if is_static(data):
-            view, sig, alt = data, b0.signals, alt_pred
-            result = compare(data, pred0, sig, split=b0.split)
-        else:
-            view, pred0, sig = scored_view(data, pred0, b0.signals)
-            alt = None if alt_pred is None else scored_view(data, alt_pred, {})[1]
-            start = b0.split.start
-            if data.scored is not None:
-                start = int(np.count_nonzero(data.scored[:start]))
-            result = compare(view, pred0, sig, split=Split(start))
+        scored = _KINDS[data.kind].scored
+        view, pred0, sig, split = scored(data, pred0, b0.signals, b0.split)
+        alt = None if alt_pred is None else scored(data, alt_pred, {}, None)[1]
+        result = compare(view, pred0, sig, split=split)
         alternative = (f'model + {best["effect"]}', alt) if best else None
         model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.values}
         _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',

@@ -386,11 +386,6 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None) -> DynamicData:
 
 
 # ------------------------------------------------------------------------------ checks
-def is_static(data: Any) -> bool:
-    """Return True for static curve data (no time axis), False for a `DynamicData`."""
-    return data.kind == StaticData.kind
-
-
 def check_excitation(data: Any, source: str = 'DATA') -> None:
     """Raise `DataError` if the record cannot identify the model: constant output or input."""
     problem = data.excitation_problem()
