@@ -201,9 +201,9 @@ def _is_count(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 1 << 63
 
 
-def _check_schema(path: Path, info: Dict[str, Any]):
+def _check_schema(path: Path, info: Dict[str, Any]) -> None:
     """Raise BagError naming the first field this package reads that has the wrong type."""
-    def bad(field_name, want):
+    def bad(field_name, want) -> None:
         raise BagError(path, f'metadata field {field_name} must be {want}')
 
     paths = info.get('relative_file_paths')

@@ -75,7 +75,7 @@ class _McapFile:
     lost.
     """
 
-    def __init__(self, path: Path, expected: Optional['_Expected'] = None):
+    def __init__(self, path: Path, expected: Optional['_Expected'] = None) -> None:
         self.path = path
         self.recovery: Optional[RecoveryReport] = None
         self._spans = None
@@ -293,14 +293,14 @@ class BagReader:
     :raises UnknownTypeError: One topic is stored with two different types.
     """
 
-    def __init__(self, path: Union[str, Path]):
+    def __init__(self, path: Union[str, Path]) -> None:
         self.path = Path(path)
         self._files = [_McapFile(p, expected) for p, expected in _bag_files(self.path)]
         self.topics: Dict[str, TopicInfo] = {}
         for f in self._files:
             self._collect_topics(f)
 
-    def _collect_topics(self, f: _McapFile):
+    def _collect_topics(self, f: _McapFile) -> None:
         for cid, ch in f.channels.items():
             schema = f.schemas.get(ch.schema_id)
             type_name = schema.name if schema else ''
