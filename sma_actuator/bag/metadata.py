@@ -25,7 +25,7 @@ yaml-cpp emits them, and null is written ``~``.
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Tuple
 
 import yaml
 
@@ -77,7 +77,7 @@ class BagRecord:
     compression_format: str = ''
     compression_mode: str = ''
 
-    def span_ns(self):
+    def span_ns(self) -> Tuple[int, int]:
         """Return ``(starting_time, duration)`` [ns] over all files that hold messages."""
         spans = [(f.starting_time_ns, f.starting_time_ns + f.duration_ns)
                  for f in self.files if f.message_count]

@@ -73,8 +73,8 @@ class UartLine:
         self._free_at_s = done
         self._queue.append((done, bytes(data)))
 
-    def next_arrival_s(self):
-        """Time [s] the next queued chunk arrives, or None."""
+    def next_arrival_s(self) -> float | None:
+        """Return the time [s] the next queued chunk arrives, or None."""
         return self._queue[0][0] if self._queue else None
 
     def arrived(self, now_s: float) -> bytes:
@@ -106,8 +106,8 @@ class PtyTransport:
             self.port = link_path
         self.dropped_bytes = 0
 
-    def fds(self):
-        """File descriptors to wait on."""
+    def fds(self) -> list[int]:
+        """Return the file descriptors to wait on."""
         return [self.master]
 
     def read(self, fd) -> bytes:
@@ -148,8 +148,8 @@ class TcpTransport:
         self.client = None
         self.dropped_bytes = 0
 
-    def fds(self):
-        """Sockets to wait on."""
+    def fds(self) -> list[socket.socket]:
+        """Return the sockets to wait on."""
         return [self.server] + ([self.client] if self.client else [])
 
     def read(self, fd) -> bytes:
@@ -279,7 +279,7 @@ class Emulator:
                 transport.write(out)
 
 
-def _parse_args(argv):
+def _parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog='mcu_emulator',
                                      description=__doc__.strip().splitlines()[0])
     add = parser.add_argument
@@ -300,7 +300,7 @@ def _parse_args(argv):
     return args
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     """Console script `mcu_emulator`: serve until SIGINT/SIGTERM."""
     args = _parse_args(sys.argv[1:] if argv is None else argv)
     from sma_actuator.core.actuator import ActuatorParams
