@@ -30,7 +30,7 @@ class BagError(ValueError):
     :param problem: What is wrong, in words a user can act on.
     """
 
-    def __init__(self, path: Optional[Union[str, Path]], problem: str):
+    def __init__(self, path: Optional[Union[str, Path]], problem: str) -> None:
         self.path = None if path is None else Path(path)
         self.problem = problem
         super().__init__(problem if path is None else f'{path}: {problem}')

@@ -25,7 +25,7 @@ yaml-cpp emits them, and null is written ``~``.
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Tuple
 
 import yaml
 
@@ -77,7 +77,7 @@ class BagRecord:
     compression_format: str = ''
     compression_mode: str = ''
 
-    def span_ns(self):
+    def span_ns(self) -> Tuple[int, int]:
         """Return ``(starting_time, duration)`` [ns] over all files that hold messages."""
         spans = [(f.starting_time_ns, f.starting_time_ns + f.duration_ns)
                  for f in self.files if f.message_count]
@@ -201,9 +201,9 @@ def _is_count(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 1 << 63
 
 
-def _check_schema(path: Path, info: Dict[str, Any]):
+def _check_schema(path: Path, info: Dict[str, Any]) -> None:
     """Raise BagError naming the first field this package reads that has the wrong type."""
-    def bad(field_name, want):
+    def bad(field_name, want) -> None:
         raise BagError(path, f'metadata field {field_name} must be {want}')
 
     paths = info.get('relative_file_paths')

@@ -64,7 +64,7 @@ def read_ahead(messages: Iterable[BagMessage], stop: threading.Event,
     done = object()
     quit_reader = threading.Event()
 
-    def fill():
+    def fill() -> None:
         try:
             for msg in messages:
                 while not (stop.is_set() or quit_reader.is_set()):
@@ -102,7 +102,7 @@ class PlaybackOptions:
     start_offset_s: float = 0.0
     clock_period_s: Optional[float] = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not self.rate > 0:
             raise ValueError(f'rate must be > 0, got {self.rate}')
         if self.start_offset_s < 0:
@@ -139,7 +139,7 @@ class Player:
                  publish: Callable[[BagMessage], None], options: PlaybackOptions, *,
                  on_clock: Optional[Callable[[int], None]] = None,
                  now_ns: Callable[[], int] = time.monotonic_ns,
-                 sleep_until: Optional[Callable[[int, threading.Event], bool]] = None):
+                 sleep_until: Optional[Callable[[int, threading.Event], bool]] = None) -> None:
         self._messages = messages
         self._start_ns = bag_start_ns + int(round(options.start_offset_s * _NS))
         self._publish = publish

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import io
 from pathlib import Path
 import struct
-from typing import Dict, Iterable, Iterator, List, Optional, Union
+from typing import Dict, Iterable, Iterator, List, Optional, Tuple, Union
 import zlib
 
 from mcap.data_stream import ReadDataStream
@@ -75,7 +75,7 @@ class _McapFile:
     lost.
     """
 
-    def __init__(self, path: Path, expected: Optional['_Expected'] = None):
+    def __init__(self, path: Path, expected: Optional['_Expected'] = None) -> None:
         self.path = path
         self.recovery: Optional[RecoveryReport] = None
         self._spans = None
@@ -251,7 +251,7 @@ def _bag_files(path: Path):
         if files:
             return list(zip(files, _expected_counts(info, len(files))))
 
-    def split_index(p: Path):
+    def split_index(p: Path) -> Tuple[int, str]:
         tail = p.stem.rsplit('_', 1)[-1]
         return (int(tail) if tail.isdigit() else -1, p.name)
 
@@ -293,14 +293,14 @@ class BagReader:
     :raises UnknownTypeError: One topic is stored with two different types.
     """
 
-    def __init__(self, path: Union[str, Path]):
+    def __init__(self, path: Union[str, Path]) -> None:
         self.path = Path(path)
         self._files = [_McapFile(p, expected) for p, expected in _bag_files(self.path)]
         self.topics: Dict[str, TopicInfo] = {}
         for f in self._files:
             self._collect_topics(f)
 
-    def _collect_topics(self, f: _McapFile):
+    def _collect_topics(self, f: _McapFile) -> None:
         for cid, ch in f.channels.items():
             schema = f.schemas.get(ch.schema_id)
             type_name = schema.name if schema else ''
@@ -351,7 +351,7 @@ class BagReader:
         for f in self._files:
             yield from f.messages(topics, start_time_ns)
 
-    def time_range_ns(self):
+    def time_range_ns(self) -> Tuple[Optional[int], Optional[int]]:
         """Return ``(first, last)`` log time [ns] over the bag, or ``(None, None)`` if empty."""
         first = last = None
         for msg in self.messages():

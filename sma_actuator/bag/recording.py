@@ -37,7 +37,7 @@ class TopicSelector:
     :raises ValueError: No pattern, a pattern with ``~`` or a namespace that is not absolute.
     """
 
-    def __init__(self, patterns: Iterable[str], namespace: str = '/'):
+    def __init__(self, patterns: Iterable[str], namespace: str = '/') -> None:
         if patterns is None or isinstance(patterns, (str, bytes)) or not all(
                 isinstance(p, str) for p in patterns):
             # `topics:=[]` on the command line arrives untyped (None): an empty selection

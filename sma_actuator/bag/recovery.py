@@ -261,7 +261,7 @@ def _span(offset: int, length: int, records) -> ChunkSpan:
     return ChunkSpan(offset, length, counts, min(times, default=None), max(times, default=None))
 
 
-def _note_definitions(result: ScanResult, records):
+def _note_definitions(result: ScanResult, records) -> None:
     for rec in records:
         if isinstance(rec, Schema):
             result.schemas.setdefault(rec.id, rec)
@@ -347,7 +347,7 @@ def scan(path: Path) -> ScanResult:
     return result
 
 
-def _walk(mm, size: int, result: ScanResult):
+def _walk(mm, size: int, result: ScanResult) -> None:
     pos = _MAGIC_SIZE
     while pos < size:
         if pos + _RECORD_HEAD.size > size:

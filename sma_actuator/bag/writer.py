@@ -78,7 +78,7 @@ def existing_bag_files(bag_dir: Path) -> List[Path]:
 class _TopicSpec:
     """What the bag stores about one topic."""
 
-    def __init__(self, name, type_name, qos_yaml, type_hash, definition, encoding):
+    def __init__(self, name, type_name, qos_yaml, type_hash, definition, encoding) -> None:
         self.record = TopicRecord(name=name, type=type_name, offered_qos_profiles=qos_yaml,
                                   type_description_hash=type_hash,
                                   serialization_format=encoding)
@@ -88,7 +88,7 @@ class _TopicSpec:
 class _StorageFile:
     """One open MCAP file of the bag, with its schema/channel ids and statistics."""
 
-    def __init__(self, path: Path, compression: CompressionType):
+    def __init__(self, path: Path, compression: CompressionType) -> None:
         # 'xb': never replace a file that appeared since the existence check.
         self.stream = open(path, 'xb')
         self.mcap = Writer(self.stream, chunk_size=_NEVER, compression=compression)
@@ -105,7 +105,7 @@ class _StorageFile:
         self.pending_bytes = 0
         self.chunk_started = None  # monotonic [s] of the first message in the open chunk
 
-    def add_topic(self, spec: _TopicSpec):
+    def add_topic(self, spec: _TopicSpec) -> None:
         rec = spec.record
         if rec.type not in self.schema_ids:
             self.schema_ids[rec.type] = self.mcap.register_schema(
@@ -117,7 +117,7 @@ class _StorageFile:
                       'topic_type_hash': rec.type_description_hash})
         self.sequence[rec.name] = 0
 
-    def write(self, topic, data, log_time_ns, publish_time_ns):
+    def write(self, topic, data, log_time_ns, publish_time_ns) -> None:
         self.sequence[topic] = (self.sequence[topic] + 1) & 0xFFFFFFFF
         self.mcap.add_message(channel_id=self.channel_ids[topic], log_time=log_time_ns,
                               data=data, publish_time=publish_time_ns,
@@ -133,14 +133,14 @@ class _StorageFile:
         if self.chunk_started is None:
             self.chunk_started = time.monotonic()
 
-    def flush(self):
+    def flush(self) -> None:
         """Close the open chunk (if any) and pass everything to the OS."""
         self.mcap.flush()
         self.bytes_written = self.stream.tell()
         self.pending_bytes = 0
         self.chunk_started = None
 
-    def close(self, serialized_metadata: str):
+    def close(self, serialized_metadata: str) -> None:
         self.mcap.add_metadata('rosbag2', {'serialized_metadata': serialized_metadata})
         self.mcap.finish()
         self.bytes_written = self.stream.tell()
@@ -174,7 +174,7 @@ class BagWriter:
     def __init__(self, path: Union[str, Path], *, compression: str = 'zstd',
                  chunk_size_bytes: int = 256 * 1024, chunk_max_age_s: float = 1.0,
                  max_file_size_bytes: int = 0, max_file_duration_s: float = 0.0,
-                 overwrite: bool = False, ros_distro: Optional[str] = None):
+                 overwrite: bool = False, ros_distro: Optional[str] = None) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression '{compression}' is not one of {sorted(COMPRESSIONS)}")
         if chunk_size_bytes <= 0 or chunk_max_age_s < 0:
@@ -206,7 +206,7 @@ class BagWriter:
         except OSError as err:
             raise BagWriteError(self.path, f'cannot create the bag: {_reason(err)}') from err
 
-    def _prepare_directory(self, overwrite: bool):
+    def _prepare_directory(self, overwrite: bool) -> None:
         if self.path.exists() and not self.path.is_dir():
             raise BagExistsError(self.path, 'exists and is not a directory; not replacing it')
         existing = existing_bag_files(self.path)
@@ -250,7 +250,7 @@ class BagWriter:
 
     def add_topic(self, name: str, type_name: str, offered_qos_profiles=None, *,
                   type_hash: Optional[str] = None, definition: Optional[str] = None,
-                  serialization_format: str = 'cdr'):
+                  serialization_format: str = 'cdr') -> None:
         """
         Declare a topic before writing to it.
 
@@ -285,7 +285,7 @@ class BagWriter:
             self._file.add_topic(spec)
 
     def write(self, topic: str, data: bytes, log_time_ns: int,
-              publish_time_ns: Optional[int] = None):
+              publish_time_ns: Optional[int] = None) -> None:
         """
         Write one serialized message.
 
@@ -310,7 +310,7 @@ class BagWriter:
                 spec.record.message_count += 1
                 self._flush_if_due_locked()
 
-    def flush(self):
+    def flush(self) -> None:
         """Close the open chunk and hand all data to the OS (it survives a crash after this)."""
         with self._lock:
             if not self._closed:
@@ -318,7 +318,7 @@ class BagWriter:
                 with self._io():
                     self._file.flush()
 
-    def flush_if_due(self):
+    def flush_if_due(self) -> None:
         """Close the open chunk if it is older than ``chunk_max_age_s`` (call periodically)."""
         with self._lock:
             if not self._closed:
@@ -351,12 +351,12 @@ class BagWriter:
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc) -> None:
         self.close()
 
     # -- internals ----------------------------------------------------------------------------
 
-    def _check_open(self):
+    def _check_open(self) -> None:
         if self._failed is not None:
             raise self._failed
         if self._closed:
@@ -371,7 +371,7 @@ class BagWriter:
             self._failed = BagWriteError(self.path, f'cannot write: {_reason(err)}')
             raise self._failed from err
 
-    def _close_after_failure(self):
+    def _close_after_failure(self) -> None:
         """Close what can be closed after a write failure; what was flushed stays readable."""
         try:
             self._file.stream.close()
@@ -393,7 +393,7 @@ class BagWriter:
         record.files = [self._file.record]
         return dump_serialized_metadata(record)
 
-    def _flush_if_due_locked(self):
+    def _flush_if_due_locked(self) -> None:
         f = self._file
         if f.chunk_started is None:
             return
@@ -412,7 +412,7 @@ class BagWriter:
         return bool(self._max_file_duration_ns) and (
             log_time_ns - f.record.starting_time_ns >= self._max_file_duration_ns)
 
-    def _split(self):
+    def _split(self) -> None:
         self._file.close(self._file_metadata())
         self._file = self._open_file(len(self._bag.files))
 

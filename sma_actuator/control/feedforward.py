@@ -44,12 +44,19 @@ always solved from the branch the wire is actually on, even when the thermal lag
 guard kept the wire from reaching the previous target. An idle wire gets zero
 feed-forward: holding it at the temperature where y just reaches 0 would only waste heat.
 """
+from __future__ import annotations
+
+from typing import Optional, Sequence, Tuple, TYPE_CHECKING
+
 import numpy as np
 
 from ..core.actuator import CONVECTION_REF_K
 from ..core.hysteresis import PlayHysteresis
 from ..core.thermal import thermal_step
 from ..core.validate import finite_scalar
+
+if TYPE_CHECKING:
+    from ..core.actuator import ActuatorParams
 
 # |Δy*| below this counts as "both wires idle": on the flat cold branch any temperature up
 # to the knee gives y = 0, and the inverse would otherwise pick the knee and heat needlessly
@@ -61,7 +68,8 @@ ONE_SIDED_MARGIN = 0.1
 class InverseFeedforward:
     """Feed-forward duties (d_a, d_b) for a desired shaft angle, from a model `ActuatorParams`."""
 
-    def __init__(self, params, duty_max=1.0, horizon_s=0.0):
+    def __init__(self, params: ActuatorParams, duty_max: float = 1.0,
+                 horizon_s: float = 0.0) -> None:
         self.params = params
         self.horizon_s = horizon_s
         self.duty_max = finite_scalar('duty_max', duty_max)
@@ -77,8 +85,8 @@ class InverseFeedforward:
         self._taus = (params.tau_s, params.tau_s * params.tau_ratio_b)
         self.reset()
 
-    def reset(self, theta_c=None):
-        """Both wires' inverse state on the cold (lower) branch at θ (default: model ambient)."""
+    def reset(self, theta_c: Optional[float] = None) -> None:
+        """Put both wires' inverse state on the cold branch at θ (default: model ambient)."""
         theta = self.params.ambient_c if theta_c is None else finite_scalar('theta_c', theta_c)
         self._u = [theta, theta]
         self._y = [0.0, 0.0]
@@ -88,13 +96,16 @@ class InverseFeedforward:
             play.reset(theta)
             self._y[j] = play.step(theta)
 
-    def track(self, hysteresis_inputs):
+    def track(self, hysteresis_inputs: Sequence[float]) -> None:
         """Advance each wire's inverse state along its estimated hysteresis input [°C]."""
         for j in range(2):
             self._u[j] = float(hysteresis_inputs[j])
             self._y[j] = self._plays[j].step(self._u[j])
 
-    def target_contractions(self, angle_rad, offset_rad=None, stroke_rad=None):
+    def target_contractions(
+        self, angle_rad: float, offset_rad: Optional[float] = None,
+        stroke_rad: Optional[float] = None,
+    ) -> Tuple[Optional[float], Optional[float]]:
         """
         Return (y_a*, y_b*) for a desired true angle [rad]; an idle wire's target is None.
 
@@ -112,7 +123,9 @@ class InverseFeedforward:
         ratio = p.stroke_ratio_b if p.stroke_ratio_b > 0 else 1.0
         return None, min(-dy / ratio, y_max)
 
-    def target_side(self, angle_rad, offset_rad=None, stroke_rad=None, margin=None):
+    def target_side(self, angle_rad: float, offset_rad: Optional[float] = None,
+                    stroke_rad: Optional[float] = None,
+                    margin: Optional[float] = None) -> int:
         """
         Return +1 (−1) when the target Δy* = (φ* − φ0) / g lies beyond +margin (−margin).
 
@@ -126,15 +139,17 @@ class InverseFeedforward:
         m = ONE_SIDED_MARGIN if margin is None else margin
         return 1 if dy > m else (-1 if dy < -m else 0)
 
-    def wire_tau(self, j):
-        """Wire j's thermal time constant T_j [s]."""
+    def wire_tau(self, j: int) -> float:
+        """Return wire j's thermal time constant T_j [s]."""
         return self._taus[j]
 
-    def wire_gain(self, j):
-        """Wire j's steady rise at full duty G_j [K]."""
+    def wire_gain(self, j: int) -> float:
+        """Return wire j's steady rise at full duty G_j [K]."""
         return self._gains[j]
 
-    def thermal_duty(self, j, theta_target, theta_est, ambient, y_own=0.0, horizon_s=None):
+    def thermal_duty(self, j: int, theta_target: float, theta_est: Optional[float],
+                     ambient: float, y_own: float = 0.0,
+                     horizon_s: Optional[float] = None) -> float:
         """
         Return wire j's duty that brings θ̂_j to θ* (step 4, every thermal effect inverted).
 
@@ -164,8 +179,12 @@ class InverseFeedforward:
                                                    p.duty_limit_sharpness, self.duty_max),
                              0.0, self.duty_max))
 
-    def duties(self, angle_rad, ambient_c=None, contraction=(0.0, 0.0), theta_est=None,
-               offset_rad=None, stroke_rad=None):
+    def duties(
+        self, angle_rad: float, ambient_c: Optional[float] = None,
+        contraction: Sequence[float] = (0.0, 0.0),
+        theta_est: Optional[Sequence[float]] = None, offset_rad: Optional[float] = None,
+        stroke_rad: Optional[float] = None,
+    ) -> Tuple[Tuple[float, float], Tuple[float, float]]:
         """Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
@@ -192,7 +211,8 @@ class InverseFeedforward:
         return tuple(duties), tuple(temps)
 
 
-def current_limit_inverse(d_eff, d_lim, sharpness, duty_max=1.0):
+def current_limit_inverse(d_eff: float, d_lim: float, sharpness: float,
+                          duty_max: float = 1.0) -> float:
     """
     Return the commanded duty whose current-limited effective duty is d_eff.
 

@@ -121,7 +121,7 @@ class ControllerSettings:
     preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
     dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         """Check and normalise the settings (a negative gain: from the model)."""
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
@@ -167,7 +167,7 @@ class ReferencePredictor:
     on its own clock delivers a new setpoint in some control samples and two in others.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.reset()
 
     def reset(self) -> None:
@@ -206,7 +206,7 @@ class ReferencePredictor:
 class SensorMap:
     """The model's potentiometer polynomial p and its exact inverse, tabulated once."""
 
-    def __init__(self, params: ActuatorParams):
+    def __init__(self, params: ActuatorParams) -> None:
         self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
                              or params.sensor_c4_rad or params.sensor_c5_rad)
         if not self.identity:
@@ -245,7 +245,8 @@ class ControllerCore:
     `duty_a`, `duty_b` in [0, 1]. ambient_c: measured ambient [°C] (None: the model's).
     """
 
-    def __init__(self, model: ActuatorParams, settings: Optional[ControllerSettings] = None):
+    def __init__(self, model: ActuatorParams,
+                 settings: Optional[ControllerSettings] = None) -> None:
         self.fitted_model = model
         self.model = control_model(model)
         self.settings = ControllerSettings() if settings is None else settings

@@ -464,7 +464,8 @@ class _Problem:
 
         feedback = any(k in FEEDBACK_PARAMS for k in names)
 
-        def residual(x):
+        def residual(x: np.ndarray) -> np.ndarray:
+            """Return the residual at the nonlinear parameter values `x` (in `names` order)."""
             trial = dict(zip(names, x))
             params = set_values(self.base, trial)
             sol = self.solve(params, trial, ref)
@@ -589,7 +590,7 @@ def close_major_loop(grid: PlayHysteresis, u_rest: float) -> PlayHysteresis:
     return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
 
 
-def flexinol_loop_ratio():
+def flexinol_loop_ratio() -> float:
     """
     Return β = r / (c − θ_rest) of the datasheet loop (`core.actuator.flexinol_hysteresis`).
 
@@ -605,7 +606,9 @@ def flexinol_loop_ratio():
     return float(np.mean(h.r) / (np.mean(centre) - p.ambient_c))
 
 
-def tie_loop_width(grid, u_rest, ratio, edge=None, spread=None):
+def tie_loop_width(grid: PlayHysteresis, u_rest: float, ratio: Optional[float],
+                   edge: Optional[float] = None,
+                   spread: Optional[tuple[float, float]] = None) -> PlayHysteresis:
     """
     Return the saturated `grid` with the elements' half-widths tied to the heating edge.
 
@@ -640,7 +643,7 @@ def tie_loop_width(grid, u_rest, ratio, edge=None, spread=None):
     return PlayHysteresis(r, c - half, c + half, grid.w, grid.k1, grid.y0)
 
 
-def heating_edge(h, span):
+def heating_edge(h: PlayHysteresis, span: np.ndarray) -> Optional[float]:
     """
     Return the weight centre [°C] of the rising cells of hysteresis `h`.
 

@@ -71,7 +71,7 @@ class BridgeConfig:
     # two command periods; twice the firmware's 25 ms, so the MCU never holds off a frame
     interlock_dead_time_s: float = 0.05
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ('max_duty', 'interlock_threshold'):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
@@ -131,7 +131,7 @@ class BridgeCore:
 
     def __init__(self, config: BridgeConfig, calibration: AdcCalibration, now_s: float,
                  velocity_tau_s: float = 0.02,
-                 log: Callable[[str, str], None] = lambda level, text: None):
+                 log: Callable[[str, str], None] = lambda level, text: None) -> None:
         self.config, self.calibration, self._log = config, calibration, log
         self.velocity = VelocityEstimator(velocity_tau_s)
         self.stream = p.MessageStream(accept=p.MCU_TO_HOST)
@@ -171,14 +171,14 @@ class BridgeCore:
         self._last_rx_s = now_s
         return b'\x00' + self._hello(now_s)
 
-    def on_close(self, reason: str, now_s: float, failure: bool = True):
+    def on_close(self, reason: str, now_s: float, failure: bool = True) -> None:
         """Port closed (failure=False: on purpose, at shutdown): zero duty, report why."""
         self.link_error = reason
         if failure and self.state != LinkState.DISCONNECTED:
             self._log('error', f'serial link lost: {reason}; duty set to zero, reconnecting')
         self._enter(LinkState.DISCONNECTED, now_s)
 
-    def on_open_failed(self, reason: str, now_s: float):
+    def on_open_failed(self, reason: str, now_s: float) -> None:
         """Open the port failed (retried with backoff by the link)."""
         self.link_error = reason
         self.counters['open_failures'] += 1
@@ -263,7 +263,7 @@ class BridgeCore:
             self._log('info', 'one publisher on the duty topic again')
         return b''
 
-    def _apply(self, now_s: float):
+    def _apply(self, now_s: float) -> None:
         """Set the duty sent to the MCU from the last command, the gates and the interlock."""
         allowed = self.state == LinkState.CONNECTED and not self.duty_timed_out
         requested = self.requested if allowed and self.publishers <= 1 else (0, 0)
@@ -320,7 +320,7 @@ class BridgeCore:
 
     # --- internals ----------------------------------------------------------------------
 
-    def _enter(self, state: LinkState, now_s: float):
+    def _enter(self, state: LinkState, now_s: float) -> None:
         if state != LinkState.CONNECTED:
             # the MCU's watchdog switches off; never resume an old command
             self.duty = self.interlock.reset(now_s)
@@ -393,7 +393,8 @@ class BridgeCore:
         self._duty_sent[seq] = now_s
         return self.sender.encode(p.Duty(*self.duty))
 
-    def _log_throttled(self, key: str, level: str, text: str, now_s: float, period_s: float = 1.0):
+    def _log_throttled(self, key: str, level: str, text: str, now_s: float,
+                       period_s: float = 1.0) -> None:
         if now_s - self._throttle.get(key, -math.inf) >= period_s:
             self._throttle[key] = now_s
             self._log(level, text)

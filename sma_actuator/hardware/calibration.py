@@ -30,7 +30,8 @@ class AdcCalibration:
     the linear map, e.g. to correct a non-linear potentiometer track.
     """
 
-    def __init__(self, offset_rad: float = 0.0, scale_rad_per_count: float = 1.0, polynomial=()):
+    def __init__(self, offset_rad: float = 0.0, scale_rad_per_count: float = 1.0,
+                 polynomial=()) -> None:
         self.offset_rad = float(offset_rad)
         self.scale_rad_per_count = float(scale_rad_per_count)
         self.polynomial = tuple(float(c) for c in polynomial)
@@ -56,13 +57,13 @@ class VelocityEstimator:
     wrap like the MCU's uint32 microsecond counter.
     """
 
-    def __init__(self, tau_s: float = 0.02):
+    def __init__(self, tau_s: float = 0.02) -> None:
         if not tau_s >= 0:
             raise ValueError(f'velocity filter tau_s must be >= 0, got {tau_s}')
         self.tau_s = float(tau_s)
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget the history (e.g. after a reconnect: MCU time may have restarted)."""
         self._last = None
         self.velocity_rad_s = 0.0

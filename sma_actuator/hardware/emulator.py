@@ -59,12 +59,12 @@ class UartLine:
     baud 0 means an ideal line (bytes arrive at once).
     """
 
-    def __init__(self, baud: int):
+    def __init__(self, baud: int) -> None:
         self.baud = int(baud)
         self._free_at_s = 0.0
         self._queue = collections.deque()   # (arrival time [s], bytes)
 
-    def send(self, data: bytes, now_s: float):
+    def send(self, data: bytes, now_s: float) -> None:
         """Start sending `data` at `now_s` (or when the line is free)."""
         if not data:
             return
@@ -73,8 +73,8 @@ class UartLine:
         self._free_at_s = done
         self._queue.append((done, bytes(data)))
 
-    def next_arrival_s(self):
-        """Time [s] the next queued chunk arrives, or None."""
+    def next_arrival_s(self) -> float | None:
+        """Return the time [s] the next queued chunk arrives, or None."""
         return self._queue[0][0] if self._queue else None
 
     def arrived(self, now_s: float) -> bytes:
@@ -93,7 +93,7 @@ class PtyTransport:
     what it writes while nobody listens is dropped like on a real unplugged UART.
     """
 
-    def __init__(self, link_path: str | None = None):
+    def __init__(self, link_path: str | None = None) -> None:
         self.master, self._slave = os.openpty()
         tty.setraw(self._slave)          # binary frames: no echo, no CR/LF translation
         os.set_blocking(self.master, False)
@@ -106,8 +106,8 @@ class PtyTransport:
             self.port = link_path
         self.dropped_bytes = 0
 
-    def fds(self):
-        """File descriptors to wait on."""
+    def fds(self) -> list[int]:
+        """Return the file descriptors to wait on."""
         return [self.master]
 
     def read(self, fd) -> bytes:
@@ -117,7 +117,7 @@ class PtyTransport:
         except (BlockingIOError, OSError):
             return b''
 
-    def write(self, data: bytes):
+    def write(self, data: bytes) -> None:
         """Send to the bridge; drops what does not fit (nobody reading)."""
         try:
             written = os.write(self.master, data)
@@ -125,7 +125,7 @@ class PtyTransport:
             written = 0
         self.dropped_bytes += len(data) - written
 
-    def close(self):
+    def close(self) -> None:
         """Close both ends and remove the link."""
         link = self.link_path
         if link and os.path.islink(link) and os.readlink(link) == os.ttyname(self._slave):
@@ -141,15 +141,15 @@ class TcpTransport:
     A new connection replaces the previous one; without a client, output is dropped.
     """
 
-    def __init__(self, host: str = '127.0.0.1', port: int = 0):
+    def __init__(self, host: str = '127.0.0.1', port: int = 0) -> None:
         self.server = socket.create_server((host, port))
         self.server.setblocking(False)
         self.port = f'socket://{host}:{self.server.getsockname()[1]}'
         self.client = None
         self.dropped_bytes = 0
 
-    def fds(self):
-        """Sockets to wait on."""
+    def fds(self) -> list[socket.socket]:
+        """Return the sockets to wait on."""
         return [self.server] + ([self.client] if self.client else [])
 
     def read(self, fd) -> bytes:
@@ -174,7 +174,7 @@ class TcpTransport:
             self._drop_client()
         return data
 
-    def write(self, data: bytes):
+    def write(self, data: bytes) -> None:
         """Send to the client, if any."""
         if self.client is None:
             self.dropped_bytes += len(data)
@@ -184,12 +184,12 @@ class TcpTransport:
         except OSError:
             self._drop_client()
 
-    def _drop_client(self):
+    def _drop_client(self) -> None:
         if self.client is not None:
             self.client.close()
             self.client = None
 
-    def close(self):
+    def close(self) -> None:
         """Close the client and the server socket."""
         self._drop_client()
         self.server.close()
@@ -199,7 +199,7 @@ class Emulator:
     """McuCore + the shared actuator model + the potentiometer ADC, stepped in real time."""
 
     def __init__(self, baud: int = 115200, actuator_params=None, potentiometer=None,
-                 seed: int | None = None, line_noise_hz: float = 0.0):
+                 seed: int | None = None, line_noise_hz: float = 0.0) -> None:
         # Imported here so that the protocol modules load without the model core.
         from sma_actuator.core.actuator import ActuatorParams, AntagonisticActuator
         from sma_actuator.core.sensor import Potentiometer
@@ -220,7 +220,7 @@ class Emulator:
         """MCU tick counter (µs since start, wrapping at 2^32) at monotonic time `now_s`."""
         return int((now_s - self._t0_s) * 1e6) & 0xFFFFFFFF
 
-    def start(self, now_s: float):
+    def start(self, now_s: float) -> None:
         """Boot the MCU at `now_s`; returns nothing (the boot Status goes onto the line)."""
         self._t0_s = self._sim_s = now_s
         self.tx_line.send(self.mcu.start(0), now_s)
@@ -266,7 +266,7 @@ class Emulator:
                 wake = min(wake, arrival)
         return wake
 
-    def run(self, transport, stop: threading.Event):
+    def run(self, transport, stop: threading.Event) -> None:
         """Serve `transport` in real time until `stop` is set."""
         self.start(time.monotonic())
         while not stop.is_set():
@@ -279,7 +279,7 @@ class Emulator:
                 transport.write(out)
 
 
-def _parse_args(argv):
+def _parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog='mcu_emulator',
                                      description=__doc__.strip().splitlines()[0])
     add = parser.add_argument
@@ -300,7 +300,7 @@ def _parse_args(argv):
     return args
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     """Console script `mcu_emulator`: serve until SIGINT/SIGTERM."""
     args = _parse_args(sys.argv[1:] if argv is None else argv)
     from sma_actuator.core.actuator import ActuatorParams
@@ -328,7 +328,7 @@ def main(argv=None):
     return 0
 
 
-def _report(emulator, stop):
+def _report(emulator, stop) -> None:
     while not stop.wait(1.0):
         mcu = emulator.mcu
         theta = emulator.actuator.temperature_c

@@ -50,7 +50,7 @@ class SerialLink:
                  on_data: Callable[[bytes, float], None] = _noop,
                  on_close: Callable[[str], None] = _noop, on_error: Callable[[str], None] = _noop,
                  backoff_min_s: float = 0.1, backoff_max_s: float = 5.0,
-                 read_timeout_s: float = 0.05, write_timeout_s: float = 0.2):
+                 read_timeout_s: float = 0.05, write_timeout_s: float = 0.2) -> None:
         if not 0 < backoff_min_s <= backoff_max_s:
             raise ValueError(f'need 0 < backoff_min_s <= backoff_max_s, '
                              f'got {backoff_min_s}, {backoff_max_s}')
@@ -75,11 +75,11 @@ class SerialLink:
         """Return True while the port is open and no write has failed."""
         return self._port is not None and self._broken is None
 
-    def start(self):
+    def start(self) -> None:
         """Start the thread (it opens the port)."""
         self._thread.start()
 
-    def stop(self, final: bytes = b'', timeout_s: float = 2.0):
+    def stop(self, final: bytes = b'', timeout_s: float = 2.0) -> None:
         """Write `final` (e.g. a zero-duty frame) if the port is open, close it, end the thread."""
         self._final = final
         self._stop.set()
@@ -100,7 +100,7 @@ class SerialLink:
 
     # --- thread -----------------------------------------------------------------------
 
-    def _run(self):
+    def _run(self) -> None:
         while not self._stop.is_set():
             if self._port is None and not self._open():
                 self._wait_backoff()
@@ -152,7 +152,7 @@ class SerialLink:
                 data += self._port.read(waiting)
         return data
 
-    def _close(self, reason: str):
+    def _close(self, reason: str) -> None:
         with self._lock:
             port, self._port, self._broken = self._port, None, None
         try:
@@ -173,6 +173,6 @@ class SerialLink:
             self.last_error = f'{getattr(callback, "__name__", "callback")} raised {exc!r}'
             return b''
 
-    def _wait_backoff(self):
+    def _wait_backoff(self) -> None:
         self._stop.wait(self.backoff_s)
         self.backoff_s = min(2 * self.backoff_s, self.backoff_max_s)

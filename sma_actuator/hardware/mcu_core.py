@@ -71,7 +71,8 @@ class McuCore:
     AdcReport is built. `pwm_a`/`pwm_b` are the duty counts the outputs must apply.
     """
 
-    def __init__(self, read_adc: Callable[[], int], limits: FirmwareLimits = FirmwareLimits()):
+    def __init__(self, read_adc: Callable[[], int],
+                 limits: FirmwareLimits = FirmwareLimits()) -> None:
         self.read_adc = read_adc
         self.limits = limits
         self.decoder = p.FrameDecoder()
@@ -176,10 +177,10 @@ class McuCore:
 
     # --- helpers ------------------------------------------------------------------
 
-    def _outputs_off(self, now_us: int):
+    def _outputs_off(self, now_us: int) -> None:
         self.pwm_a, self.pwm_b = self.interlock.reset(now_us)
 
-    def _set_faults(self, faults: int):
+    def _set_faults(self, faults: int) -> None:
         self.faults = faults
         self.faults_latched |= faults
 

@@ -178,13 +178,13 @@ class FrameDecoder:
     `errors` maps each of ERROR_KINDS to its count; `frames` counts good frames.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._pending = bytearray()
         self._discarding = False   # inside an oversize run: drop bytes up to the next zero
         self.frames = 0
         self.errors = dict.fromkeys(ERROR_KINDS, 0)
 
-    def reset(self):
+    def reset(self) -> None:
         """Drop any partial frame (e.g. after reopening the port); counters are kept."""
         self._pending.clear()
         self._discarding = False
@@ -370,14 +370,14 @@ class MessageStream:
     `malformed`; `lost` counts frames missing according to the sender's seq numbers.
     """
 
-    def __init__(self, accept=MESSAGES.values()):
+    def __init__(self, accept=MESSAGES.values()) -> None:
         self.frames = FrameDecoder()
         self.accept = tuple(accept)
         self.malformed = 0
         self.lost = 0
         self._next_seq = None
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget the partial frame and the seq history (after a reconnect)."""
         self.frames.reset()
         self._next_seq = None
@@ -399,7 +399,7 @@ class MessageStream:
 class Sender:
     """Numbers outgoing messages: each encode() uses the next seq (mod 256)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.seq = 0
 
     def encode(self, msg: Message) -> bytes:

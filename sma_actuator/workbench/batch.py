@@ -29,6 +29,8 @@ keeps one ``result.json`` per record and rebuilds the fleet table from them. The
 therefore always holds exactly the records finished so far, also after Ctrl-C, and a
 rerun skips every record whose result matches the file and the options.
 """
+from __future__ import annotations
+
 from dataclasses import asdict, dataclass
 from functools import lru_cache, partial
 import glob
@@ -39,7 +41,12 @@ import os
 from pathlib import Path
 import sys
 import time
-from typing import Any, Iterator, Optional
+from typing import Any, Iterable, Iterator, List, Optional, TextIO, TYPE_CHECKING, Union
+
+if TYPE_CHECKING:
+    from dask.distributed import Client, Future
+
+    from ..core.datakinds import DynamicData, StaticData
 
 RESULT_FILE = 'result.json'
 TABLE_NAME = 'batch'
@@ -66,13 +73,13 @@ class BatchOptions:
     reports: bool = True         # write an HTML report per record
     reference: dict = None       # a fitted model (from fit --out) compared with every record
 
-    def fingerprint(self):
-        """Short hash of the options; a result made with other options is recomputed."""
+    def fingerprint(self) -> str:
+        """Return a short hash of the options; a result made with other options is recomputed."""
         return hashlib.sha1(json.dumps(asdict(self), sort_keys=True).encode()).hexdigest()[:12]
 
 
 # ------------------------------------------------------------------------------ records
-def find_records(specs):
+def find_records(specs: Iterable[str]) -> List[Path]:
     """
     Expand DATA arguments (files, bag directories, directories, globs) into record paths.
 
@@ -94,7 +101,8 @@ def find_records(specs):
     return unique
 
 
-def _records_in(directory):
+def _records_in(directory: Union[str, Path]) -> List[Path]:
+    """Return the records under `directory`: CSV and .mcap files and bag directories."""
     from .data import is_bag
     out = []
     for root, dirs, files in os.walk(directory):
@@ -106,15 +114,15 @@ def _records_in(directory):
     return out
 
 
-def record_key(path):
-    """Directory name of a record's results: its stem and a hash of its absolute path."""
+def record_key(path: Union[str, Path]) -> str:
+    """Return a record's result directory name: its stem and a hash of its absolute path."""
     path = Path(path).resolve()
     stem = ''.join(c if c.isalnum() or c in '-_' else '_' for c in path.stem)[:40]
     return f'{stem}-{hashlib.sha1(str(path).encode()).hexdigest()[:8]}'
 
 
-def file_fingerprint(path):
-    """Size and modification time of a record (every file of a bag directory)."""
+def file_fingerprint(path: Union[str, Path]) -> str:
+    """Return a hash of a record's sizes and modification times (every file of a bag)."""
     path = Path(path)
     files = sorted(p for p in path.rglob('*') if p.is_file()) if path.is_dir() else [path]
     h = hashlib.sha1()
@@ -126,7 +134,8 @@ def file_fingerprint(path):
 
 # ------------------------------------------------------------------------------ worker tasks
 @lru_cache(maxsize=4)
-def _load(path, rate_hz, stamp):
+def _load(path: str, rate_hz: Optional[float],
+          stamp: str) -> Union[DynamicData, StaticData]:
     """
     Load and check one record on a worker.
 
@@ -174,7 +183,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     return {'rounds': rounds, 'parameters': final_parameters(final)}
 
 
-def _judge_on_cluster(client, path: str, stamp: str, rate_hz: Optional[float],
+def _judge_on_cluster(client: Client, path: str, stamp: str, rate_hz: Optional[float],
                       tasks: list) -> Iterator[dict]:
     """
     Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
@@ -189,19 +198,19 @@ def _judge_on_cluster(client, path: str, stamp: str, rate_hz: Optional[float],
 
 
 def task_candidate(path: str, stamp: str, rate_hz: Optional[float], task: tuple) -> dict:
-    """Worker: one `engine.judge_candidate` task (without its data) on the record at `path`."""
+    """Run one `engine.judge_candidate` task (without its data) on the record at `path`."""
     from .engine import judge_candidate
     return judge_candidate((_load(path, rate_hz, stamp),) + tuple(task))
 
 
 def compare_reference(spec: dict, data: Any) -> float:
-    """NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
+    """Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
     from .engine import load_fit
     return float(load_fit(spec, data=data).validation['nrmse'])
 
 
 def describe_record(data: Any) -> dict:
-    """Table columns that say what a record is: size, rate, rig layout, position unit."""
+    """Return the columns that say what a record is: size, rate, rig layout, position unit."""
     return data.columns()
 
 
@@ -249,7 +258,7 @@ class RecordRun:
         self.rounds = []
         self.started = time.perf_counter()
 
-    def submit(self, client):
+    def submit(self, client: Client) -> Future:
         """Submit the record's task (fit, diagnose rounds, report)."""
         return client.submit(task_record, str(self.path), self.stamp, self.options,
                              str(self.dir / 'report'), key=f'record-{self.key}', pure=False)
@@ -277,7 +286,7 @@ class RecordRun:
                 **{k: first.get('record', {}).get(k) for k in RECORD_COLUMNS}}
 
 
-def _final_nrmse(rounds):
+def _final_nrmse(rounds: List[dict]) -> Optional[float]:
     """
     Return the validation NRMSE of the final model.
 
@@ -295,7 +304,8 @@ def _candidates(options: BatchOptions) -> Optional[list]:
     return list(options.candidates) if options.candidates else None
 
 
-def load_result(directory, stamp, options):
+def load_result(directory: Union[str, Path], stamp: str,
+                options: BatchOptions) -> Optional[dict]:
     """Return a finished record's result from a previous run, or None (missing, stale, failed)."""
     path = Path(directory) / RESULT_FILE
     try:
@@ -308,7 +318,7 @@ def load_result(directory, stamp, options):
     return doc
 
 
-def save_result(directory, doc):
+def save_result(directory: Union[str, Path], doc: dict) -> None:
     """Write a record's result atomically (a reader never sees half a file)."""
     from .cli import json_safe
     directory = Path(directory)
@@ -318,8 +328,8 @@ def save_result(directory, doc):
     tmp.replace(directory / RESULT_FILE)
 
 
-def error_line(err):
-    """One line for a record's failure: the exception's type and message."""
+def error_line(err: BaseException) -> str:
+    """Return one line for a record's failure: the exception's type and message."""
     text = ' '.join(str(err).split()) or type(err).__name__
     return text if isinstance(err, ValueError) else f'{type(err).__name__}: {text}'
 
@@ -331,13 +341,15 @@ class BatchProgress:
     A bar on a terminal, else a line per finished record (so it shows in a log).
     """
 
-    def __init__(self, total, stream=None):
+    def __init__(self, total: int, stream: Optional[TextIO] = None) -> None:
+        """Start the clock for `total` records, written to `stream` (default stderr)."""
         self.total, self.done, self.errors = total, 0, 0
         self.stream = stream or sys.stderr
         self.tty = bool(getattr(self.stream, 'isatty', lambda: False)())
         self.started = time.perf_counter()
 
-    def record_done(self, name, error=None, skipped=False):
+    def record_done(self, name: str, error: Optional[str] = None,
+                    skipped: bool = False) -> None:
         """Count one record and draw the progress."""
         self.done += 1
         self.errors += bool(error)
@@ -353,12 +365,14 @@ class BatchProgress:
         self.stream.flush()
 
 
-def _duration(seconds):
+def _duration(seconds: float) -> str:
+    """Return `seconds` as 'N s' or 'N min SS s'."""
     seconds = int(round(seconds))
     return f'{seconds // 60} min {seconds % 60:02d} s' if seconds >= 60 else f'{seconds} s'
 
 
-def start_client(scheduler=None, workers=None):
+def start_client(scheduler: Optional[str] = None,
+                 workers: Optional[int] = None) -> Client:
     """
     Return a `dask.distributed.Client`.
 
@@ -375,7 +389,10 @@ def start_client(scheduler=None, workers=None):
     return Client(cluster)
 
 
-def run_batch(paths, out_dir, options, client, force=False, progress=None, results=None):
+def run_batch(paths: Iterable[Union[str, Path]], out_dir: Union[str, Path],
+              options: BatchOptions, client: Client, force: bool = False,
+              progress: Optional[BatchProgress] = None,
+              results: Optional[List[dict]] = None) -> List[dict]:
     """
     Run every record through its rounds on `client`; returns the result documents.
 

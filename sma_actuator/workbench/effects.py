@@ -30,9 +30,22 @@ before the thermal model), e.g. a supply that sags with load or a PWM dead time.
 parameters are declared once too, as `ParamSpec`s in `declares`, from which `parameters`
 and `neutral` follow.
 """
+from __future__ import annotations
+
+from typing import Any, Dict, List, Optional, Tuple, TYPE_CHECKING
+
 import numpy as np
 
 from ..core.actuator import fit_table
+
+if TYPE_CHECKING:
+    from ..core.actuator import ActuatorParams
+    from ..core.datakinds import DynamicData, StaticData
+
+    Data = DynamicData | StaticData
+
+# (lower, upper, start) of one fitted parameter
+Bounds = Tuple[float, float, float]
 
 
 class Effect:
@@ -53,7 +66,7 @@ class Effect:
     # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (fit and neutral used)
     declares = {}
 
-    def __init_subclass__(cls, **kwargs):
+    def __init_subclass__(cls, **kwargs: Any) -> None:
         """
         Derive `parameters` (and `neutral`) from the declarations.
 
@@ -68,15 +81,15 @@ class Effect:
         if own and 'neutral' not in cls.__dict__:
             cls.neutral = {k: spec.neutral for k, spec in own.items()}
 
-    def scratch_start(self, params):
+    def scratch_start(self, params: ActuatorParams) -> Dict[str, float]:
         """
-        Start values of the from-scratch refit (`own_grid`) for a model with `params`.
+        Return start values of the from-scratch refit (`own_grid`) for a model with `params`.
 
         Default: the same as the warm start.
         """
         return {}
 
-    def scratch_bounds(self, params):
+    def scratch_bounds(self, params: ActuatorParams) -> Dict[str, Bounds]:
         """
         Return (lower, upper, start) of parameters bounded differently from scratch.
 
@@ -86,31 +99,31 @@ class Effect:
         return {}
 
     @property
-    def doc(self):
+    def doc(self) -> str:
         """Return the physics docstring."""
         return ' '.join((self.__doc__ or '').split())
 
-    def applicable(self, data):
+    def applicable(self, data: Data) -> Optional[str]:
         """Return None if the effect can be fitted on `data`, else the reason it cannot."""
         return None
 
-    def bounds(self, params):
+    def bounds(self, params: ActuatorParams) -> Dict[str, Bounds]:
         """
-        (lower, upper, start) per parameter for a model with `params` (ActuatorParams).
+        Return (lower, upper, start) per parameter for a model with `params` (ActuatorParams).
 
         Default: the `parameters` table.
         """
         return dict(self.parameters)
 
-    def start_values(self, data):
-        """Start values of the parameters for `data` (default: the table's start)."""
+    def start_values(self, data: Data) -> Dict[str, float]:
+        """Return start values of the parameters for `data` (default: the table's start)."""
         return {k: v[2] for k, v in self.parameters.items()}
 
-    def alternative_starts(self, data):
-        """Further starting points tried when the fit may have several minima (default none)."""
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
+        """Return further starts, tried when the fit may have several minima (default none)."""
         return []
 
-    def unresolved(self, values, data):
+    def unresolved(self, values: Dict[str, float], data: Data) -> Optional[str]:
         """
         Return None if the data can resolve the effect at the fitted `values`, else why not.
 
@@ -118,11 +131,14 @@ class Effect:
         """
         return None
 
-    def transform_inputs(self, duty_a, duty_b, ambient, values):
+    def transform_inputs(
+        self, duty_a: np.ndarray, duty_b: np.ndarray, ambient: np.ndarray,
+        values: Dict[str, float],
+    ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """
-        Plug-in hook.
+        Return the inputs (arrays) the thermal model sees (plug-in hook).
 
-        Inputs (arrays) seen by the thermal model, given this effect's parameter values (dict).
+        Given this effect's parameter values (dict).
         Duties must stay in [0, 1]. Identity by default.
         """
         return duty_a, duty_b, ambient
@@ -158,11 +174,11 @@ class FastDynamics(Effect):
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
     own_grid = True
 
-    def alternative_starts(self, data):
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
         """Also start at a slow lag: it trades off against the basic time constant."""
         return [{'tau_fast_s': 0.5}]
 
-    def scratch_bounds(self, params):
+    def scratch_bounds(self, params: ActuatorParams) -> Dict[str, Bounds]:
         """
         Keep τ the slow lag in the from-scratch refit.
 
@@ -191,11 +207,11 @@ class Delay(Effect):
     # from scratch the delay fits to the noise (0.05 %, 0.3015 s)
     own_grid = True
 
-    def alternative_starts(self, data):
-        """Delays longer than a few samples sit in another basin of the error surface."""
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
+        """Also start at a long delay: it sits in another basin of the error surface."""
         return [{'delay_s': 0.3}]
 
-    def unresolved(self, values, data):
+    def unresolved(self, values: Dict[str, float], data: Data) -> Optional[str]:
         """
         Return why a delay below one sample period is not a transport delay.
 
@@ -243,8 +259,8 @@ class AmbientDrift(Effect):
     signature = ('slow residual that follows the measured ambient temperature; '
                  'cross-correlation with ambient well outside the 99 % band')
 
-    def applicable(self, data):
-        """Needs a measured ambient_temperature that actually varies."""
+    def applicable(self, data: Data) -> Optional[str]:
+        """Return why not unless a measured ambient_temperature actually varies."""
         amb = getattr(data, 'ambient', None)
         if amb is None:
             return 'no ambient_temperature column in the data'
@@ -264,7 +280,7 @@ class PhaseResistance(Effect):
 
     name = 'phase_resistance'
 
-    def bounds(self, params):
+    def bounds(self, params: ActuatorParams) -> Dict[str, Bounds]:
         """
         Bound κ to the sign the drive gives it.
 
@@ -276,7 +292,7 @@ class PhaseResistance(Effect):
         limited = params.supply_v / params.resistance_ohm > params.current_limit_a
         return {'phase_kappa': (0.0, 0.5, 0.1) if limited else (-0.5, 0.0, -0.1)}
 
-    def start_values(self, data):
+    def start_values(self, data: Data) -> Dict[str, float]:
         """Start inside the drive's sign range (see `bounds`)."""
         return {}
 
@@ -286,7 +302,7 @@ class PhaseResistance(Effect):
     # the effect), so that refit starts from a strong effect.
     own_grid = True
 
-    def scratch_start(self, params):
+    def scratch_start(self, params: ActuatorParams) -> Dict[str, float]:
         """Start the from-scratch refit from a strong effect of the drive's sign."""
         lo, hi, start = self.bounds(params)['phase_kappa']
         return {'phase_kappa': 0.7 * (hi if start > 0 else lo)}
@@ -348,8 +364,8 @@ class FatigueDrift(Effect):
 
     name = 'fatigue_drift'
 
-    def alternative_starts(self, data):
-        """Slow (nearly linear) drift is a different basin from a quick shakedown."""
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
+        """Also start at a slow (nearly linear) drift: another basin than a quick shakedown."""
         return [{'fatigue_cycles': 500.0}]
     signature = ('residual trends with time: its mean and amplitude differ between time '
                  'quartiles; validation error much larger than training error')
@@ -368,12 +384,12 @@ class CurrentLimit(Effect):
     signature = ('model over-heats only at the highest duties: error at full contraction '
                  'after large duty steps, none at small duties')
 
-    def start_values(self, data):
+    def start_values(self, data: Data) -> Dict[str, float]:
         """Start below the largest duty used, where the limit has an effect to fit."""
         top = float(max(np.max(data.duty_a), np.max(data.duty_b)))
         return {'duty_limit': float(np.clip(0.85 * top, 0.02, 1.0))}
 
-    def alternative_starts(self, data):
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
         """
         Also start from a limit that is not engaged (the base model itself).
 
@@ -387,7 +403,7 @@ class PerRecordEffect(Effect):
 
     per_record = ''   # what each record has its own of
 
-    def applicable(self, data):
+    def applicable(self, data: Data) -> Optional[str]:
         """Return why not: the value is per record, so it needs two or more records."""
         if len(getattr(data, 'segments', ()) or ()) < 2:
             return f'needs two or more records (a {self.per_record} per record)'
@@ -432,8 +448,8 @@ class RecordStroke(PerRecordEffect):
 CATALOG = {}
 
 
-def register_effect(cls):
-    """Add an Effect subclass to the catalog (the plug-in point); returns cls."""
+def register_effect(cls: type) -> type:
+    """Add an Effect subclass to the catalog (the plug-in point) and return it."""
     if not (isinstance(cls, type) and issubclass(cls, Effect)) or not cls.name:
         raise ValueError('a plug-in effect must be an Effect subclass with a name')
     CATALOG[cls.name] = cls()
@@ -450,13 +466,13 @@ for _cls in BUILTIN.values():
     register_effect(_cls)
 
 
-def is_builtin(name):
+def is_builtin(name: str) -> bool:
     """Return True if `name` is the package's own effect (not a plug-in, nor replaced by one)."""
     return name in BUILTIN and type(CATALOG.get(name)) is BUILTIN[name]
 
 
-def get_effect(name):
-    """Catalog lookup with a clear error listing the known effects."""
+def get_effect(name: str) -> Effect:
+    """Look `name` up in the catalog; the error lists the known effects."""
     try:
         return CATALOG[name]
     except KeyError:
