@@ -109,11 +109,19 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
         '-p', 'lockstep_timeout_s:=10.0', '-p', 'real_time_factor:=20.0',
         '-p', 'duty_timeout_s:=5.0'], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    replay = subprocess.Popen(_console('replay') + [
-        '--ros-args', '-p', f'bag_path:={bag}', '-p', "topics:=['/sma/duty']",
-        '-p', 'follow_clock:=true', '-p', 'wait_for_subscribers_s:=60.0'], env=env,
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    replay = None
     try:
+        # the probe must see the plant's joint states before the replay starts them: a
+        # starved probe process that discovers the plant late would miss the short replay
+        deadline = time.monotonic() + wall_limit_s
+        while node.count_publishers(c.JOINT_STATES) < 1 and time.monotonic() < deadline:
+            if plant.poll() is not None:
+                raise RuntimeError(f'plant_sim exited {plant.returncode} before the replay')
+            executor.spin_once(timeout_sec=0.05)
+        replay = subprocess.Popen(_console('replay') + [
+            '--ros-args', '-p', f'bag_path:={bag}', '-p', "topics:=['/sma/duty']",
+            '-p', 'follow_clock:=true', '-p', 'wait_for_subscribers_s:=60.0'], env=env,
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         deadline = time.monotonic() + wall_limit_s
         while replay.poll() is None and time.monotonic() < deadline:
             if plant.poll() is not None:
@@ -123,10 +131,11 @@ def replay_once(bag, domain_id, wall_limit_s=180.0):
         while time.monotonic() < end:      # the last joint states in flight
             executor.spin_once(timeout_sec=0.05)
     finally:
-        for proc in (replay, plant):
+        procs = [proc for proc in (replay, plant) if proc is not None]
+        for proc in procs:
             if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
-        for proc in (replay, plant):
+        for proc in procs:
             try:
                 proc.wait(30.0)
             except subprocess.TimeoutExpired:
