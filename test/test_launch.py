@@ -38,6 +38,8 @@ ROOT = Path(__file__).resolve().parents[1]
 STEP_RAD = 0.3
 TOLERANCE_RAD = 0.03
 BOUND_S = 240.0
+# longest wait for DDS to name every endpoint's node in a graph snapshot [s]
+GRAPH_NAMES_S = 30.0
 
 
 @pytest.fixture(autouse=True)
@@ -180,11 +182,22 @@ def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
     # two plants cannot both own /clock: the pair runs on the wall clock
     common = {'params_file': params, 'use_sim_time': 'false', 'mode': 'pi'}
 
-    def graph(node):
+    def snapshot(node):
         return {topic: sorted({(i.node_namespace, i.node_name) for i in (
             node.get_publishers_info_by_topic(topic)
             + node.get_subscriptions_info_by_topic(topic))})
             for ns in ('left', 'right') for topic in (f'/{ns}/duty', f'/{ns}/joint_states')}
+
+    def graph(node):
+        # DDS names an endpoint's node some time after the endpoint itself (later still on a
+        # busy machine): look again until every endpoint is named, bounded
+        deadline = time.monotonic() + GRAPH_NAMES_S
+        seen = snapshot(node)
+        while time.monotonic() < deadline and any(
+                ns == UNKNOWN_NAMESPACE for endpoints in seen.values() for ns, _ in endpoints):
+            time.sleep(0.2)
+            seen = snapshot(node)
+        return seen
 
     watcher, exits, seen = run_launch(
         'sim.launch.py', [{'namespace': 'left', **common}, {'namespace': 'right', **common}],
