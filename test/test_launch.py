@@ -38,8 +38,10 @@ ROOT = Path(__file__).resolve().parents[1]
 STEP_RAD = 0.3
 TOLERANCE_RAD = 0.03
 BOUND_S = 240.0
-# longest wait for DDS to name every endpoint's node in a graph snapshot [s]
+# longest wait for the probe to see every endpoint of the loop, named, in the graph [s]
 GRAPH_NAMES_S = 30.0
+# a recording run goes on until the recorder has counted this many messages of each topic
+RECORDED = {'/sma/duty': 10, '/sma/setpoint': 1}
 
 
 @pytest.fixture(autouse=True)
@@ -69,10 +71,16 @@ def _step_params(tmp_path, steps):
 
 
 class Watcher:
-    """Probe node: the latest setpoint and shaft angle of each namespace, from the topics."""
+    """
+    Probe node: the latest setpoint and shaft angle of each namespace, from the topics.
 
-    def __init__(self, domain_id, namespaces):
+    It also keeps the per-topic message counts that a recorder reports on /diagnostics
+    (``count <topic>`` values), so a run can go on until the bag holds what it must.
+    """
+
+    def __init__(self, domain_id, namespaces, recorded=None):
         import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64
 
@@ -84,6 +92,11 @@ class Watcher:
         self.setpoint = dict.fromkeys(namespaces)
         self.reached = dict.fromkeys(namespaces, False)
         self.positions = {ns: [] for ns in namespaces}
+        self.needed = dict(recorded or {})
+        self.recorded = dict.fromkeys(self.needed, 0)
+        if self.needed:
+            self.node.create_subscription(DiagnosticArray, c.DIAGNOSTICS, self._diagnostics,
+                                          c.DIAGNOSTICS_QOS)
         for ns in namespaces:
             self.node.create_subscription(
                 Float64, f'/{ns}/{c.SETPOINT}', lambda m, ns=ns: self._setpoint(ns, m.data),
@@ -101,17 +114,29 @@ class Watcher:
         if target is not None and target != 0.0 and abs(position - target) < TOLERANCE_RAD:
             self.reached[ns] = True
 
+    def _diagnostics(self, msg):
+        for status in msg.status:
+            for item in status.values:
+                topic = item.key.removeprefix('count ')
+                if topic in self.recorded and item.key != topic:
+                    self.recorded[topic] = max(self.recorded[topic], int(item.value))
+
     def done(self):
-        return all(self.reached.values())
+        # the recorder discovers a publisher some time after it starts (later still on a
+        # busy machine): a recorded run goes on until the bag holds every topic it checks
+        return all(self.reached.values()) and all(
+            self.recorded[topic] >= count for topic, count in self.needed.items())
 
     def close(self):
         self.node.destroy_node()
         self.rclpy.try_shutdown(context=self.context)
 
 
-def run_launch(file, arguments, domain_id, namespaces, extra_check=None):
+def run_launch(file, arguments, domain_id, namespaces, extra_check=None, recorded=None):
     """
     Run launch/<file> until every namespace's shaft reached its step setpoint.
+
+    With `recorded` ({topic: messages}), also until a recorder has counted that many.
 
     Returns (watcher, [(process name, exit code)], what extra_check(node) returned while
     the loop was running).
@@ -137,7 +162,7 @@ def run_launch(file, arguments, domain_id, namespaces, extra_check=None):
         *includes])
     service = LaunchService()
     service.include_launch_description(description)
-    watcher = Watcher(domain_id, namespaces)
+    watcher = Watcher(domain_id, namespaces, recorded)
     extra = {}
 
     def watch():
@@ -168,13 +193,15 @@ def test_sim_launch_closes_the_loop_records_and_stops_cleanly(tmp_path, ros_doma
     watcher, exits, _ = run_launch('sim.launch.py', [{
         'params_file': _step_params(tmp_path, {'sma': STEP_RAD}), 'mode': 'pi',
         'record': 'true', 'bag_path': str(bag), 'real_time_factor': '5.0'}],
-        ros_domain_id, ['sma'])
+        ros_domain_id, ['sma'], recorded=RECORDED)
     assert watcher.reached == {'sma': True}, watcher.positions['sma'][-5:]
+    assert all(watcher.recorded[t] >= n for t, n in RECORDED.items()), watcher.recorded
     assert sorted(exits) == [('controller', 0), ('plant_sim', 0), ('recorder', 0),
                              ('setpoint', 0)]
     run = load_run(bag)
     assert run['setpoint'][-1] == pytest.approx(STEP_RAD)
     assert abs(run['position'] - STEP_RAD).min() < TOLERANCE_RAD
+    assert run['duty_a'].max() > 0.0    # the controller's heating is in the bag
 
 
 def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
@@ -188,13 +215,18 @@ def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
             + node.get_subscriptions_info_by_topic(topic))})
             for ns in ('left', 'right') for topic in (f'/{ns}/duty', f'/{ns}/joint_states')}
 
+    def settled(seen):
+        return all({'controller', 'plant_sim'} <= {name for _, name in endpoints}
+                   and UNKNOWN_NAMESPACE not in {ns for ns, _ in endpoints}
+                   for endpoints in seen.values())
+
     def graph(node):
-        # DDS names an endpoint's node some time after the endpoint itself (later still on a
-        # busy machine): look again until every endpoint is named, bounded
+        # the probe learns of other nodes' endpoints, and DDS names their nodes, some time
+        # after the loop runs through them (later still on a busy machine): look again until
+        # every topic shows its controller and plant and every endpoint is named, bounded
         deadline = time.monotonic() + GRAPH_NAMES_S
         seen = snapshot(node)
-        while time.monotonic() < deadline and any(
-                ns == UNKNOWN_NAMESPACE for endpoints in seen.values() for ns, _ in endpoints):
+        while time.monotonic() < deadline and not settled(seen):
             time.sleep(0.2)
             seen = snapshot(node)
         return seen
@@ -202,9 +234,11 @@ def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
     watcher, exits, seen = run_launch(
         'sim.launch.py', [{'namespace': 'left', **common}, {'namespace': 'right', **common}],
         ros_domain_id, ['left', 'right'], extra_check=graph)
-    assert watcher.reached == {'left': True, 'right': True}
-    assert max(watcher.positions['left']) > STEP_RAD - TOLERANCE_RAD
-    assert max(watcher.positions['right']) < 0.05    # the right shaft never went left
+    tails = {ns: positions[-5:] for ns, positions in watcher.positions.items()}
+    assert watcher.reached == {'left': True, 'right': True}, tails
+    assert max(watcher.positions['left']) > STEP_RAD - TOLERANCE_RAD, tails
+    # the right shaft never went left
+    assert max(watcher.positions['right']) < 0.05, max(watcher.positions['right'])
     for topic, endpoints in seen.items():
         ns = topic.split('/')[1]
         # an endpoint whose node DDS has not yet named (or no longer names) is reported as
