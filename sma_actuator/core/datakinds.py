@@ -258,11 +258,9 @@ class DynamicData(_Data):
 
     def columns(self) -> dict:
         """Return samples, duration [s], rate [Hz], layout and position unit of the record."""
-        single = not np.any(self.duty_b)
         return {'samples': len(self), 'duration_s': float(self.time[-1] - self.time[0]),
-                'rate_hz': float(1.0 / self.dt),
-                'layout': self.layout or ('single' if single else 'antagonistic'),
-                'position_unit': self.position_unit or 'rad'}
+                'rate_hz': float(1.0 / self.dt), 'layout': self.layout,
+                'position_unit': self.position_unit}
 
     def excitation_problem(self) -> Optional[str]:
         """Return why the record cannot identify the model: duties or position constant."""
@@ -351,7 +349,7 @@ class StaticData(_Data):
     def columns(self) -> dict:
         """Return the number of points; curves have no duration, rate or known unit."""
         return {'samples': len(self), 'duration_s': None, 'rate_hz': None,
-                'layout': 'static curves', 'position_unit': getattr(self, 'unit', None)}
+                'layout': 'static curves', 'position_unit': None}
 
     def excitation_problem(self) -> Optional[str]:
         """Return why the curves cannot identify the model: output or input constant."""

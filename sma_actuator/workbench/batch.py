@@ -164,7 +164,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     started = time.perf_counter()
     data = _load(path, options.rate_hz, stamp)
     base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
-    record = describe_record(data)
+    record = data.columns()
     if options.reference is not None:
         record['reference_nrmse'] = compare_reference(options.reference, data)
     base_seconds = time.perf_counter() - started
@@ -207,11 +207,6 @@ def compare_reference(spec: dict, data: Any) -> float:
     """Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
     from .engine import load_fit
     return float(load_fit(spec, data=data).validation['nrmse'])
-
-
-def describe_record(data: Any) -> dict:
-    """Return the columns that say what a record is: size, rate, rig layout, position unit."""
-    return data.columns()
 
 
 def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
