@@ -100,6 +100,13 @@ def test_smith_prediction_cuts_the_tracking_error_on_a_delayed_plant():
     assert with_smith < 0.5 * without and with_smith < 0.03
 
 
+def test_a_model_with_latent_heat_tracks_a_plant_that_has_it():
+    # the estimate transforms as slowly as the plant, and the duty pays for the heat
+    plant = ActuatorParams(latent_heat_k=20.0)
+    knows, blind = sine_rms(plant, plant), sine_rms(ActuatorParams(), plant)
+    assert knows < 0.5 * blind and knows < 0.01
+
+
 def test_the_measured_ambient_drives_the_thermal_inverse():
     settings = ControllerSettings('pi_inverse', ff_horizon_s=0.0)
     cold = ControllerCore(ActuatorParams(ambient_gain=0.0), settings)

@@ -96,7 +96,7 @@ def duty_pattern(n, dt, seed=0):
 
 
 def test_streaming_step_equals_batch_simulate():
-    params = act.ActuatorParams(tau_fast_s=0.2, phase_kappa=0.3, stress_k=4.0,
+    params = act.ActuatorParams(tau_fast_s=0.2, phase_kappa=0.3, stress_k=4.0, latent_heat_k=5.0,
                                 convection_exponent=0.25, delay_s=0.05)
     dt, sub = 0.025, 5                     # the actuator splits 25 ms into 5 ms sub-steps
     da, db = duty_pattern(800, dt)
@@ -174,6 +174,23 @@ def test_phase_resistance_heats_martensite_faster():
     assert b.theta_a_c[30] > a.theta_a_c[30] + 1.0
     assert b.y_a[-1] == pytest.approx(1.0, abs=1e-6)     # fully contracted: no extra power
     assert b.theta_a_c[-1] == pytest.approx(a.theta_a_c[-1], abs=1e-3)
+
+
+def test_latent_heat_slows_both_transformations_and_not_the_ends():
+    n = 1600
+    da, db = np.zeros(n), np.zeros(n)
+    da[20:800] = 0.5                                      # heat 39 s, then cool 40 s
+    a = run(BASE, da, db)
+    b = run(BASE.with_changes(latent_heat_k=20.0), da, db)
+
+    def crossing(y, start, rising):
+        return start + np.argmax(y[start:] > 0.5 if rising else y[start:] < 0.5)
+    assert crossing(b.y_a, 20, True) > crossing(a.y_a, 20, True) + 4      # > 0.2 s later
+    assert crossing(b.y_a, 800, False) > crossing(a.y_a, 800, False) + 4
+    # transformed through, the wire is back on the heat balance of eq. (7)
+    assert b.y_a[790] == pytest.approx(a.y_a[790], abs=1e-6)
+    assert b.theta_a_c[790] == pytest.approx(a.theta_a_c[790], abs=1e-2)
+    assert b.theta_a_c[-1] == pytest.approx(a.theta_a_c[-1], abs=1e-2)
 
 
 def test_fast_dynamics_slow_the_start_only():

@@ -17,7 +17,7 @@ The recipe for a new effect (docs/architecture.md), shown from outside the packa
 
 A scratch module declares its parameter once (`ParamSpec`), brings its behaviour as an
 `Effect` subclass and its physics as an input transform; loaded with the public plug-in
-API it is in the catalog with the declared bounds and neutral value, and it fits.
+API it is in the catalog with the declared bounds, and it fits.
 """
 import textwrap
 
@@ -64,9 +64,8 @@ def scratch_effect(tmp_path):
 @pytest.mark.slow
 def test_a_scratch_effect_declared_once_is_in_the_catalog_and_fits(scratch_effect):
     assert scratch_effect.name == 'recipe_dead_time'
-    # bounds, start and neutral value come from the one declaration
+    # bounds and start come from the one declaration
     assert scratch_effect.parameters == {'dead_duty': (0.0, 0.4, 0.05)}
-    assert scratch_effect.neutral == {'dead_duty': 0.0}
     data = dead_time_record(dead_duty=0.2)
     fit = engine.fit_model(data, effects=['recipe_dead_time'])
     base = engine.fit_model(data)

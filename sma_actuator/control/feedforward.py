@@ -185,7 +185,12 @@ class InverseFeedforward:
         theta_est: Optional[Sequence[float]] = None, offset_rad: Optional[float] = None,
         stroke_rad: Optional[float] = None,
     ) -> Tuple[Tuple[float, float], Tuple[float, float]]:
-        """Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C]."""
+        """
+        Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C].
+
+        The duty heats to θ* + λ (y* − y_j): the latent heat that the transformation to y*
+        absorbs (gives back, on cooling) comes on top of the heat balance.
+        """
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         duties, temps = [0.0, 0.0], [amb, amb]
@@ -207,7 +212,9 @@ class InverseFeedforward:
             theta = u_star + p.stress_k * float(contraction[1 - j])
             temps[j] = theta
             est = None if theta_est is None else float(theta_est[j])
-            duties[j] = self.thermal_duty(j, theta, est, amb, float(contraction[j]))
+            # the heat the transformation to y* absorbs (latent heat) comes on top
+            heat_to = theta + p.latent_heat_k * (y_star - float(contraction[j]))
+            duties[j] = self.thermal_duty(j, heat_to, est, amb, float(contraction[j]))
         return tuple(duties), tuple(temps)
 
 

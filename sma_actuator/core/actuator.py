@@ -29,7 +29,10 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
               ambient θa(t) = θa0 + k_amb (θa_meas(t) − θa0)
   3. hysteresis  y_j = H[θ_j + x − σ y_other]: one modified-PI operator (`PlayHysteresis`)
               shared by both wires, output = contraction fraction (0 cold, 1 hot); σ [K] is
-              the stress coupling (Clausius-Clapeyron shift from the antagonist's pull)
+              the stress coupling (Clausius-Clapeyron shift from the antagonist's pull);
+              latent heat: θ_j ← θ_j − λ Δy_j after the sample (C dθ/dt = ... − L dξ/dt,
+              λ = L / C per unit contraction: heating stalls while the wire transforms,
+              cooling is held up by the heat the reverse transformation gives back)
   4. shaft    φ = φ0 + g (y_a − s_b y_b)           (pulley kinematics, g = ε L / 2r)
               with functional fatigue of each wire over its own accumulated transformation
               cycles N_j = Σ|Δy_j| / 2: its recoverable stroke shrinks by f_s g_j and its
@@ -210,6 +213,12 @@ class ActuatorParams:
     phase_kappa: float = declare(
         0.0, '', 'phase resistance: heating factor 1 + κ (1 − y)', effect='phase_resistance',
         plant=(-0.5, 0.5), fit=(-0.5, 0.5, 0.1), role=FEEDBACK, kernel=True)
+    # NiTi absorbs ~20 J/g on heating through the transformation and gives it back on
+    # cooling; with c ~ 0.84 J/(g K) that holds the wire ~25 K below the heat balance's
+    # temperature for a full transformation
+    latent_heat_k: float = declare(
+        0.0, 'K', 'latent heat: temperature drop per unit contraction', effect='latent_heat',
+        plant=(0.0, 40.0), fit=(0.0, 40.0, 1.0), role=FEEDBACK, kernel=True)
     stress_k: float = declare(
         0.0, 'K', 'stress coupling: shift per unit antagonist contraction',
         effect='stress_coupling', plant=(0.0, 50.0), fit=(0.0, 50.0, 4.0), role=FEEDBACK,
@@ -395,6 +404,7 @@ def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelH
     tau, gain, amb0, tau_f = p[SLOT.tau_s], p[SLOT.gain_k], p[SLOT.ambient_c], p[SLOT.tau_fast_s]
     conv_n, k_amb, kappa = p[SLOT.convection_exponent], p[SLOT.ambient_gain], p[SLOT.phase_kappa]
     sigma, g_b, t_b = p[SLOT.stress_k], p[SLOT.gain_ratio_b], p[SLOT.tau_ratio_b]
+    latent = p[SLOT.latent_heat_k]
     d_lim, sharp = p[SLOT.duty_limit], p[SLOT.duty_limit_sharpness]
     n = duty_a.shape[0]
     m = r.shape[0]
@@ -450,6 +460,8 @@ def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelH
                 state[base + i] = v
                 acc += w[i] * v
             state[STATE_CONTRACTION + j] = acc
+            # latent heat: the transformation absorbs (heating) or releases (cooling) heat
+            state[STATE_THETA + j] = theta - latent * (acc - y_own)
     return out_ya, out_yb, out_ta, out_tb
 
 

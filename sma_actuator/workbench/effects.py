@@ -28,7 +28,7 @@ Plug-in point: subclass `Effect` in your own module and call `register_effect(cl
 bring parameters of its own that act through `transform_inputs` (duties and ambient
 before the thermal model), e.g. a supply that sags with load or a PWM dead time. Such
 parameters are declared once too, as `ParamSpec`s in `declares`, from which `parameters`
-and `neutral` follow.
+follows.
 """
 from __future__ import annotations
 
@@ -54,7 +54,6 @@ class Effect:
     name = ''
     signature = ''
     parameters = {}       # ActuatorParams field (or 'tau_s') -> (lower, upper, start)
-    neutral = {}          # plug-in parameter -> value at which the effect is off (ablation)
     needs_dynamic = True  # needs time-series data (not quasi-static curves)
     kind = None           # hysteresis kind the effect requires ('modified' for saturation)
     # in diagnose, also refit from scratch besides on the base fit's hysteresis grid (the
@@ -63,12 +62,12 @@ class Effect:
     own_grid = False
     # acts between the two wires: not applicable to a single wire against a bias spring
     needs_two_wires = False
-    # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (fit and neutral used)
+    # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (its fit is used)
     declares = {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """
-        Derive `parameters` (and `neutral`) from the declarations.
+        Derive `parameters` from the declarations.
 
         The `ActuatorParams` fields declared with this effect's name, then its own
         `declares`; a class that declares nothing keeps what it states or inherits.
@@ -78,8 +77,6 @@ class Effect:
         table = dict(fit_table(cls.name), **{k: spec.fit for k, spec in own.items()})
         if table and 'parameters' not in cls.__dict__:
             cls.parameters = table
-        if own and 'neutral' not in cls.__dict__:
-            cls.neutral = {k: spec.neutral for k, spec in own.items()}
 
     def scratch_start(self, params: ActuatorParams) -> Dict[str, float]:
         """
@@ -310,6 +307,32 @@ class PhaseResistance(Effect):
                  'matches; error concentrated in heating from the martensite side')
 
 
+class LatentHeat(Effect):
+    """
+    Latent heat of the transformation.
+
+    The martensite -> austenite transformation absorbs heat and the reverse gives it back
+    (about 20 J/g for NiTi), so eq. (7) gains a term: C dθ/dt = P − hA (θ − θa) − L dξ/dt.
+    Per sample, θ ← θ − λ Δy (λ = L / C [K] per unit contraction): heating stalls while the
+    wire transforms and cooling holds the wire hot until the reverse transformation is done.
+    """
+
+    name = 'latent_heat'
+    signature = ('transformations run slower and more evenly in time than modelled: the '
+                 'model heats and cools through the loop too fast at first and too slowly at '
+                 'the end (an S that is too steep at its start)')
+    # the heat held in the transformation moves the temperatures at which the wire
+    # transforms, so the base grid sits where the base put the transformation; from
+    # scratch the search does not leave a small λ (the coarse grid hides the effect), so
+    # that refit starts from a strong one
+    own_grid = True
+
+    def scratch_start(self, params: ActuatorParams) -> Dict[str, float]:
+        """Start the from-scratch refit from half the upper bound: a strong effect."""
+        _, upper, _ = self.bounds(params)['latent_heat_k']
+        return {'latent_heat_k': 0.5 * upper}
+
+
 class StressCoupling(Effect):
     """
     Stress coupling of the antagonistic pair.
@@ -459,7 +482,7 @@ def register_effect(cls: type) -> type:
 # the package's own effects: every process that imports this module has them (plug-ins
 # exist only where they were registered)
 BUILTIN = {c.name: c for c in (Saturation, FastDynamics, Delay, Convection, AmbientDrift,
-                               PhaseResistance, StressCoupling, AsymmetricWires,
+                               PhaseResistance, LatentHeat, StressCoupling, AsymmetricWires,
                                SensorNonlinearity, FatigueDrift, CurrentLimit, SensorZero,
                                RecordStroke)}
 for _cls in BUILTIN.values():

@@ -32,11 +32,11 @@ held-out error. A candidate is significant only if
      candidate nests the base model, so a missing effect must fit the training window
      better by more than its extra parameters' worth (a held-out gain without that is luck
      of the split, not physics), and
-  3. the effect itself carries the gain (ablation): the candidate with its effect's
-     parameters put back to the base model's values, keeping the re-fitted weights and
-     time constant, must be worse on held-out data by at least `min_improvement` again;
-     otherwise the gain came from re-tuning the base (a fragile held-out window), not
-     from the effect, and
+  3. the effect itself carries the gain (the counterfactual): the base model refitted
+     from where the candidate's refit ended (its hysteresis grid, weights and time
+     constant) with the effect off must be worse on held-out data by at least
+     `min_improvement` again; otherwise the gain came from the new grid or a re-tuned
+     base (a fragile held-out window), not from the effect, and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period).
 Candidates are listed best first: significant ones by held-out improvement, then the
@@ -58,7 +58,7 @@ from .records import loop_prior, record_strokes, stroke_scale, zeros
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import fit_dynamic, fit_static, narrow_bands, scores
+from ..core.identification import fit_dynamic, fit_static, scores
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -544,14 +544,17 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
     gain = (v0 - v1) / v0 if v0 > 0 else 0.0
     bic1 = bic(fit.residual, _free_count(fit), n_eff)
-    v_abl = _ablated_nrmse(data, base, fit, eff)
-    # switching the effect off in the refit must cost at least the improvement asked of it
+    v_abl = None
+    if gain >= min_improvement and bic1 < bic0 - BIC_MARGIN:
+        v_abl = _regridded_base_nrmse(data, base, fit, eff)
+    # the base refitted where the candidate's refit ended, without the effect, must fall
+    # short of it by at least the improvement asked of the effect
     carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
     unresolved = eff.unresolved(fit.values, data)
     significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried
                        and unresolved is None)
     checks = ('' if v_abl is None else
-              f', {100 * v_abl:.2f} % with the effect switched off in the refit')
+              f", {100 * v_abl:.2f} % for the base refitted on the candidate's grid")
     if unresolved:
         checks += f'; not significant: {unresolved}'
     values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
@@ -567,37 +570,24 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
             'fit': fit, 'bic': float(bic1)}
 
 
-def _ablated_nrmse(data: DynamicData, base: ModelFit, fit: ModelFit,
-                   eff: Effect) -> Optional[float]:
+def _regridded_base_nrmse(data: DynamicData, base: ModelFit, fit: ModelFit,
+                          eff: Effect) -> Optional[float]:
     """
-    Return the held-out NRMSE of `fit` with the effect's parameters back at the base values.
+    Return the held-out NRMSE of the base model refitted from where the candidate's ended.
 
-    The re-fitted weights and time constant are kept; None when that cannot be done (static
-    data, no parameters, plug-in parameters without a neutral value).
+    The counterfactual of the candidate's gain: the base's own parameters (time constant,
+    weights) refitted on the candidate's hysteresis grid, warm from its values, with the
+    effect off. When that does as well, the gain came from the new grid or a re-tuned
+    base, not from the effect. None when it does not apply (static data, no parameters).
     """
     if not eff.parameters or fit.split is None or fit.split.start is None:
         return None
     names = {f.name for f in fields(act.ActuatorParams)}
-    changes, plug = {}, {}
-    for k in eff.parameters:
-        if k in names:
-            changes[k] = getattr(base.params, k)
-        elif k in eff.neutral:
-            plug[k] = eff.neutral[k]
-        else:
-            return None
-    # the refit's bands are narrowed to the states it visits in training; switched off, the
-    # effect moves the states elsewhere, so start from the whole bands and narrow again
-    h, g = fit.params.hysteresis, fit.grid
-    if g is not None and g.n_operators == h.n_operators:
-        h = PlayHysteresis(g.r, g.lo, g.hi, h.w, h.k1, h.y0)
-    off = ModelFit(fit.effects, fit.kind, dict(fit.values, **plug), None, None, None, None, 0,
-                   None, fit.params.with_changes(hysteresis=h, **changes))
-    n = fit.split.start
-    da, db, amb = off.inputs(data)
-    off.params = narrow_bands(off.params, da[:n], db[:n], amb[:n], data.dt)
-    pred = off.trajectory(data).position_rad
-    return rescore(data, pred, Split(fit.split.start))[1]['nrmse']
+    neutral = {k: getattr(base.params, k) for k in eff.parameters if k in names}
+    start = {k: v for k, v in fit.values.items() if k not in eff.parameters}
+    off = ModelFit(list(base.effects), base.kind, start, None, None, None, None, 0, None,
+                   fit.params.with_changes(**neutral), grid=fit.grid)
+    return fit_model(data, list(base.effects), kind=base.kind, base_fit=off).validation['nrmse']
 
 
 def _settle_near_ties(ranked: list) -> None:

@@ -34,6 +34,7 @@ EFFECTS = {
     'convection': [{'convection_exponent': v} for v in (0.25, 0.5, 1.0)],
     'ambient_drift': [{'ambient_gain': v} for v in (0.5, 1.0, 2.0)],
     'phase_resistance': [{'phase_kappa': v} for v in (0.15, 0.3, 0.5)],
+    'latent_heat': [{'latent_heat_k': v} for v in (3.0, 10.0, 25.0)],
     'stress_coupling': [{'stress_k': v} for v in (5.0, 20.0, 45.0)],
     'asymmetric_wires': [{'gain_ratio_b': 1.2}, {'gain_ratio_b': 1.4, 'tau_ratio_b': 0.8},
                          {'gain_ratio_b': 0.6, 'stroke_ratio_b': 1.5}],
