@@ -26,13 +26,19 @@ Benchmark the workbench on the measured spring-biased wire records, with timings
    it names and the held-out error before and after (--only-diagnose: this part alone).
 """
 import argparse
+import os
 from pathlib import Path
 import time
 
-import numpy as np
-from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import diagnose, fit_model, record_scores
-from sma_actuator.workbench.records import join
+from sma_actuator.workbench.parallel import BLAS_THREADS
+
+# one BLAS thread before numpy loads, as `sma-model` runs: the same fits, the same figures
+os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
+
+import numpy as np  # noqa: E402, I100
+from sma_actuator.workbench.data import load_data  # noqa: E402
+from sma_actuator.workbench.engine import diagnose, fit_model, record_scores  # noqa: E402
+from sma_actuator.workbench.records import join  # noqa: E402
 
 NAMES = ('square_a', 'step_a', 'ramp_a')
 

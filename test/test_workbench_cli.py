@@ -23,6 +23,7 @@ independent rich simulator live elsewhere); they are short (30-40 s at 20 Hz) so
 whole file stays well under a minute.
 """
 import json
+import os
 from pathlib import Path
 import shutil
 import subprocess
@@ -366,3 +367,18 @@ def test_module_is_runnable_with_python_m(tmp_path):
     proc = subprocess.run([sys.executable, '-m', 'sma_actuator.workbench.cli', 'fit', 'x.csv'],
                           capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert_bad_input(proc, 'x.csv: no such file')
+
+
+def test_the_command_runs_one_blas_thread_like_its_workers():
+    # a fit must not depend on --jobs: the refit workers run one BLAS thread, so does the
+    # command's own process, set before numpy loads (an explicit setting is kept)
+    probe = ('import os, sys; import sma_actuator.workbench.cli; '
+             'print(os.environ["OPENBLAS_NUM_THREADS"], os.environ["OMP_NUM_THREADS"])')
+    env = {k: v for k, v in os.environ.items() if not k.endswith('_NUM_THREADS')}
+    out = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,
+                         env=env, timeout=120).stdout.split()
+    assert out == ['1', '1']
+    env['OMP_NUM_THREADS'] = '3'
+    out = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,
+                         env=env, timeout=120).stdout.split()
+    assert out == ['1', '3']

@@ -38,9 +38,18 @@ import sys
 import time
 from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
-import numpy as np
+from .parallel import BLAS_THREADS
 
-from ..core.datakinds import DynamicData, Split, StaticData
+# One BLAS thread, set before numpy is loaded, as in the refit workers: with several
+# threads the least-squares rounding differs, the identification's searches can end in
+# another basin, and a fit in this process would disagree with the same fit in a worker
+# (`--jobs`). An explicit setting in the environment is kept.
+for _name in BLAS_THREADS:
+    os.environ.setdefault(_name, '1')
+
+import numpy as np  # noqa: E402, I100
+
+from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
