@@ -30,14 +30,12 @@ does by default) side by side.
 --check: exit status 1 if the timed part exceeds the target.
 """
 import argparse
-import os
 import sys
 import time
 
-from sma_actuator.workbench.parallel import available_cores, BLAS_THREADS
+from sma_actuator.workbench.parallel import available_cores, one_blas_thread
 
-# one BLAS thread before numpy loads, as `sma-model` and its refit workers run
-os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
+one_blas_thread()   # before numpy loads, as `sma-model` runs
 
 import numpy as np  # noqa: E402, I100
 from sma_actuator.core.actuator import ActuatorParams, simulate  # noqa: E402

@@ -31,15 +31,13 @@ Also the null case. Two sources of records:
                                 seconds column then includes the contention)
 """
 import argparse
-import os
 from pathlib import Path
 import sys
 import time
 
-from sma_actuator.workbench.parallel import BLAS_THREADS
+from sma_actuator.workbench.parallel import one_blas_thread
 
-# one BLAS thread before numpy loads, as `sma-model` and the record workers run
-os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
+one_blas_thread()   # before numpy loads, as `sma-model` and the record workers run
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402, I100

@@ -26,14 +26,12 @@ Benchmark the workbench on the measured spring-biased wire records, with timings
    it names and the held-out error before and after (--only-diagnose: this part alone).
 """
 import argparse
-import os
 from pathlib import Path
 import time
 
-from sma_actuator.workbench.parallel import BLAS_THREADS
+from sma_actuator.workbench.parallel import one_blas_thread
 
-# one BLAS thread before numpy loads, as `sma-model` runs: the same fits, the same figures
-os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
+one_blas_thread()   # before numpy loads, as `sma-model` runs: the same fits, the same figures
 
 import numpy as np  # noqa: E402, I100
 from sma_actuator.workbench.data import load_data  # noqa: E402

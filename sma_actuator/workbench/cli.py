@@ -38,14 +38,9 @@ import sys
 import time
 from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
-from .parallel import BLAS_THREADS
+from .parallel import one_blas_thread
 
-# One BLAS thread, set before numpy is loaded, as in the refit workers: with several
-# threads the least-squares rounding differs, the identification's searches can end in
-# another basin, and a fit in this process would disagree with the same fit in a worker
-# (`--jobs`). An explicit setting in the environment is kept.
-for _name in BLAS_THREADS:
-    os.environ.setdefault(_name, '1')
+one_blas_thread()   # before numpy loads: a fit must not depend on --jobs
 
 import numpy as np  # noqa: E402, I100
 

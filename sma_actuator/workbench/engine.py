@@ -544,17 +544,17 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
     gain = (v0 - v1) / v0 if v0 > 0 else 0.0
     bic1 = bic(fit.residual, _free_count(fit), n_eff)
-    v_abl = None
+    v_off = None
     if gain >= min_improvement and bic1 < bic0 - BIC_MARGIN:
-        v_abl = _regridded_base_nrmse(data, base, fit, eff)
+        v_off = _regridded_base_nrmse(data, base, fit, eff)
     # the base refitted where the candidate's refit ended, without the effect, must fall
     # short of it by at least the improvement asked of the effect
-    carried = v_abl is None or v_abl <= 0 or (v_abl - v1) / v_abl >= min_improvement
+    carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     unresolved = eff.unresolved(fit.values, data)
     significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried
                        and unresolved is None)
-    checks = ('' if v_abl is None else
-              f", {100 * v_abl:.2f} % for the base refitted on the candidate's grid")
+    checks = ('' if v_off is None else
+              f", {100 * v_off:.2f} % for the base refitted on the candidate's grid")
     if unresolved:
         checks += f'; not significant: {unresolved}'
     values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()

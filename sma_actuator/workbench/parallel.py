@@ -29,6 +29,18 @@ R = TypeVar('R')
 BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
 
 
+def one_blas_thread() -> None:
+    """
+    Ask for one BLAS thread in this process, as the workers run; call before numpy loads.
+
+    With several threads the least-squares rounding differs, the identification's searches
+    can end in another basin, and a fit in the calling process would disagree with the same
+    fit in a worker (`--jobs`). A thread count already set in the environment is kept.
+    """
+    for name in BLAS_THREADS:
+        os.environ.setdefault(name, '1')
+
+
 def available_cores() -> int:
     """Return the number of cores this process may run on."""
     return len(os.sched_getaffinity(0))
