@@ -544,15 +544,14 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
     gain = (v0 - v1) / v0 if v0 > 0 else 0.0
     bic1 = bic(fit.residual, _free_count(fit), n_eff)
-    v_off = None
-    if gain >= min_improvement and bic1 < bic0 - BIC_MARGIN:
-        v_off = _regridded_base_nrmse(data, base, fit, eff)
+    evident = gain >= min_improvement and bic1 < bic0 - BIC_MARGIN
+    # the counterfactual costs a fit, so it runs only where the first two checks pass
+    v_off = _regridded_base_nrmse(data, base, fit, eff) if evident else None
     # the base refitted where the candidate's refit ended, without the effect, must fall
     # short of it by at least the improvement asked of the effect
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     unresolved = eff.unresolved(fit.values, data)
-    significant = bool(gain >= min_improvement and bic1 < bic0 - BIC_MARGIN and carried
-                       and unresolved is None)
+    significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid")
     if unresolved:
