@@ -60,6 +60,12 @@ def test_sensor_inverse_round_trips_the_potentiometer_polynomial():
     back = [sensor.angle(float(r)) for r in sensor_polynomial(model, angles)]
     np.testing.assert_allclose(back, angles, atol=1e-4)
     assert SensorMap(ActuatorParams()).angle(0.3) == 0.3
+    # a rig whose travel is 5-17 mm: the table follows the travel, not ±2 about zero
+    rig = ActuatorParams(sensor_centre_rad=11.0, sensor_half_span_rad=6.0, sensor_c2_rad=0.15,
+                         sensor_c3_rad=-0.1)
+    travel = np.linspace(5.0, 17.0, 41)
+    back = [SensorMap(rig).angle(float(r)) for r in sensor_polynomial(rig, travel)]
+    np.testing.assert_allclose(back, travel, atol=1e-3)
 
 
 def test_the_thermal_inverse_uses_each_wires_own_parameters():

@@ -246,6 +246,26 @@ def test_sensor_inverse_is_exact_on_the_rising_branch_and_first_order_beyond():
     np.testing.assert_array_equal(act.sensor_inverse(BASE, y), y)     # no polynomial
 
 
+def test_sensor_polynomial_is_expanded_about_the_travel_in_any_unit():
+    # eq. step 5: p(φ) = φ + h Σ c_k x^k, x = (φ − φc) / h
+    terms = {'sensor_c2_rad': 0.1, 'sensor_c3_rad': -0.2, 'sensor_c4_rad': 0.05,
+             'sensor_c5_rad': 0.1}
+    rad = BASE.with_changes(sensor_centre_rad=0.2, sensor_half_span_rad=0.6, **terms)
+    phi = np.linspace(-0.4, 0.8, 61)
+    x = (phi - 0.2) / 0.6
+    expected = phi + 0.6 * (0.1 * x ** 2 - 0.2 * x ** 3 + 0.05 * x ** 4 + 0.1 * x ** 5)
+    np.testing.assert_allclose(act.sensor_polynomial(rad, phi), expected, atol=1e-12)
+    # the same potentiometer read in mm (8 mm + 5 mm/rad): the same terms, travel moved
+    mm = BASE.with_changes(sensor_centre_rad=8.0 + 5.0 * 0.2, sensor_half_span_rad=5.0 * 0.6,
+                           **terms)
+    np.testing.assert_allclose(act.sensor_polynomial(mm, 8.0 + 5.0 * phi), 8.0 + 5.0 * expected,
+                               atol=1e-12)
+    np.testing.assert_allclose(act.sensor_inverse(mm, 8.0 + 5.0 * expected), 8.0 + 5.0 * phi,
+                               atol=1e-6)
+    with pytest.raises(ValueError, match='sensor_half_span_rad'):
+        BASE.with_changes(sensor_half_span_rad=0.0)
+
+
 def test_sensor_polynomial_and_fatigue():
     n, dt = 600, 1.0
     da = np.where(np.arange(n) % 40 < 20, 0.5, 0.0)

@@ -65,7 +65,7 @@ def test_config_yaml_loads_with_params_file_and_sets_every_declared_value(name, 
 def test_every_actuator_effect_is_a_plant_parameter():
     physical = {'length_m', 'resistance_ohm_per_m', 'supply_v', 'current_limit_a',
                 'heat_capacity_j_per_k', 'conductance_w_per_k', 'ambient_c', 'stroke_rad',
-                'offset_rad', 'hysteresis'}
+                'offset_rad', 'sensor_centre_rad', 'sensor_half_span_rad', 'hysteresis'}
     effects = set(ActuatorParams.__dataclass_fields__) - physical
     assert effects == {name for name, *_ in EFFECTS}
     assert effects == {name for name, spec in PARAMETERS.items() if spec.effect}

@@ -26,6 +26,7 @@ from sma_actuator.core.hysteresis import PlayHysteresis
 from sma_actuator.workbench import engine
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
 from support import plant_records
+from support.richsim import simulate
 from test_core_identification import multilevel_duty
 
 DT = 1.0 / 40.0
@@ -104,6 +105,25 @@ def test_strong_sensor_polynomial_is_fitted_to_the_noise():
     fit = engine.fit_model(data, ['sensor_nonlinearity'], base_fit=base)
     assert fit.train['nrmse'] < 0.003
     assert fit.validation['nrmse'] < 0.4 * base.validation['nrmse']
+
+
+def test_the_sensor_polynomial_fits_the_same_whatever_the_unit_and_zero():
+    # one potentiometer record (rich simulator) read in rad, and as a rig in mm reads it:
+    # 8 mm + 5 mm/rad. Expanded about the measured travel the fit is the same; about 0 mm
+    # it held the mm record out at 0.64 % against 0.22 % in rad
+    d = simulate('sensor_nonlinearity', magnitude=1.5, excitation='open', duration_s=480.0,
+                 rate_hz=40, noise_rad=0.002, seed=21)
+    fits = []
+    for position in (d['position'], 8.0 + 5.0 * d['position']):
+        data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], position)
+        base = engine.fit_model(data)
+        fits.append(engine.fit_model(data, ['sensor_nonlinearity'], base_fit=base))
+        assert fits[-1].validation['nrmse'] < 0.3 * base.validation['nrmse']
+    rad, mm = fits
+    assert mm.validation['nrmse'] == pytest.approx(rad.validation['nrmse'], rel=0.02)
+    assert mm.params.sensor_half_span_rad == pytest.approx(5.0 * rad.params.sensor_half_span_rad)
+    for k in act.EFFECT_PARAMETERS['sensor_nonlinearity']:
+        assert getattr(mm.params, k) == pytest.approx(getattr(rad.params, k), abs=0.01), k
 
 
 def test_strong_latent_heat_is_named_from_its_own_grid():

@@ -210,8 +210,10 @@ class SensorMap:
         self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
                              or params.sensor_c4_rad or params.sensor_c5_rad)
         if not self.identity:
-            # the rising branch of p through 0 over the travel and well beyond it
-            angles = np.linspace(-2.0, 2.0, 8001)
+            # the rising branch of p through the centre of travel, over the travel and well
+            # beyond it (x = ±2)
+            angles = params.sensor_centre_rad + params.sensor_half_span_rad * np.linspace(
+                -2.0, 2.0, 8001)
             readings = sensor_polynomial(params, angles)
             falls = np.flatnonzero(np.diff(readings) <= 0)
             mid = len(angles) // 2

@@ -40,7 +40,8 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
               (shakedown: most of the loss in the first cycles; N_f large: linear drift):
               φ = φ0 + g (y_a (1 − f_s g_a) − s_b y_b (1 − f_s g_b)) + f_a g_a + f_b g_b
   5. sensor   φ_meas(t) = p(φ(t − D)), the potentiometer polynomial
-              p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad).
+              p(φ) = φ + h (c2 x² + c3 x³ + c4 x⁴ + c5 x⁵) in the scaled travel
+              x = (φ − φc) / h (φc: centre of travel, h: half travel; 0 and 1 rad by default).
 
 Steps 1-3 run in one compiled kernel (`simulate_wires`); steps 4-5 are vectorised output
 maps. With every effect parameter at its neutral value this is exactly the paper's model
@@ -232,19 +233,26 @@ class ActuatorParams:
     stroke_ratio_b: float = declare(
         1.0, '', 'asymmetric wires: stroke of wire b relative to a',
         effect='asymmetric_wires', plant=(0.5, 2.0), fit=(0.5, 2.0, 1.0))
-    # fit bounds: each term alone keeps p monotone over about ±1 rad of travel (together
-    # they may turn earlier: `sensor_inverse` then falls back to first order)
+    # the polynomial runs in x = (φ − φc) / h, the travel scaled to about ±1, so its terms mean
+    # the same on any rig and in any position unit; the workbench sets φc and h from the
+    # measured travel when it fits the terms, and the neutral φc = 0, h = 1 make x = φ [rad]
+    sensor_centre_rad: float = declare(
+        0.0, 'rad', 'potentiometer polynomial: centre of travel φc it is expanded about')
+    sensor_half_span_rad: float = declare(
+        1.0, 'rad', 'potentiometer polynomial: half travel h its terms are scaled by')
+    # fit bounds: each term alone keeps p monotone over about x = ±1 (together they may turn
+    # earlier: `sensor_inverse` then falls back to first order)
     sensor_c2_rad: float = declare(
-        0.0, 'rad at 1 rad', 'potentiometer quadratic term', effect='sensor_nonlinearity',
+        0.0, '× h at x = 1', 'potentiometer quadratic term', effect='sensor_nonlinearity',
         plant=(-0.2, 0.2), fit=(-0.25, 0.25, 0.0))
     sensor_c3_rad: float = declare(
-        0.0, 'rad at 1 rad', 'potentiometer cubic term', effect='sensor_nonlinearity',
+        0.0, '× h at x = 1', 'potentiometer cubic term', effect='sensor_nonlinearity',
         plant=(-0.2, 0.2), fit=(-0.3, 0.3, 0.0))
     sensor_c4_rad: float = declare(
-        0.0, 'rad at 1 rad', 'potentiometer 4th-order term', effect='sensor_nonlinearity',
+        0.0, '× h at x = 1', 'potentiometer 4th-order term', effect='sensor_nonlinearity',
         plant=(-0.15, 0.15), fit=(-0.15, 0.15, 0.0))
     sensor_c5_rad: float = declare(
-        0.0, 'rad at 1 rad', 'potentiometer 5th-order term', effect='sensor_nonlinearity',
+        0.0, '× h at x = 1', 'potentiometer 5th-order term', effect='sensor_nonlinearity',
         plant=(-0.15, 0.15), fit=(-0.15, 0.15, 0.0))
     # the zero drifts are solved linearly with the weights, each within ± half the measured
     # travel (`core.identification`), so their fit bounds are open
@@ -278,7 +286,7 @@ class ActuatorParams:
                 setattr(self, f.name, finite_scalar(f.name, getattr(self, f.name)))
         for name in ('length_m', 'resistance_ohm_per_m', 'supply_v', 'current_limit_a',
                      'heat_capacity_j_per_k', 'conductance_w_per_k', 'tau_ratio_b',
-                     'fatigue_cycles'):
+                     'fatigue_cycles', 'sensor_half_span_rad'):
             if getattr(self, name) <= 0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name)}')
         for name in ('tau_fast_s', 'delay_s', 'gain_ratio_b', 'stroke_ratio_b',
@@ -525,10 +533,13 @@ def sensor_polynomial(params: ActuatorParams, phi: ArrayLike) -> np.ndarray:
     """
     Return the potentiometer reading, step 5 without the delay.
 
-    p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ [rad].
+    p(φ) = φ + h (c2 x² + c3 x³ + c4 x⁴ + c5 x⁵), x = (φ − φc) / h [rad]; with the
+    neutral φc = 0, h = 1 this is φ + c2 φ² + ... + c5 φ⁵.
     """
-    return phi + phi * phi * (params.sensor_c2_rad + phi * (params.sensor_c3_rad + phi * (
-        params.sensor_c4_rad + phi * params.sensor_c5_rad)))
+    h = params.sensor_half_span_rad
+    x = (np.asarray(phi, float) - params.sensor_centre_rad) / h
+    return phi + h * x * x * (params.sensor_c2_rad + x * (params.sensor_c3_rad + x * (
+        params.sensor_c4_rad + x * params.sensor_c5_rad)))
 
 
 def sensor_inverse(params: ActuatorParams, reading: ArrayLike,

@@ -55,6 +55,8 @@ from .validate import finite_array, same_length
 # solved linearly with the weights (no outer search): the roles declared in `ActuatorParams`
 FEEDBACK_PARAMS = act.FEEDBACK_PARAMS
 LINEAR_PARAMS = act.LINEAR_PARAMS
+# the potentiometer polynomial's terms, expanded about the measured travel when fitted
+SENSOR_TERMS = frozenset(act.EFFECT_PARAMETERS['sensor_nonlinearity'])
 # feedback fixed-point iterations per settle (see `_settle`): enough for the feedback
 # weights to reach their fixed point; more iterations do not change the fit
 FIXED_POINT_STEPS = 4
@@ -855,11 +857,25 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
         raise ValueError('too little excitation: the measured position is constant')
     n_train = data.default_split(train_fraction).start
     burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
+    if SENSOR_TERMS & free.keys():
+        base = _sensor_travel(base, data.position[:n_train])
     values = {k: v[2] for k, v in free.items()}
     if start:
         values.update({k: v for k, v in start.items() if k in values})
     return Setup(data, base, free, values, n_train, burn_in, input_hook,
                  bool(start) and 'tau_s' in start, loop_ratio)
+
+
+def _sensor_travel(base: act.ActuatorParams, position: np.ndarray) -> act.ActuatorParams:
+    """
+    Return `base` with the sensor polynomial expanded about the measured travel.
+
+    φc = the middle and h = half the range of the training positions, so its fitted terms
+    are fractions of the travel on any rig and in any unit (`core.actuator.sensor_polynomial`).
+    """
+    lo, hi = float(np.min(position)), float(np.max(position))
+    return base.with_changes(sensor_centre_rad=0.5 * (lo + hi),
+                             sensor_half_span_rad=max(0.5 * (hi - lo), 1e-9))
 
 
 def input_range(setup: Setup) -> InputRange:
