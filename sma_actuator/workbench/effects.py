@@ -366,8 +366,9 @@ class SensorNonlinearity(Effect):
     Potentiometer nonlinearity.
 
     Track resistance is not uniform and the wiper loads the divider, so the reading is a smooth
-    function of the angle, here the polynomial p(φ) = φ + c2 φ² + c3 φ³ + c4 φ⁴ + c5 φ⁵ (φ in rad;
-    enough for bow and S shapes).
+    function of the angle, here the polynomial p(φ) = φ + h (c2 x² + c3 x³ + c4 x⁴ + c5 x⁵) of the
+    travel scaled to ±1, x = (φ − φc) / h (enough for bow and S shapes; φc and h from the
+    measured travel, so the terms mean the same in any unit).
     """
 
     name = 'sensor_nonlinearity'
