@@ -858,7 +858,7 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
     n_train = data.default_split(train_fraction).start
     burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
     if SENSOR_TERMS & free.keys():
-        base = _sensor_travel(base, data.position[:n_train])
+        base = _sensor_travel(base, data.position[:n_train][data.scored_mask()[:n_train]])
     values = {k: v[2] for k, v in free.items()}
     if start:
         values.update({k: v for k, v in start.items() if k in values})
@@ -870,8 +870,9 @@ def _sensor_travel(base: act.ActuatorParams, position: np.ndarray) -> act.Actuat
     """
     Return `base` with the sensor polynomial expanded about the measured travel.
 
-    φc = the middle and h = half the range of the training positions, so its fitted terms
-    are fractions of the travel on any rig and in any unit (`core.actuator.sensor_polynomial`).
+    φc = the middle and h = half the range of the measured training positions (not the rest
+    gaps between joined records), so its fitted terms are fractions of the travel on any rig
+    and in any unit (`core.actuator.sensor_polynomial`).
     """
     lo, hi = float(np.min(position)), float(np.max(position))
     return base.with_changes(sensor_centre_rad=0.5 * (lo + hi),
