@@ -39,6 +39,9 @@ held-out error. A candidate is significant only if
      base (a fragile held-out window), not from the effect, and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period).
+When no candidate is significant, every one without an own grid is also refitted from
+scratch (the better training fit of the two is judged again): with two effects missing,
+the base can sit so far from the data that a warm refit stays in its basin.
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
@@ -47,6 +50,7 @@ explanation) is put first and every explanation in the group says so.
 """
 from dataclasses import dataclass, field, fields
 from functools import partial
+from itertools import chain
 import time
 from typing import Any, Callable, Iterator, Optional
 
@@ -435,27 +439,35 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
         return (builtin and is_builtin(name) and data.costly_fit
                 and data.unsupported(get_effect(name)) is None)
 
-    pooled, local = [], []
-    for t in tasks:
-        (pooled if poolable(t[2]) else local).append(t)
-    # the slowest refits (a second one from scratch) first, so no core idles at the end
-    pooled.sort(key=lambda t: not get_effect(t[2]).own_grid)
-    out = []
-
-    def done(entry: dict) -> None:
-        out.append(entry)
+    def judged(tasks: list, stage: str) -> dict:
+        """Return {name: entry} of `tasks`, the costly ones on the pool or `mapper`."""
+        pooled, local = [], []
+        for t in tasks:
+            (pooled if poolable(t[2]) else local).append(t)
+        # the slowest refits (a second one from scratch) first, so no core idles at the end
+        pooled.sort(key=lambda t: not get_effect(t[2]).own_grid)
+        out = {}
         if progress:
-            progress(len(out), len(names), entry['effect'])
+            progress(0, len(tasks), stage)
+        for entry in chain(map(judge_candidate, local),
+                           (mapper or partial(_judge_on_cores, jobs))(pooled)):
+            out[entry['effect']] = entry
+            if progress:
+                progress(len(out), len(tasks), entry['effect'])
+        return out
 
-    if progress:
-        progress(0, len(names), 'candidates')
-    for task in local:
-        done(judge_candidate(task))
-    for entry in (mapper or partial(_judge_on_cores, jobs))(pooled):
-        done(entry)
+    entries = judged(tasks, 'candidates')
+    diag = rank_candidates(base, list(entries.values()))
+    # nothing named: a base far from the data (another effect missing too) can hold a warm
+    # refit in its basin, so each candidate is also refitted from scratch and judged again
+    rescue = [t + (entries[t[2]]['fit'],) for t in tasks
+              if 'fit' in entries[t[2]] and not get_effect(t[2]).own_grid]
+    if diag.missing_effect is None and isinstance(data, DynamicData) and rescue:
+        entries.update(judged(rescue, 'candidates from scratch'))
+        diag = rank_candidates(base, [entries[n] for n in names])
     if progress:
         progress(len(names), len(names), 'done')
-    return rank_candidates(base, out)
+    return diag
 
 
 def _judge_on_cores(jobs: int, tasks: list) -> Iterator[dict]:
@@ -527,8 +539,13 @@ def judge_candidate(task: tuple) -> dict:
 
 
 def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
-           min_improvement: float) -> dict:
-    """Return the candidate entry of `name` (without its time)."""
+           min_improvement: float, warm: Optional[ModelFit] = None) -> dict:
+    """
+    Return the candidate entry of `name` (without its time).
+
+    warm: its refit warm from the base, already made; then it is also refitted from
+    scratch and the better training fit of the two is judged.
+    """
     eff = get_effect(name)
     reason = data.unsupported(eff)
     if reason is None and eff.kind is not None and base.kind == eff.kind:
@@ -536,8 +553,11 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     if reason:
         return {'effect': name, 'validation_nrmse': None, 'improvement': None,
                 'significant': False, 'explanation': f'not applicable: {reason}'}
+    effects = list(base.effects) + [name]
     try:
-        fit = fit_model(data, list(base.effects) + [name], kind=base.kind, base_fit=base)
+        fit = fit_model(data, effects, kind=base.kind, base_fit=base if warm is None else None)
+        if warm is not None and warm.train['rmse'] <= fit.train['rmse']:
+            fit = warm
     except ValueError as err:
         return {'effect': name, 'validation_nrmse': None, 'improvement': None,
                 'significant': False, 'explanation': f'fit failed: {err}'}

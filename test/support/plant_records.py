@@ -57,15 +57,24 @@ def simulate(effect, level, duration_s=480.0, rate_hz=40.0, noise_rad=0.001, see
 
     With ambient_temperature for ambient_drift (drifting by about ±9 K); 'none': any level.
     """
+    changes = {} if effect == 'none' else EFFECTS[effect][level]
+    return simulate_with(changes, duration_s, rate_hz, noise_rad, seed)
+
+
+def simulate_with(changes, duration_s=480.0, rate_hz=40.0, noise_rad=0.001, seed=0):
+    """
+    Return the record of `simulate` for plant parameter `changes` (one effect or several).
+
+    The ambient drifts (as for ambient_drift) when `changes` sets ambient_gain.
+    """
     rng = np.random.default_rng(seed)
     cmd = open_loop_duty(rng, duration_s, duty_max=DUTY_MAX)
     dt = 1.0 / rate_hz
     t = np.arange(int(round(duration_s * rate_hz))) * dt
     tick = np.minimum((t / 0.025).astype(int), len(cmd) - 1)
     da, db = cmd[tick, 0], cmd[tick, 1]
-    changes = {} if effect == 'none' else EFFECTS[effect][level]
     ambient = None
-    if effect == 'ambient_drift':
+    if 'ambient_gain' in changes:
         ambient = 22 + 6 * np.sin(2 * np.pi * t / 300) + 3 * np.sin(2 * np.pi * t / 77 + 1)
     angle = simulate_plant(ActuatorParams(**changes), da, db, dt, ambient_c=ambient).position_rad
     lsb = 2 * ADC_HALF_RANGE_RAD / (2 ** ADC_BITS - 1)
