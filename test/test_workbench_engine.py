@@ -138,6 +138,7 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
     diag = engine.diagnose(data, candidates=['stress_coupling', 'delay'])
     assert diag.missing_effect == 'stress_coupling'
     named = diag.candidates[0]['fit']
+    assert 'refitted from scratch' in diag.candidates[0]['explanation']
     assert named.validation['nrmse'] < 0.3 * diag.baseline.validation['nrmse']
     assert named.values['stress_k'] == pytest.approx(20.0, rel=0.5)
 

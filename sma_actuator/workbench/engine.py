@@ -574,6 +574,8 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid")
+    if warm is not None and fit is not warm:
+        checks += ', refitted from scratch (the warm refit fitted the training window worse)'
     if unresolved:
         checks += f'; not significant: {unresolved}'
     values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
