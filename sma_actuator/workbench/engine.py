@@ -460,11 +460,12 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
     diag = rank_candidates(base, list(entries.values()))
     # nothing named: a base far from the data (another effect missing too) can hold a warm
     # refit in its basin, so each candidate is also refitted from scratch and judged again
-    rescue = [t + (entries[t[2]]['fit'],) for t in tasks
-              if 'fit' in entries[t[2]] and not get_effect(t[2]).own_grid]
-    if diag.missing_effect is None and isinstance(data, DynamicData) and rescue:
-        entries.update(judged(rescue, 'candidates from scratch'))
-        diag = rank_candidates(base, [entries[n] for n in names])
+    if diag.missing_effect is None and isinstance(data, DynamicData):
+        rescue = [t + (entries[t[2]]['fit'],) for t in tasks
+                  if 'fit' in entries[t[2]] and not get_effect(t[2]).own_grid]
+        if rescue:
+            entries.update(judged(rescue, 'candidates from scratch'))
+            diag = rank_candidates(base, list(entries.values()))
     if progress:
         progress(len(names), len(names), 'done')
     return diag
