@@ -47,7 +47,7 @@ PAIRS = [('delay', 0, 'convection', 0), ('fast_dynamics', 0, 'phase_resistance',
 
 
 def run_case(case):
-    """Run the rounds on one two-effect record; return its result line."""
+    """Run the rounds on one two-effect record; return (both found, its result line)."""
     (e1, l1, e2, l2, seed), rounds = case
     started = time.perf_counter()
     changes = dict(plant_records.EFFECTS[e1][l1], **plant_records.EFFECTS[e2][l2])
@@ -58,10 +58,10 @@ def run_case(case):
     names = [a['added'] for a in added]
     errors = [base.validation['nrmse']] + [a['validation_nrmse'] for a in added]
     ok = sorted(names) == sorted([e1, e2])
-    return (f'{e1 + " L" + str(l1):22s} {e2 + " L" + str(l2):24s} '
-            f'{" + ".join(names) or "-":52s} '
-            f'{" > ".join(f"{100 * e:.2f}" for e in errors) + " %":30s} '
-            f'{time.perf_counter() - started:5.0f}  {"ok" if ok else "MISSED"}')
+    return ok, (f'{e1 + " L" + str(l1):22s} {e2 + " L" + str(l2):24s} '
+                f'{" + ".join(names) or "-":52s} '
+                f'{" > ".join(f"{100 * e:.2f}" for e in errors) + " %":30s} '
+                f'{time.perf_counter() - started:5.0f}  {"ok" if ok else "MISSED"}')
 
 
 def main():
@@ -73,11 +73,11 @@ def main():
     print(f'{"effect 1":22s} {"effect 2":24s} {"added, round by round":52s} '
           f'{"held-out NRMSE":30s}     s')
     cases = [(pair + (700 + i,), args.rounds) for i, pair in enumerate(PAIRS)]
-    lines = []
-    for _, line in imap_on_cores(run_case, cases, args.jobs):
-        lines.append(line)
+    found = []
+    for _, (ok, line) in imap_on_cores(run_case, cases, args.jobs):
+        found.append(ok)
         print(line, flush=True)
-    print(f'both found: {sum(line.endswith(" ok") for line in lines)} of {len(lines)}')
+    print(f'both found: {sum(found)} of {len(found)}')
 
 
 if __name__ == '__main__':
