@@ -71,7 +71,7 @@ from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
 from .tuning import simc_gains, TAU_C_MIN_S, transformation_start_c
-from ..core.actuator import ActuatorParams, sensor_polynomial
+from ..core.actuator import ActuatorParams, sensor_is_linear, sensor_rising_branch
 from ..core.validate import finite_scalar
 
 MODES = ('pi', 'pi_inverse', 'on_off')
@@ -207,19 +207,13 @@ class SensorMap:
     """The model's potentiometer polynomial p and its exact inverse, tabulated once."""
 
     def __init__(self, params: ActuatorParams) -> None:
-        self.identity = not (params.sensor_c2_rad or params.sensor_c3_rad
-                             or params.sensor_c4_rad or params.sensor_c5_rad)
+        self.identity = sensor_is_linear(params)
         if not self.identity:
             # the rising branch of p through the centre of travel, over the travel and well
             # beyond it (x = ±2)
             angles = params.sensor_centre_rad + params.sensor_half_span_rad * np.linspace(
                 -2.0, 2.0, 8001)
-            readings = sensor_polynomial(params, angles)
-            falls = np.flatnonzero(np.diff(readings) <= 0)
-            mid = len(angles) // 2
-            lo = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
-            hi = int(falls[falls >= mid].min()) + 1 if np.any(falls >= mid) else len(angles)
-            self._readings, self._angles = readings[lo:hi], angles[lo:hi]
+            self._readings, self._angles = sensor_rising_branch(params, angles)
 
     def angle(self, reading_rad: float) -> float:
         """Return the true angle [rad] of a sensor reading (p^-1 on the tabulated branch)."""

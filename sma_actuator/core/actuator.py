@@ -542,6 +542,27 @@ def sensor_polynomial(params: ActuatorParams, phi: ArrayLike) -> np.ndarray:
         params.sensor_c4_rad + x * params.sensor_c5_rad)))
 
 
+def sensor_is_linear(params: ActuatorParams) -> bool:
+    """Return True when the potentiometer polynomial is the identity, p(φ) = φ (no terms)."""
+    return not (params.sensor_c2_rad or params.sensor_c3_rad or params.sensor_c4_rad
+                or params.sensor_c5_rad)
+
+
+def sensor_rising_branch(params: ActuatorParams, angles_rad: np.ndarray) -> tuple:
+    """
+    Return (readings, angles) [rad] of p on its rising branch through the middle of `angles_rad`.
+
+    p (`sensor_polynomial`) tabulated on the increasing `angles_rad` and cut where it first
+    stops rising on either side of the middle sample: the part np.interp can invert.
+    """
+    p = sensor_polynomial(params, angles_rad)
+    falls = np.flatnonzero(np.diff(p) <= 0)        # p[i + 1] <= p[i]
+    mid = len(angles_rad) // 2
+    a = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
+    b = int(falls[falls >= mid].min()) if np.any(falls >= mid) else len(angles_rad) - 1
+    return p[a:b + 1], angles_rad[a:b + 1]
+
+
 def sensor_inverse(params: ActuatorParams, reading: ArrayLike,
                    n_grid: int = 8193) -> np.ndarray:
     """
@@ -553,19 +574,13 @@ def sensor_inverse(params: ActuatorParams, reading: ArrayLike,
     far from the travel), the first-order inverse 2y − p(y), exact to O(c²), is returned.
     """
     y = np.asarray(reading, float)
-    if not (params.sensor_c2_rad or params.sensor_c3_rad or params.sensor_c4_rad
-            or params.sensor_c5_rad):
+    if sensor_is_linear(params):
         return y
     lo, hi = float(np.min(y)), float(np.max(y))
     span = max(hi - lo, 1e-3)
-    phi = np.linspace(lo - span, hi + span, n_grid)
-    p = sensor_polynomial(params, phi)
-    falls = np.flatnonzero(np.diff(p) <= 0)        # p[i + 1] <= p[i]
-    mid = n_grid // 2
-    a = int(falls[falls < mid].max()) + 1 if np.any(falls < mid) else 0
-    b = int(falls[falls >= mid].min()) if np.any(falls >= mid) else n_grid - 1
-    if p[a] <= lo and p[b] >= hi:
-        return np.interp(y, p[a:b + 1], phi[a:b + 1])
+    p, phi = sensor_rising_branch(params, np.linspace(lo - span, hi + span, n_grid))
+    if p[0] <= lo and p[-1] >= hi:
+        return np.interp(y, p, phi)
     return 2.0 * y - sensor_polynomial(params, y)
 
 
