@@ -382,3 +382,23 @@ def test_the_command_runs_one_blas_thread_like_its_workers():
     out = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,
                          env=env, timeout=120).stdout.split()
     assert out == ['1', '3']
+
+
+def test_rounds_text_shows_the_base_refits_and_the_error_falling():
+    why = 'the base model refitted from where the stress_coupling refit ended fits better'
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.1086},
+           'rounds': [{'added': 'asymmetric_wires', 'validation_nrmse': 0.0759},
+                      {'added': 'fast_dynamics', 'validation_nrmse': 0.0009,
+                       'refitted_base_nrmse': 0.0224}],
+           'final': {'effects': ['asymmetric_wires', 'fast_dynamics'],
+                     'validation_nrmse': 0.0008, 'refitted': why}}
+    lines = cli.rounds_lines(doc, 3)
+    assert lines[0] == 'rounds: baseline validation NRMSE 10.86 %'
+    assert [line.split()[-2] for line in lines[1:4]] == ['7.59', '2.24', '0.09']
+    assert 'round 2: base refitted' in lines[2] and '+ fast_dynamics' in lines[3]
+    assert lines[4:] == ['  then nothing is significant',
+                         f'  final: {why}, validation NRMSE 0.08 %']
+    assert cli.rounds_lines(doc, 2)[-1] == '  stopped after 2 rounds (--rounds)'
+    doc['baseline']['refitted'] = why
+    assert cli.diagnosis_lines(dict(doc, candidates=[], missing_effect=None),
+                               'modified')[1] == f'  {why}'

@@ -298,7 +298,7 @@ def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
 def test_rounds_find_both_hidden_effects_and_each_lowers_the_error():
     data = two_effect_record()
     base = fit_model(data)
-    diags, added, final = diagnose_rounds(data, base, 4, jobs=0)
+    diags, added, final = diagnose_rounds(data, base, 2, jobs=0)
     names = [r['added'] for r in added]
     assert set(names[:2]) == {'delay', 'current_limit'}, names
     errors = [base.validation['nrmse']] + [r['validation_nrmse'] for r in added]

@@ -517,6 +517,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         doc['rounds'] = rounds
         doc['final'] = {'effects': list(base.effects),
                         'validation_nrmse': base.validation['nrmse']}
+        if diags[-1].refitted and diags[-1].missing_effect is None:
+            doc['final']['refitted'] = diags[-1].refitted
     if args.report:
         b0 = first.baseline
         best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
@@ -550,10 +552,19 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
     """Return the text of the add-and-refit rounds: the validation error falling."""
     lines = [f'rounds: baseline validation NRMSE {_pct(doc["baseline"]["validation_nrmse"])}']
     for i, r in enumerate(doc['rounds'], 1):
+        if 'refitted_base_nrmse' in r:
+            lines.append(f'  round {i}: base refitted       validation NRMSE '
+                         f'{_pct(r["refitted_base_nrmse"])}')
         lines.append(f'  round {i}: + {r["added"]:<20} validation NRMSE '
                      f'{_pct(r["validation_nrmse"])}')
-    lines.append(f'  stopped after {limit} rounds (--rounds)' if len(doc['rounds']) >= limit
-                 else '  then nothing is significant')
+    if len(doc['rounds']) >= limit:
+        lines.append(f'  stopped after {limit} rounds (--rounds)')
+        return lines
+    lines.append('  then nothing is significant')
+    final = doc.get('final', {})
+    if 'refitted' in final:
+        lines.append(f'  final: {final["refitted"]}, validation NRMSE '
+                     f'{_pct(final["validation_nrmse"])}')
     return lines
 
 
@@ -561,8 +572,10 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     """Return the text table of a diagnosis document, best candidate first."""
     base = doc['baseline']
     lines = [f'baseline: {model_line(base["effects"], kind)}, validation NRMSE '
-             f'{_pct(base["validation_nrmse"])}',
-             f'{"effect":<20} {"val. NRMSE":>10} {"improvement":>11}  significant']
+             f'{_pct(base["validation_nrmse"])}']
+    if 'refitted' in base:
+        lines.append(f'  {base["refitted"]}')
+    lines.append(f'{"effect":<20} {"val. NRMSE":>10} {"improvement":>11}  significant')
     for c in doc['candidates']:
         imp = 'n/a' if c['improvement'] is None else f'{100 * c["improvement"]:+.0f} %'
         lines.append(f'{c["effect"]:<20} {_pct(c["validation_nrmse"]):>10} {imp:>11}  '

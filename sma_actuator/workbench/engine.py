@@ -41,7 +41,10 @@ held-out error. A candidate is significant only if
      delay must exceed one sample period).
 When no candidate is significant, every one without an own grid is also refitted from
 scratch (the better training fit of the two is judged again): with two effects missing,
-the base can sit so far from the data that a warm refit stays in its basin.
+the base can sit so far from the data that a warm refit stays in its basin. And when a
+counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
+in training RMSE and no worse held out, the base's own fit sat in a poor minimum: the
+diagnosis starts again from that fit (`better_base`, `Diagnosis.refitted` says so).
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
@@ -404,12 +407,18 @@ class Diagnosis:
     baseline: ModelFit
     candidates: list
     missing_effect: object
+    # why the baseline is not the model diagnose was given: a better fit of it was found
+    refitted: str = ''
 
     def to_json(self) -> dict:
         """Return the `sma-model diagnose --json` document."""
-        return {'baseline': {'effects': list(self.baseline.effects),
-                             'validation_nrmse': self.baseline.validation['nrmse']},
-                'candidates': [{k: v for k, v in c.items() if k not in ('fit', 'bic', 'seconds')}
+        base = {'effects': list(self.baseline.effects),
+                'validation_nrmse': self.baseline.validation['nrmse']}
+        if self.refitted:
+            base['refitted'] = self.refitted
+        return {'baseline': base,
+                'candidates': [{k: v for k, v in c.items()
+                                if k not in ('fit', 'bic', 'seconds', 'base_refit')}
                                for c in self.candidates],
                 'missing_effect': self.missing_effect}
 
@@ -417,7 +426,7 @@ class Diagnosis:
 def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[list] = None,
              progress: Optional[Callable] = None, min_improvement: float = MIN_IMPROVEMENT,
              kind: Optional[str] = None, jobs: int = 1,
-             mapper: Optional[Callable] = None) -> 'Diagnosis':
+             mapper: Optional[Callable] = None, rebase: int = 1) -> 'Diagnosis':
     """
     Rank candidate effects by held-out error reduction; name the missing one (or None).
 
@@ -427,6 +436,8 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
     `judge_candidate` entries of the tasks, in any order: runs the refits elsewhere (the
     batch sends them to its Dask cluster); default: a pool of `jobs` processes. Plug-in
     effects are refitted in this process, since a worker would not have them registered.
+    rebase: how many times a better fit of the base itself, found by a counterfactual
+    (`better_base`), may replace it and the diagnosis start again from there.
     """
     if base is None:
         base = fit_model(data, (), kind=kind)
@@ -466,9 +477,42 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
         if rescue:
             entries.update(judged(rescue, 'candidates from scratch'))
             diag = rank_candidates(base, list(entries.values()))
+    # a named effect has beaten its counterfactual (the base refitted on its grid) already
+    better = (better_base(base, list(entries.values()), min_improvement)
+              if rebase > 0 and diag.missing_effect is None else None)
+    if better is not None:
+        refit, why = better
+        diag = diagnose(data, refit, candidates, progress, min_improvement, kind, jobs, mapper,
+                        rebase - 1)
+        diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
     if progress:
         progress(len(names), len(names), 'done')
     return diag
+
+
+def better_base(base: ModelFit, entries: list, min_improvement: float) -> Optional[tuple]:
+    """
+    Return (a better fit of the base model, why) from the candidates' counterfactuals, or None.
+
+    A counterfactual refits the base model itself (no effect added) from where a
+    candidate's refit ended. When that fits the training window better by at least
+    `min_improvement` (training RMSE, the fit's own objective) and is no worse held out, the
+    base's own fit sat in a poor minimum: with two effects missing, a fit that lacks both can
+    end far from its best. Candidates judged against such a base are judged against the
+    wrong reference, so diagnose starts again from the better fit.
+    """
+    refits = [(c['base_refit'], c['effect']) for c in entries if c.get('base_refit') is not None]
+    if not refits:
+        return None
+    refit, name = min(refits, key=lambda r: r[0].train['rmse'])
+    t0, t1 = base.train['rmse'], refit.train['rmse']
+    v0, v1 = base.validation['nrmse'], refit.validation['nrmse']
+    if t1 > (1.0 - min_improvement) * t0 or v1 > v0:
+        return None
+    return refit, (f'the base model refitted from where the {name} refit ended fits better '
+                   f'(training NRMSE {100 * base.train["nrmse"]:.2f} % -> '
+                   f'{100 * refit.train["nrmse"]:.2f} %, held-out {100 * v0:.2f} % -> '
+                   f'{100 * v1:.2f} %): diagnosed from that fit')
 
 
 def _judge_on_cores(jobs: int, tasks: list) -> Iterator[dict]:
@@ -511,17 +555,23 @@ def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
     Stops when nothing is significant. The refit of a round is the named candidate's own
     refit (base grid, warm start, also from scratch for `own_grid` effects). Returns
     (the Diagnosis of every round, [{'added': name, 'validation_nrmse': x}, ...], the
-    final ModelFit). kw: passed to `diagnose` (candidates, progress, jobs, ...).
+    final ModelFit). A round whose diagnosis refitted its base (`Diagnosis.refitted`) also
+    has 'refitted_base_nrmse', the held-out NRMSE of that better base fit; after a last
+    round that names nothing the final fit is its base, refitted or not. kw: passed to
+    `diagnose` (candidates, progress, jobs, ...).
     """
     diags, added = [], []
     for _ in range(max(int(rounds), 1)):
         diag = diagnose(data, base=base, **kw)
         diags.append(diag)
+        base = diag.baseline
         best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
         if best is None:
             break
         added.append({'added': best['effect'],
                       'validation_nrmse': best['fit'].validation['nrmse']})
+        if diag.refitted:
+            added[-1]['refitted_base_nrmse'] = base.validation['nrmse']
         base = best['fit']
     return diags, added, base
 
@@ -567,7 +617,8 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
     bic1 = bic(fit.residual, _free_count(fit), n_eff)
     evident = gain >= min_improvement and bic1 < bic0 - BIC_MARGIN
     # the counterfactual costs a fit, so it runs only where the first two checks pass
-    v_off = _regridded_base_nrmse(data, base, fit, eff) if evident else None
+    base_refit = _regridded_base(data, base, fit, eff) if evident else None
+    v_off = None if base_refit is None else base_refit.validation['nrmse']
     # the base refitted where the candidate's refit ended, without the effect, must fall
     # short of it by at least the improvement asked of the effect
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
@@ -589,13 +640,13 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
                             f'{100 * fit.train["nrmse"]:.2f} %, '
                             f'BIC change {bic1 - bic0:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
-            'fit': fit, 'bic': float(bic1)}
+            'fit': fit, 'bic': float(bic1), 'base_refit': base_refit}
 
 
-def _regridded_base_nrmse(data: DynamicData, base: ModelFit, fit: ModelFit,
-                          eff: Effect) -> Optional[float]:
+def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
+                    eff: Effect) -> Optional[ModelFit]:
     """
-    Return the held-out NRMSE of the base model refitted from where the candidate's ended.
+    Return the base model refitted from where the candidate's refit ended.
 
     The counterfactual of the candidate's gain: the base's own parameters (time constant,
     weights) refitted on the candidate's hysteresis grid, warm from its values, with the
@@ -609,7 +660,7 @@ def _regridded_base_nrmse(data: DynamicData, base: ModelFit, fit: ModelFit,
     start = {k: v for k, v in fit.values.items() if k not in eff.parameters}
     off = ModelFit(list(base.effects), base.kind, start, None, None, None, None, 0, None,
                    fit.params.with_changes(**neutral), grid=fit.grid)
-    return fit_model(data, list(base.effects), kind=base.kind, base_fit=off).validation['nrmse']
+    return fit_model(data, list(base.effects), kind=base.kind, base_fit=off)
 
 
 def _settle_near_ties(ranked: list) -> None:
