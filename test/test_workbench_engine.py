@@ -26,6 +26,7 @@ from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
 from sma_actuator.workbench import engine
+from sma_actuator.workbench.batch import round_summary
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
 from support import plant_records
 from support.richsim import simulate
@@ -208,6 +209,10 @@ def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base():
     assert diag.baseline.validation['nrmse'] < 0.1 * poor.validation['nrmse']
     assert 'refitted from where the convection refit ended' in diag.to_json()['baseline'][
         'refitted']
+    # the batch's round summary keeps why, and the time of the refits judged before
+    summary = round_summary(diag, {})
+    assert summary['refitted'] == diag.refitted and round_summary(kept, {})['refitted'] is None
+    assert summary['seconds'] > diag.candidates[0]['seconds'] > 0
 
 
 class DeadTime(Effect):

@@ -213,7 +213,8 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
     """
     Return one round's summary: its model, the effect it named and the best candidate.
 
-    seconds: the base fit's (`base_seconds`, the first round's) plus every refit's.
+    seconds: the base fit's (`base_seconds`, the first round's) plus every refit's;
+    refitted: why the round's base was refitted before it was diagnosed, or None.
     """
     fit = diag.baseline
     best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
@@ -223,8 +224,9 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
             'named_validation_nrmse': best['validation_nrmse'] if best else None,
             'best_candidate': diag.candidates[0]['effect'] if diag.candidates else None,
             'best_improvement': diag.candidates[0]['improvement'] if diag.candidates else None,
-            'seconds': base_seconds + sum(c.get('seconds', 0.0) for c in diag.candidates),
-            'record': record}
+            'seconds': (base_seconds + diag.earlier_seconds
+                        + sum(c.get('seconds', 0.0) for c in diag.candidates)),
+            'refitted': diag.refitted or None, 'record': record}
 
 
 def final_parameters(fit: Any) -> dict:

@@ -409,6 +409,8 @@ class Diagnosis:
     missing_effect: object
     # why the baseline is not the model diagnose was given: a better fit of it was found
     refitted: str = ''
+    # seconds of the candidate refits judged against the base before it was refitted
+    earlier_seconds: float = 0.0
 
     def to_json(self) -> dict:
         """Return the `sma-model diagnose --json` document."""
@@ -485,6 +487,7 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
         diag = diagnose(data, refit, candidates, progress, min_improvement, kind, jobs, mapper,
                         rebase - 1)
         diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
+        diag.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
     if progress:
         progress(len(names), len(names), 'done')
     return diag
