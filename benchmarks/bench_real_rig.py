@@ -18,12 +18,13 @@ Benchmark the workbench on the measured spring-biased wire records, with timings
         [--only-diagnose] [--held-out ramp_a] [--jobs 0]
         [--dir ../shared/data/real/spring_biased_wire]
 
-1. leave one record out: fit on the other records, the whole-record NRMSE of the left-out
-   one, normalised by the range of the measured position over all records [%];
-2. fit on all records (the last one held out, the workbench default; --held-out to
-   choose), wall time;
-3. with --diagnose: `diagnose` over every catalog effect on all records, wall time, what
-   it names and the held-out error before and after (--only-diagnose: this part alone).
+1. leave one record out, as `sma-model fit` of several records does
+   (`workbench.crossval`): the whole-record NRMSE of each record predicted by the model
+   fitted on the others, normalised by the range of the measured position over all
+   records [%], and of the model fitted on all records; wall time of the fits;
+2. with --diagnose: `diagnose` over every catalog effect on all records (the --held-out
+   record held out, default the last), wall time, what it names and the held-out error
+   before and after (--only-diagnose: this part alone).
 """
 import argparse
 from pathlib import Path
@@ -34,8 +35,9 @@ from sma_actuator.workbench.parallel import one_blas_thread
 one_blas_thread()   # before numpy loads, as `sma-model` runs: the same fits, the same figures
 
 import numpy as np  # noqa: E402, I100
+from sma_actuator.workbench.crossval import cross_validate  # noqa: E402
 from sma_actuator.workbench.data import load_data  # noqa: E402
-from sma_actuator.workbench.engine import diagnose, fit_model, record_scores  # noqa: E402
+from sma_actuator.workbench.engine import diagnose, fit_model  # noqa: E402
 from sma_actuator.workbench.records import join  # noqa: E402
 
 NAMES = ('square_a', 'step_a', 'ramp_a')
@@ -45,7 +47,7 @@ def main():
     """Print leave-one-record-out NRMSE, fit and diagnose timings."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     ap.add_argument('--dir', default='../shared/data/real/spring_biased_wire')
-    ap.add_argument('--effects', nargs='*', default=['sensor_zero'])
+    ap.add_argument('--effects', nargs='*', default=[])
     ap.add_argument('--diagnose', action='store_true')
     ap.add_argument('--only-diagnose', action='store_true')
     ap.add_argument('--held-out', default=NAMES[-1], choices=NAMES)
@@ -53,10 +55,10 @@ def main():
     args = ap.parse_args()
     recs = [(n, load_data(Path(args.dir) / f'{n}.csv')) for n in NAMES]
     effects = tuple(args.effects)
-    data = join(recs, held_out=(args.held_out,))
     if not args.only_diagnose:
-        leave_one_out(recs, effects, data)
+        leave_one_out(recs, effects, args.jobs)
     if args.diagnose or args.only_diagnose:
+        data = join(recs, held_out=(args.held_out,))
         started = time.perf_counter()
         base = fit_model(data)
         diag = diagnose(data, base=base, jobs=args.jobs)
@@ -74,23 +76,21 @@ def main():
     return 0
 
 
-def leave_one_out(recs, effects, data):
-    """Print the whole-record NRMSE of each record fitted on the others, then a fit on all."""
+def leave_one_out(recs, effects, jobs):
+    """Print the whole-record NRMSE of each record left out, and of the model fitted on all."""
     print(f'model: base + {", ".join(effects) or "nothing"}')
-    print(f'{"left out":<10} {"NRMSE":>7} {"RMSE":>9} {"fit time":>9}')
-    for held in NAMES:
-        started = time.perf_counter()
-        loo = join(recs, held_out=(held,))
-        fit = fit_model(loo, effects=effects)
-        per = record_scores(loo, fit.prediction, fit.split)
-        sc = {r['data']: r['scores']['all'] for r in per}[held]
-        print(f'{held:<10} {100 * sc["nrmse"]:6.2f} % {sc["rmse"]:6.3f} mm '
-              f'{time.perf_counter() - started:7.1f} s', flush=True)
     started = time.perf_counter()
-    fit = fit_model(data, effects=effects)
-    print(f'fit on all three ({data.segments[-1][0]} held out): '
-          f'{time.perf_counter() - started:.1f} s, '
-          f'validation NRMSE {100 * fit.validation["nrmse"]:.2f} %')
+    _, fit, rows = cross_validate(recs, effects, jobs=jobs)
+    took = time.perf_counter() - started
+    print(f'{"record":<10} {"left out: NRMSE":>16} {"RMSE":>9}   {"fitted on all: NRMSE":>20}')
+    for r in rows:
+        out, on_all = r['scores']['all'], r['scores']['train']
+        print(f'{r["data"]:<10} {100 * out["nrmse"]:14.2f} % {out["rmse"]:6.3f} mm '
+              f'{100 * on_all["nrmse"]:20.2f} %')
+    print(f'pooled     {100 * fit.validation["nrmse"]:14.2f} % {fit.validation["rmse"]:6.3f} mm '
+          f'{100 * fit.train["nrmse"]:20.2f} %')
+    cores = f'{jobs} processes' if jobs else 'every core'
+    print(f'{len(rows) + 1} fits ({len(rows)} left out, 1 on all) on {cores}: {took:.1f} s')
 
 
 if __name__ == '__main__':

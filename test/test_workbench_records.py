@@ -81,10 +81,15 @@ def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):
     assert code == 0, err
     doc = json.loads(text)
     assert [r['data'] for r in doc['records']] == [str(a), str(b), str(c)]
-    assert [r['role'] for r in doc['records']] == ['train', 'train', 'validation']
+    assert [r['role'] for r in doc['records']] == ['left out'] * 3
     assert doc['layout'] == 'single' and doc['position_unit'] == 'mm'
     assert doc['validation_nrmse'] < 0.03
+    # each record predicted by the model fitted on the others, and by the one written
+    for r in doc['records']:
+        assert r['scores']['train']['nrmse'] < r['scores']['all']['nrmse'] < 0.03
     model = yaml.safe_load(out.read_text())
+    assert model['validation_rule'] == 'leave one record out'
+    assert set(model['record_roles'].values()) == {'train'}
     # a superset of the earlier model file
     assert {'effects', 'kind', 'parameters', 'model', 'scores'} <= set(model)
     assert model['layout'] == 'single' and model['position_unit'] == 'mm'
@@ -97,6 +102,35 @@ def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):
     assert [r['data'] for r in cmp_['records']] == [str(a), str(c)]
     assert all(r['scores']['all']['nrmse'] < 0.03 for r in cmp_['records'])
     assert cmp_['scores']['all']['nrmse'] < 0.03
+
+
+@pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
+def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(tmp_path, capsys):
+    """
+    `fit A B C`: each record scored by the model fitted on the other two, model on all three.
+
+    square_a, the only record that cools, is left out once: its score must be exactly that
+    of `--validate-on square_a`, and the model written, which saw it cool, predicts it better.
+    """
+    records = [WIRE / f'{n}.csv' for n in ('step_a', 'ramp_a', 'square_a')]
+    square = str(records[-1])
+    out, held = tmp_path / 'all.yaml', tmp_path / 'held.yaml'
+    code, text, err = run(capsys, 'fit', *records, '--out', out, '--json', '--jobs', 2)
+    assert code == 0, err
+    doc = json.loads(text)
+    assert 'each record predicted by the model fitted on the others' in err
+    left_out = {r['data']: r['scores']['all']['nrmse'] for r in doc['records']}
+    assert len(left_out) == 3 and max(left_out.values()) < 0.035
+    code, text, err = run(capsys, 'fit', *records, '--validate-on', square, '--out', held,
+                          '--json')
+    assert code == 0, err
+    assert json.loads(text)['validation_nrmse'] == pytest.approx(left_out[square], rel=1e-9)
+    scored = {}
+    for model in (out, held):
+        code, text, err = run(capsys, 'compare', square, '--model', model, '--json')
+        assert code == 0, err
+        scored[model] = json.loads(text)['scores']['all']['nrmse']
+    assert scored[out] < 0.6 * scored[held]
 
 
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):

@@ -160,12 +160,19 @@ def load_checked_data(args: argparse.Namespace) -> Any:
     The result is static curves or a dynamic record (`workbench.data`).
 
     One record: as it is (the time split applies). Several dynamic records: joined at
-    rest by `records.join`, the last one (or the --validate-on ones) held out. Mixed static
-    and dynamic records, several static files, and records that cannot be fitted together
-    are bad input.
+    rest by `records.join`, the last one (or the --validate-on ones) held out.
+    """
+    return join_records(args, load_checked_records(args))
+
+
+def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
+    """
+    Load and check every DATA record; return [(path, data)], the --layout applied.
+
+    Mixed static and dynamic records, several static files, and records that cannot be
+    fitted together are bad input.
     """
     from .data import check_excitation, load_data
-    from .records import join
     paths = all_data(args)
     unit = getattr(args, 'position_unit', None)
     loaded = []
@@ -184,7 +191,7 @@ def load_checked_data(args: argparse.Namespace) -> Any:
         if len(loaded) > 1:
             raise UsageError(f'{loaded[1][0]}: give {first.noun} as one file (curve ids in a '
                              'curve column)')
-        return first
+        return loaded
     layout = getattr(args, 'layout', None)
     for path, d in loaded:
         if layout == 'single' and np.any(d.duty_b):
@@ -192,6 +199,14 @@ def load_checked_data(args: argparse.Namespace) -> Any:
                              f'{np.max(d.duty_b):.3g})')
         if layout:
             d.layout = layout
+    return loaded
+
+
+def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]]) -> Any:
+    """Return the checked records joined (`records.join`), the held-out ones last."""
+    from .records import join
+    if not loaded[0][1].joinable:
+        return loaded[0][1]
     held = list(getattr(args, 'validate_on', None) or [])
     if not held and len(loaded) > 1 and getattr(args, 'command', '') != 'compare':
         held = [loaded[-1][0]]
@@ -207,8 +222,8 @@ def data_lines(data: Any) -> List[str]:
     return _KINDS[data.kind].lines(data)
 
 
-def _record_lines(data: DynamicData) -> List[str]:
-    """Return one line per joined record of `data` (its name and role before its description)."""
+def _record_lines(data: DynamicData, role: Optional[str] = None) -> List[str]:
+    """Return one line per joined record of `data`: name, role (`role` if given), description."""
     from .data import describe
     from .records import segment_view
     if not data.segments:
@@ -217,8 +232,9 @@ def _record_lines(data: DynamicData) -> List[str]:
         return [f'{data.segments[0][0]}: {describe(data)}']
     out = []
     for name, a, b in data.segments:
-        role = 'validation' if data.split is not None and a >= data.split else 'train'
-        out.append(f'{name} ({role}): {describe(segment_view(data, a, b))}')
+        held = data.split is not None and a >= data.split
+        out.append(f'{name} ({role or ("validation" if held else "train")}): '
+                   f'{describe(segment_view(data, a, b))}')
     return out
 
 
@@ -360,17 +376,21 @@ def cmd_fit(args: argparse.Namespace) -> int:
     check_effect_names(add, catalog)
     effects = list(dict.fromkeys(spec['effects'] + add))
     kind = args.kind or spec.get('kind')
-    data = load_checked_data(args)
-    for line in data_lines(data):
-        _note(args, line)
+    loaded = load_checked_records(args)
     progress = Progress('fit')
     try:
-        fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
+        if len(loaded) > 1 and not args.validate_on:
+            data, fit, records = _fit_left_out(args, loaded, tuple(effects), kind, progress)
+        else:
+            data = join_records(args, loaded)
+            for line in data_lines(data):
+                _note(args, line)
+            fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
+            records = per_record(fit, data)
     finally:
         progress.close()
     if args.out:
         write_model(args.out, fit.to_dict(), force=args.force)
-    records = per_record(fit, data)
     if args.json:
         print_json(fit_json(fit, args.out, records))
     else:
@@ -385,6 +405,21 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.out:
         _note(args, f'wrote {args.out}')
     return 0
+
+
+def _fit_left_out(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
+                  kind: Optional[str], progress: Progress) -> tuple:
+    """Fit several records leaving each out in turn (`crossval`); return (data, fit, rows)."""
+    from .crossval import all_records, cross_validate, LEFT_OUT
+    notes = []
+    lines = _record_lines(all_records(loaded, notes), LEFT_OUT)
+    for line in notes + lines:
+        _note(args, line)
+    _note(args, f'validation: each record predicted by the model fitted on the others; the '
+          f'model written is fitted on all {len(loaded)} (--validate-on to hold records out)')
+    data, fit, records = cross_validate(loaded, effects, kind, jobs=args.jobs,
+                                        progress=progress)
+    return data, fit, records
 
 
 def unit_of(data: Any) -> str:
@@ -671,8 +706,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help='CSVs (dynamic or static curves) or MCAP bags (file or '
                         'directory); several dynamic records of one rig are fitted together')
     common.add_argument('--validate-on', nargs='+', action='extend', metavar='DATA',
-                        help='hold these records out for validation (default: the last of '
-                        'several records; one record: the last 30 %% of time)')
+                        help='hold these records out for validation (default: fit: each of '
+                        'several records left out in turn, the model written fitted on all; '
+                        'diagnose: the last record; one record: the last 30 %% of time)')
     common.add_argument('--layout', choices=('single', 'antagonistic'),
                         help='rig layout (default: from the data; single = one wire against '
                         'a bias spring, duty_b absent or always 0)')
@@ -697,6 +733,9 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument('--kind', choices=('classical', 'modified'),
                      help='hysteresis base (default: from MODEL.yaml, else modified)')
     fit.add_argument('--out', metavar='FITTED.yaml', help='write the fitted model')
+    fit.add_argument('--jobs', type=_non_negative_int, default=0, metavar='N',
+                     help='processes for the fits of several records, each left out in turn '
+                     '(default 0: every core)')
     fit.set_defaults(func=cmd_fit)
     cmp_ = sub.add_parser('compare', parents=[common], help='where a fitted model fails',
                           description='Score a fitted model on DATA, break the error down '

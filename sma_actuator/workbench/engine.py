@@ -220,10 +220,10 @@ def rescore(data: Any, pred: np.ndarray, split: Split) -> tuple:
     over the whole set's range, and 'informative': coverage >= MIN_COVERAGE.
     """
     train, val = data.split_masks(split)
-    return _part_scores(data, pred, train), _part_scores(data, pred, val)
+    return part_scores(data, pred, train), part_scores(data, pred, val)
 
 
-def _part_scores(data: Any, pred: np.ndarray, mask: np.ndarray) -> Optional[dict]:
+def part_scores(data: Any, pred: np.ndarray, mask: np.ndarray) -> Optional[dict]:
     """Return the scores of `pred` on the `mask` samples, with coverage (see `rescore`)."""
     if not mask.any():
         return None
@@ -254,7 +254,7 @@ def record_scores(data: DynamicData, pred: np.ndarray,
         else:
             role = 'validation' if split is not None and a >= split.start else 'train'
         out.append({'data': name, 'role': role,
-                    'scores': {'all': _part_scores(data, pred, mask & keep)}})
+                    'scores': {'all': part_scores(data, pred, mask & keep)}})
     return out
 
 
