@@ -164,7 +164,7 @@ def test_records_at_another_rate_are_resampled(tmp_path, capsys):
 
 
 @pytest.mark.parametrize('case', ['mixed', 'still', 'columns', 'unit', 'unit_option',
-                                  'layout'])
+                                  'layout', 'twice'])
 def test_bad_record_sets_are_one_line_errors(tmp_path, capsys, case):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     out = tmp_path / 'm.yaml'
@@ -195,6 +195,9 @@ def test_bad_record_sets_are_one_line_errors(tmp_path, capsys, case):
                    delimiter=',', header='time,duty_a,duty_b,position[mm]', comments='',
                    fmt='%.6f')
         frag = 'layout'
+    elif case == 'twice':
+        b = f'{tmp_path}/./a.csv'   # another spelling of a's path
+        frag = 'the same record as'
     else:
         b = single_wire_csv(tmp_path / 'b.csv')
     extra = ['--position-unit', 'parsec'] if case == 'unit_option' else []

@@ -174,6 +174,12 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     """
     from .data import check_excitation, load_data
     paths = all_data(args)
+    seen = {}
+    for path in paths:
+        key = Path(path).resolve()
+        if key in seen:
+            raise UsageError(f'{path}: the same record as {seen[key]}; give each record once')
+        seen[key] = path
     unit = getattr(args, 'position_unit', None)
     loaded = []
     for path in paths:
