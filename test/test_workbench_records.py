@@ -100,6 +100,7 @@ def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):
     assert code == 0, err
     cmp_ = json.loads(text)
     assert [r['data'] for r in cmp_['records']] == [str(a), str(c)]
+    assert {r['role'] for r in cmp_['records']} == {'compared'}
     assert all(r['scores']['all']['nrmse'] < 0.03 for r in cmp_['records'])
     assert cmp_['scores']['all']['nrmse'] < 0.03
 

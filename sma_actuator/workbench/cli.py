@@ -49,6 +49,8 @@ from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 PROG = 'sma-model'
+# the role of each record `compare` scores: neither trained on nor held out by it
+COMPARED = 'compared'
 
 
 class UsageError(ValueError):
@@ -223,9 +225,9 @@ def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]]) -> Any
     return data
 
 
-def data_lines(data: Any) -> List[str]:
-    """Return one line per record of `data`: 'NAME: dynamic record: ...' (role if joined)."""
-    return _KINDS[data.kind].lines(data)
+def data_lines(data: Any, role: Optional[str] = None) -> List[str]:
+    """Return one line per record of `data`: 'NAME (role): dynamic record: ...' if joined."""
+    return _KINDS[data.kind].lines(data, role)
 
 
 def _record_lines(data: DynamicData, role: Optional[str] = None) -> List[str]:
@@ -274,8 +276,8 @@ class _StaticKind:
     """What the commands do with static curves: one line, no records, all points scored."""
 
     @staticmethod
-    def lines(data: StaticData) -> List[str]:
-        """Return the one line describing the curves."""
+    def lines(data: StaticData, role: Optional[str] = None) -> List[str]:
+        """Return the one line describing the curves (they have no roles)."""
         from .data import describe
         return [describe(data)]
 
@@ -481,12 +483,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
         what = f'missing {err}' if isinstance(err, KeyError) else str(err)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
     kind = _KINDS[data.kind]
-    records = kind.records(data, fit.prediction)
+    records = [r | {'role': COMPARED} for r in kind.records(data, fit.prediction)]
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
     title = f'{PROG} compare: {names} with {args.model}'
-    lines = data_lines(data)
+    lines = data_lines(data, COMPARED)
     if args.report:
         _write_report(args, result, title, '; '.join(lines), spec, unit=unit_of(data))
     if args.json:
