@@ -150,3 +150,23 @@ def test_tied_loop_keeps_the_heating_cells_and_puts_cooling_at_the_datasheet_hei
     cooling_edge = 42.0 - 2.0 * tied.r.mean()
     assert (cooling_edge - 22.0) / 20.0 == pytest.approx(25.0 / 51.0, abs=0.01)
     assert idn.tie_loop_width(grid, 22.0, None) is grid
+
+
+def test_noise_rms_finds_white_noise_on_a_moving_signal_and_on_a_quantised_rest():
+    """
+    A smooth motion with steps plus σ = 2 mrad of white noise: σ comes back within 10 %.
+
+    The same motion without noise gives almost nothing, and a potentiometer resting
+    between two quantisation levels (MAD of its differences 0) is still counted.
+    """
+    t = np.arange(0.0, 120.0, 0.025)
+    motion = 0.5 * np.sin(0.3 * t) + 0.3 * (np.sin(0.05 * t) > 0)
+    noise = np.random.default_rng(4).normal(0.0, 0.002, t.size)
+    assert idn.noise_rms(motion + noise) == pytest.approx(0.002, rel=0.1)
+    # two records, each differenced on its own: the jump between them is not noise
+    assert idn.noise_rms(motion[:2000] + noise[:2000], 5.0 + motion[2000:] + noise[2000:]) \
+        == pytest.approx(0.002, rel=0.1)
+    assert idn.noise_rms(motion) < 0.0002
+    q = 0.0206                     # one step of the spring-biased wire's potentiometer [mm]
+    rest = q * (np.random.default_rng(5).random(4000) < 0.1)
+    assert 0.1 * q < idn.noise_rms(rest) < q

@@ -148,8 +148,29 @@ def test_diagnose_names_a_hidden_delay_and_reports_it(tmp_path):
                       'explanation'}
     assert c['improvement'] >= 0.4 and c['validation_nrmse'] < doc['baseline'][
         'validation_nrmse']
+    # the 3 mrad of noise written into the record, over its measured range
+    span = np.ptp(np.loadtxt(data, delimiter=',', skiprows=1)[:, 3])
+    assert doc['baseline']['noise_floor_nrmse'] * span == pytest.approx(0.003, rel=0.15)
     page = (tmp_path / 'r' / 'index.html').read_text()
     assert 'Missing effect: <b>delay</b>' in page and (tmp_path / 'r' / 'time.png').exists()
+
+
+@pytest.mark.parametrize('hidden, says', [
+    ({}, 'the model explains the data'),
+    ({'delay_s': 0.4}, 'an effect the catalog does not hold, or one too weak to separate'),
+])
+def test_nothing_named_says_how_far_the_error_is_from_the_noise(tmp_path, hidden, says):
+    data = write_record(tmp_path / 'r.csv', n=3000, seed=3, **hidden)
+    proc = run('diagnose', data, '--candidates', 'sensor_nonlinearity')
+    assert proc.returncode == 0, proc.stderr
+    assert 'missing effect: none' in proc.stdout
+    assert 'the measurement noise alone: ' in proc.stdout and says in proc.stdout
+
+
+def test_what_is_left_follows_the_errors_over_the_noise():
+    assert 'explains the data' in cli.left_to_explain(1.2, 1.0)
+    assert 'held-out part goes where training did not' in cli.left_to_explain(3.0, 1.1)
+    assert 'the training error too 9 times' in cli.left_to_explain(13.0, 8.6)
 
 
 def test_real_loops_classical_base_lacks_saturation_and_adding_it_cuts_the_error(tmp_path):

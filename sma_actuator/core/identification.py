@@ -92,6 +92,34 @@ def scores(y: np.ndarray, y_hat: np.ndarray, span: Optional[float] = None) -> di
             'max_error': float(np.max(np.abs(e)))}
 
 
+# share of the second differences kept by the fallback noise estimate, and the share of a
+# normal's variance its central part of that probability mass holds
+NOISE_KEPT = 0.9
+NOISE_KEPT_VARIANCE = 0.623
+
+
+def noise_rms(*signals: np.ndarray) -> float:
+    """
+    Return the RMS σ of white measurement noise on smooth signals, estimated from them.
+
+    Third differences d_k = y_{k+2} − 3 y_{k+1} + 3 y_k − y_{k−1} cancel a signal that is
+    smooth at the sampling rate (to its third derivative times dt³) and leave white noise
+    of variance 20 σ², so σ = 1.4826 MAD(d) / √20, MAD the median absolute deviation,
+    which ignores the few samples where the signal itself bends (steps). Each signal (one
+    record) is differenced on its own. A quantised signal resting on one level has MAD 0;
+    then σ² = mean of the `NOISE_KEPT` smallest d² / (20 `NOISE_KEPT_VARIANCE`), the
+    rescaling a normal's trimmed variance needs.
+    """
+    d = np.concatenate([np.diff(np.asarray(y, float), 3) for y in signals if len(y) > 3])
+    if d.size == 0:
+        return 0.0
+    mad = float(np.median(np.abs(d - np.median(d))))
+    if mad > 0:
+        return 1.4826 * mad / np.sqrt(20.0)
+    kept = np.sort(d ** 2)[:max(1, int(NOISE_KEPT * d.size))]
+    return float(np.sqrt(np.mean(kept) / (20.0 * NOISE_KEPT_VARIANCE)))
+
+
 def play_grid(u_min: float, u_max: float, kind: str = 'modified', n_widths: int = 6,
               n_centres: int = 8) -> PlayHysteresis:
     """

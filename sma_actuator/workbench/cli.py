@@ -51,6 +51,8 @@ EXIT_INTERRUPTED = 130
 PROG = 'sma-model'
 # the role of each record `compare` scores: neither trained on nor held out by it
 COMPARED = 'compared'
+# a held-out error within this factor of the measurement noise's leaves nothing to find
+NEAR_NOISE = 1.5
 
 
 class UsageError(ValueError):
@@ -614,8 +616,10 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
 def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     """Return the text table of a diagnosis document, best candidate first."""
     base = doc['baseline']
+    floor = base.get('noise_floor_nrmse')
     lines = [f'baseline: {model_line(base["effects"], kind)}, validation NRMSE '
-             f'{_pct(base["validation_nrmse"])}']
+             f'{_pct(base["validation_nrmse"])}'
+             + (f' (the measurement noise alone: {_pct(floor)})' if floor else '')]
     if 'refitted' in base:
         lines.append(f'  {base["refitted"]}')
     lines.append(f'{"effect":<20} {"val. NRMSE":>10} {"improvement":>11}  significant')
@@ -626,11 +630,33 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     missing = doc['missing_effect']
     lines.append(f'missing effect: {missing}' if missing else
                  'missing effect: none (no candidate cuts the held-out error clearly)')
+    if not missing and floor and base['validation_nrmse'] is not None:
+        lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
+                                            base['train_nrmse'] / floor))
     if missing:
         c = next(c for c in doc['candidates'] if c['effect'] == missing)
         lines.append(f'  {c["explanation"]}')
         lines.append(f'  next: {PROG} fit DATA --add {missing} ... --out FITTED.yaml')
     return lines
+
+
+def left_to_explain(held_out: float, train: float) -> str:
+    """
+    Return what is left to find when nothing is named, from the base's errors.
+
+    held_out, train: the base model's held-out and training NRMSE over the NRMSE the
+    measurement noise alone gives (`engine.noise_floor`).
+    """
+    noise = 'what the measurement noise alone gives'
+    if held_out <= NEAR_NOISE:
+        return f'the held-out error is {held_out:.1f} times {noise}: the model explains the data'
+    if train <= NEAR_NOISE:
+        return (f'the held-out error is {held_out:.0f} times {noise}, the training error '
+                f'{train:.1f} times: the held-out part goes where training did not (give '
+                'longer or more varied records)')
+    return (f'the held-out error is {held_out:.0f} times {noise}, the training error too '
+            f'{train:.0f} times: an effect the catalog does not hold, or one too weak to '
+            'separate, remains')
 
 
 # ------------------------------------------------------------------------------ batch

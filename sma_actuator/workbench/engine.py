@@ -65,7 +65,7 @@ from .records import loop_prior, record_strokes, stroke_scale, zeros
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import fit_dynamic, fit_static, scores
+from ..core.identification import fit_dynamic, fit_static, noise_rms, scores
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -411,11 +411,16 @@ class Diagnosis:
     refitted: str = ''
     # seconds of the candidate refits judged against the base before it was refitted
     earlier_seconds: float = 0.0
+    # the NRMSE the measurement noise alone gives (`noise_floor`), None if not known
+    noise_floor_nrmse: Optional[float] = None
 
     def to_json(self) -> dict:
         """Return the `sma-model diagnose --json` document."""
         base = {'effects': list(self.baseline.effects),
-                'validation_nrmse': self.baseline.validation['nrmse']}
+                'validation_nrmse': self.baseline.validation['nrmse'],
+                'train_nrmse': self.baseline.train['nrmse']}
+        if self.noise_floor_nrmse is not None:
+            base['noise_floor_nrmse'] = self.noise_floor_nrmse
         if self.refitted:
             base['refitted'] = self.refitted
         return {'baseline': base,
@@ -488,9 +493,25 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
                         rebase - 1)
         diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
         diag.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
+    diag.noise_floor_nrmse = noise_floor(data)
     if progress:
         progress(len(names), len(names), 'done')
     return diag
+
+
+def noise_floor(data: Any) -> Optional[float]:
+    """
+    Return the NRMSE a perfect model would score on `data`: its measurement noise.
+
+    σ / span, σ from `identification.noise_rms` over each record's measured positions, span
+    the range measured over the whole set (the NRMSE's scale); None for static curves,
+    whose points are not a time series.
+    """
+    span = data.span()
+    if not isinstance(data, DynamicData) or span <= 0:
+        return None
+    records = data.segments or (('', 0, len(data)),)
+    return noise_rms(*(data.position[a:b] for _, a, b in records)) / span
 
 
 def better_base(base: ModelFit, entries: list, min_improvement: float) -> Optional[tuple]:
