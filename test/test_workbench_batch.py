@@ -157,6 +157,9 @@ def test_batch_names_the_hidden_effects_keeps_errors_and_resumes(fleet, schedule
     assert not wrong, f'named effects differ from the hidden ones: {wrong}'
     with open(out / 'batch.csv', newline='') as fh:
         assert len(list(csv.DictReader(fh))) == 49
+    # the 2 mrad of noise is found in every record, below its base model's error
+    assert all(0 < r['noise_floor_nrmse'] < 1.5 * r['base_validation_nrmse']
+               for r in rows if not r['error'])
     fitted = [r for r in rows if r['named_effect'] == 'delay']
     assert all(0.6 < r['param.delay_s'] < 1.0 for r in fitted)
     assert all(r['final_validation_nrmse'] < r['base_validation_nrmse'] for r in fitted)

@@ -220,6 +220,7 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
     best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
     return {'effects': list(fit.effects), 'named': diag.missing_effect,
             'validation_nrmse': fit.validation['nrmse'], 'train_nrmse': fit.train['nrmse'],
+            'noise_floor_nrmse': diag.noise_floor_nrmse,
             'improvement': best['improvement'] if best else None,
             'named_validation_nrmse': best['validation_nrmse'] if best else None,
             'best_candidate': diag.candidates[0]['effect'] if diag.candidates else None,
@@ -270,6 +271,7 @@ class RecordRun:
                 'base_effects': ' '.join(self.options.effects),
                 'base_train_nrmse': first.get('train_nrmse'),
                 'base_validation_nrmse': first.get('validation_nrmse'),
+                'noise_floor_nrmse': first.get('noise_floor_nrmse'),
                 'named_effect': named[0] if named else None,
                 'improvement': first.get('improvement'),
                 'effects_added': ' '.join(named),

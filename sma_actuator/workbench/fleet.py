@@ -34,7 +34,7 @@ import numpy as np
 
 COLUMNS = ('record', 'layout', 'samples', 'duration_s', 'rate_hz', 'position_unit',
            'reference_nrmse', 'base_effects', 'base_train_nrmse', 'base_validation_nrmse',
-           'named_effect',
+           'noise_floor_nrmse', 'named_effect',
            'improvement', 'effects_added', 'final_validation_nrmse', 'task_time_s',
            'wall_time_s', 'report', 'error')
 TEXT_COLUMNS = ('record', 'layout', 'position_unit', 'base_effects', 'named_effect',
