@@ -420,6 +420,10 @@ def test_rounds_text_shows_the_base_refits_and_the_error_falling():
     assert lines[4:] == ['  then nothing is significant',
                          f'  final: {why}, validation NRMSE 0.08 %']
     assert cli.rounds_lines(doc, 2)[-1] == '  stopped after 2 rounds (--rounds)'
+    # with the noise known, the last line says what the final model leaves
+    noisy = dict(doc, baseline=dict(doc['baseline'], noise_floor_nrmse=0.0006),
+                 final=dict(doc['final'], train_nrmse=0.0007))
+    assert 'the model explains the data' in cli.rounds_lines(noisy, 3)[-1]
     doc['baseline']['refitted'] = why
     assert cli.diagnosis_lines(dict(doc, candidates=[], missing_effect=None),
                                'modified')[1] == f'  {why}'

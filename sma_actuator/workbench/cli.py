@@ -561,7 +561,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.rounds > 1:
         doc['rounds'] = rounds
         doc['final'] = {'effects': list(base.effects),
-                        'validation_nrmse': base.validation['nrmse']}
+                        'validation_nrmse': base.validation['nrmse'],
+                        'train_nrmse': base.train['nrmse']}
         if diags[-1].refitted and diags[-1].missing_effect is None:
             doc['final']['refitted'] = diags[-1].refitted
     if args.report:
@@ -610,6 +611,10 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
     if 'refitted' in final:
         lines.append(f'  final: {final["refitted"]}, validation NRMSE '
                      f'{_pct(final["validation_nrmse"])}')
+    floor = doc['baseline'].get('noise_floor_nrmse')
+    if floor and final.get('validation_nrmse') is not None:
+        lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
+                                            final['train_nrmse'] / floor))
     return lines
 
 
