@@ -92,7 +92,7 @@ def scores(y: np.ndarray, y_hat: np.ndarray, span: Optional[float] = None) -> di
             'max_error': float(np.max(np.abs(e)))}
 
 
-# share of the second differences kept by the fallback noise estimate, and the share of a
+# share of the third differences kept by the fallback noise estimate, and the share of a
 # normal's variance its central part of that probability mass holds
 NOISE_KEPT = 0.9
 NOISE_KEPT_VARIANCE = 0.623
