@@ -220,6 +220,23 @@ def test_a_quiet_validation_window_is_uninformative_not_a_huge_error(tmp_path, c
     assert 'uninformative' in line and 'hold out another record' in line
 
 
+def test_a_quiet_record_left_out_is_uninformative_not_scored(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    rows = np.loadtxt(b, delimiter=',', skiprows=1)
+    rows[84:, 1] = 0.0            # heated for a fifth of a second, then at rest
+    rows[84:, 2] = rows[0, 2] + np.random.default_rng(0).normal(0, 0.01, len(rows) - 84)
+    np.savetxt(b, rows, delimiter=',', header='time,duty_a,position[mm]', comments='',
+               fmt='%.6f')
+    code, text, err = run(capsys, 'fit', a, b)
+    assert code == 0, err
+    # the last line of each record: its score (the first says what the record is)
+    line = {n: [x for x in text.splitlines() if x.startswith(f'{n} (left out)')][-1]
+            for n in (str(a), str(b))}
+    assert 'uninformative' in line[str(b)] and 'NRMSE' not in line[str(b)]
+    assert 'uninformative' not in line[str(a)] and 'NRMSE' in line[str(a)]
+
+
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_trained_without_full_cooling_the_model_cools_to_the_measured_rest():
     """

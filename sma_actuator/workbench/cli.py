@@ -347,17 +347,19 @@ def _pct(x: Optional[float]) -> str:
 
 
 def score_line(part: str, s: Optional[Dict[str, Any]], unit: str = '',
-               width: int = 10) -> str:
+               width: int = 10, held_out: Optional[bool] = None) -> str:
     """
     Return 'validation: NRMSE 1.23 %  RMSE 0.1 mm ...' for a scores dict (or n/a).
 
-    A held-out part whose measured range covers less than MIN_COVERAGE of the whole set's
-    is reported as uninformative, not scored.
+    A held-out part (`held_out`, default: the 'validation' part) whose measured range
+    covers less than MIN_COVERAGE of the whole set's is reported as uninformative, not
+    scored.
     """
     if not s:
         return f'{part:>{width}}: n/a'
     u = f' {unit}' if unit else ''
-    if part == 'validation' and s.get('informative') is False:
+    if (part == 'validation' if held_out is None else held_out) \
+            and s.get('informative') is False:
         return (f'{part:>{width}}: uninformative: the held-out part covers '
                 f'{100 * s["coverage"]:.0f} % of the measured range (hold out another record; '
                 f'RMSE {s["rmse"]:.4g}{u})')
@@ -409,7 +411,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
             print('fitted: ' + ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()))
         unit = unit_of(data)
         for r in records if len(records) > 1 else []:
-            print(score_line(f'{r["data"]} ({r["role"]})', r['scores']['all'], unit, 0))
+            print(score_line(f'{r["data"]} ({r["role"]})', r['scores']['all'], unit, 0,
+                             r['role'] != 'train'))
         print(score_line('train', fit.train, unit))
         print(score_line('validation', fit.validation, unit))
     if args.out:
