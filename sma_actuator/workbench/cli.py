@@ -254,11 +254,11 @@ class _DynamicKind:
     lines = staticmethod(_record_lines)
 
     @staticmethod
-    def records(data: DynamicData, prediction: np.ndarray,
-                split: Optional[Split] = None) -> List[Dict[str, Any]]:
+    def records(data: DynamicData, prediction: np.ndarray, split: Optional[Split] = None,
+                role: Optional[str] = None) -> List[Dict[str, Any]]:
         """Return the per-record scores of `prediction` (`engine.record_scores`)."""
         from .engine import record_scores
-        return record_scores(data, prediction, split)
+        return record_scores(data, prediction, split, role)
 
     @staticmethod
     def scored(data: DynamicData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
@@ -284,8 +284,8 @@ class _StaticKind:
         return [describe(data)]
 
     @staticmethod
-    def records(data: StaticData, prediction: np.ndarray,
-                split: Optional[Split] = None) -> List[Dict[str, Any]]:
+    def records(data: StaticData, prediction: np.ndarray, split: Optional[Split] = None,
+                role: Optional[str] = None) -> List[Dict[str, Any]]:
         """Return no per-record scores (the curves are one file)."""
         return []
 
@@ -488,7 +488,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         what = f'missing {err}' if isinstance(err, KeyError) else str(err)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
     kind = _KINDS[data.kind]
-    records = [r | {'role': COMPARED} for r in kind.records(data, fit.prediction)]
+    records = kind.records(data, fit.prediction, role=COMPARED)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)

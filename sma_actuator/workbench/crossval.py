@@ -27,7 +27,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .effects import is_builtin
-from .engine import fit_model, ModelFit, part_scores
+from .engine import fit_model, ModelFit, part_scores, record_scores
 from .parallel import available_cores, imap_on_cores
 from .records import join, segment_of
 from ..core.datakinds import DynamicData
@@ -92,15 +92,9 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
         a, b = segment_of(fold, name)
         start, stop = segment_of(data, name)
         left_out[start:stop] = fit.prediction[a:b]
-    keep = data.scored_mask()
-    final.validation = part_scores(data, left_out, keep)
+    final.validation = part_scores(data, left_out, data.scored_mask())
     final.rig['validation_rule'] = RULE
-    rows = []
-    for name, a, b in data.segments:
-        mask = np.zeros(len(data), bool)
-        mask[a:b] = True
-        mask &= keep
-        rows.append({'data': name, 'role': LEFT_OUT,
-                     'scores': {'all': part_scores(data, left_out, mask),
-                                'train': part_scores(data, final.prediction, mask)}})
+    rows = record_scores(data, left_out, role=LEFT_OUT)
+    for row, fitted in zip(rows, record_scores(data, final.prediction)):
+        row['scores']['train'] = fitted['scores']['all']
     return data, final, rows

@@ -236,24 +236,27 @@ def part_scores(data: Any, pred: np.ndarray, mask: np.ndarray) -> Optional[dict]
 
 
 def record_scores(data: DynamicData, pred: np.ndarray,
-                  split: Optional[Split] = None) -> list:
+                  split: Optional[Split] = None, role: Optional[str] = None) -> list:
     """
     Return per-record scores of `pred` on joined `data`, NRMSE over the whole set's range.
 
     A list of {'data': name, 'role': 'train' | 'validation' | 'time split', 'scores':
     {'all': ...}}, one per record (whole record, rest gaps excluded); a record is held out
-    when it starts at or after the split's start.
+    when it starts at or after the split's start. role: every record's role instead (what
+    the caller did with them, e.g. compared or left out in turn).
     """
     out = []
     keep = data.scored_mask()
     for name, a, b in data.segments or (('DATA', 0, len(data)),):
         mask = np.zeros(len(data), bool)
         mask[a:b] = True
-        if len(data.segments) < 2:
-            role = 'time split'
+        if role is not None:
+            part = role
+        elif len(data.segments) < 2:
+            part = 'time split'
         else:
-            role = 'validation' if split is not None and a >= split.start else 'train'
-        out.append({'data': name, 'role': role,
+            part = 'validation' if split is not None and a >= split.start else 'train'
+        out.append({'data': name, 'role': part,
                     'scores': {'all': part_scores(data, pred, mask & keep)}})
     return out
 
