@@ -25,7 +25,8 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
 
-N_DELAY, N_NONE = 23, 23
+N_DELAY, N_NONE = 11, 11
+N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed CSV
 DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 T0_NS = 1_700_000_000_000_000_000
@@ -70,7 +71,7 @@ def _write_bag(path, rec):
 @pytest.fixture(scope='module')
 def fleet(tmp_path_factory):
     """
-    49 records.
+    25 records.
 
     Delay (0.8 s) and effect-free CSVs, one good and one corrupt bag, one malformed CSV. Returns
     (directory, {file name: hidden effect or 'error'}).
@@ -144,7 +145,7 @@ def test_batch_names_the_hidden_effects_keeps_errors_and_resumes(fleet, schedule
     assert cli.main(argv + ['--json']) == 0
     captured = capsys.readouterr()
     rows = pq.read_table(out / 'batch.parquet').to_pylist()
-    assert len(rows) == len(truth) == 49
+    assert len(rows) == len(truth) == N_RECORDS
     assert {_name(r['record']) for r in rows} == set(truth)
     # finished records were skipped, not recomputed (errors are retried)
     done_before = sum(1 for r in first if not r['error'])
@@ -156,7 +157,7 @@ def test_batch_names_the_hidden_effects_keeps_errors_and_resumes(fleet, schedule
     wrong = {n: e for n, e in named.items() if e != truth[n]}
     assert not wrong, f'named effects differ from the hidden ones: {wrong}'
     with open(out / 'batch.csv', newline='') as fh:
-        assert len(list(csv.DictReader(fh))) == 49
+        assert len(list(csv.DictReader(fh))) == N_RECORDS
     # the 2 mrad of noise is found in every record, below its base model's error
     assert all(0 < r['noise_floor_nrmse'] < 1.5 * r['base_validation_nrmse']
                for r in rows if not r['error'])
@@ -164,7 +165,7 @@ def test_batch_names_the_hidden_effects_keeps_errors_and_resumes(fleet, schedule
     assert all(0.6 < r['param.delay_s'] < 1.0 for r in fitted)
     assert all(r['final_validation_nrmse'] < r['base_validation_nrmse'] for r in fitted)
     summary = json.loads(captured.out)
-    assert summary['records'] == 49 and summary['errors'] == 2
+    assert summary['records'] == N_RECORDS and summary['errors'] == 2
     index = (out / 'index.html').read_text()
     assert 'delay' in index and 'malformed.csv' in index and 'parameters.png' in index
 

@@ -326,6 +326,8 @@ def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
         engine.fit_model(data, ['test_own_grid'], base_fit=base)
         assert grids[0] is base.grid and grids[-1] is None        # warm, then from scratch
         assert starts[0]['ambient_shift'] == 0.0 and starts[-1]['ambient_shift'] == 2.5
+        # warm from the base's time constant; from scratch over the coarse stage's spread
+        assert starts[0]['tau_s'] == base.values['tau_s'] and 'tau_s' not in starts[-1]
         # the scratch bounds apply to the refit from scratch only
         assert frees[0]['ambient_shift'] == (-5.0, 5.0, 0.0)
         assert frees[-1]['ambient_shift'] == (1.0, 5.0, 2.5)

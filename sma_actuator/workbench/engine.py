@@ -356,16 +356,21 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
     same_grid = base_fit is not None and base_fit.kind == kind and base_fit.grid is not None
     # training data that never cools back leaves the descending branch to the datasheet loop
     loop_ratio = loop_prior(data)
-    trials = [(alt, same_grid, {}) for alt in [{}] + alternatives]
+    trials = [(dict(start, **alt), same_grid, {}) for alt in [{}] + alternatives]
+    # from scratch: also without the base's time constant, so the coarse stage's
+    # multi-start over τ runs; the effect moves τ (latent heat slows the transformation),
+    # and a search from the base's τ ends in a basin that rounding decides
+    scratch = {k: v for k, v in start.items() if k != 'tau_s'}
     for eff in map(get_effect, effects):
         if same_grid and eff.name not in base_fit.effects and eff.own_grid:
             # also from scratch, on a grid of its own
-            trials.append((eff.scratch_start(params), False, eff.scratch_bounds(params)))
+            trials.append((dict(scratch, **eff.scratch_start(params)), False,
+                           eff.scratch_bounds(params)))
     res = None
-    for alt, warm, bounds in trials:
+    for trial_start, warm, bounds in trials:
         trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,
                             grid=base_fit.grid if warm else None,
-                            start=dict(start, **alt), input_hook=hook,
+                            start=trial_start, input_hook=hook,
                             ref=base_fit.params.hysteresis if warm else None,
                             loop_ratio=loop_ratio)
         if res is None or trial.train['rmse'] < res.train['rmse']:
