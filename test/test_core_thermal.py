@@ -18,6 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from sma_actuator.core import actuator as act
+from sma_actuator.core.hysteresis import PlayHysteresis
 from sma_actuator.core.sensor import Potentiometer
 from sma_actuator.core.thermal import heating_power_w, on_current_a, thermal_step
 
@@ -191,6 +192,42 @@ def test_latent_heat_slows_both_transformations_and_not_the_ends():
     assert b.y_a[790] == pytest.approx(a.y_a[790], abs=1e-6)
     assert b.theta_a_c[790] == pytest.approx(a.theta_a_c[790], abs=1e-2)
     assert b.theta_a_c[-1] == pytest.approx(a.theta_a_c[-1], abs=1e-2)
+
+
+def steep_loop_params(latent_k):
+    """Flexinol defaults with a steep, narrow loop (0.5 K half-widths over 60-64 °C)."""
+    centres = np.linspace(60.0, 64.0, 9)
+    loop = PlayHysteresis(np.full(9, 0.5), centres - 0.25, centres + 0.25, np.full(9, 2.0))
+    return BASE.with_changes(hysteresis=loop, latent_heat_k=latent_k)
+
+
+def test_latent_heat_is_taken_at_the_samples_end_so_a_steep_loop_does_not_chatter():
+    # λ dH/dθ = 40 K x 2 per K: an explicit θ − λ Δy overshoots by far in every sample
+    da = np.linspace(0.0, 0.5, 2000)
+    db = np.zeros_like(da)
+    t = run(steep_loop_params(40.0), da, db)
+    # heating only: the contraction never falls back
+    assert np.diff(t.y_a).min() > -1e-9
+    # each sample's heat balance holds at its end: θ + λ y is what the thermal step gives
+    p = steep_loop_params(40.0)
+    for k in (600, 900, 1200):
+        theta_pred, _ = thermal_step(t.theta_a_c[k], 0.0, p.ambient_c, p.gain_k * da[k], 0.05,
+                                     p.tau_s, 0.0)
+        assert t.theta_a_c[k + 1] + 40.0 * t.y_a[k + 1] == pytest.approx(
+            theta_pred + 40.0 * t.y_a[k], abs=1e-8)
+
+
+def test_the_response_is_smooth_in_the_latent_heat():
+    # a fit differentiates the free-run output numerically: the derivative must not depend
+    # on the step (it grew as 1 / step when the latent heat chattered)
+    da = np.r_[np.linspace(0.0, 0.5, 1000), np.linspace(0.5, 0.0, 1000)]
+    db = np.zeros_like(da)
+
+    def slope(h):
+        y0 = run(steep_loop_params(10.0), da, db).position_rad
+        y1 = run(steep_loop_params(10.0 + h), da, db).position_rad
+        return np.linalg.norm(y1 - y0) / h
+    assert slope(1e-6) == pytest.approx(slope(1e-3), rel=0.05)
 
 
 def test_fast_dynamics_slow_the_start_only():

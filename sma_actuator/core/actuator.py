@@ -30,9 +30,11 @@ Signal chain per wire j in {a, b} (one sample, duty held over dt):
   3. hysteresis  y_j = H[θ_j + x − σ y_other]: one modified-PI operator (`PlayHysteresis`)
               shared by both wires, output = contraction fraction (0 cold, 1 hot); σ [K] is
               the stress coupling (Clausius-Clapeyron shift from the antagonist's pull);
-              latent heat: θ_j ← θ_j − λ Δy_j after the sample (C dθ/dt = ... − L dξ/dt,
-              λ = L / C per unit contraction: heating stalls while the wire transforms,
-              cooling is held up by the heat the reverse transformation gives back)
+              latent heat: θ_j = θ_j,pred − λ Δy_j over the sample, solved implicitly
+              with y_j = H[θ_j ...] at the sample's end (C dθ/dt = ... − L dξ/dt,
+              λ = L / C >= 0 per unit contraction: heating stalls while the wire
+              transforms, cooling is held up by the heat the reverse transformation gives
+              back)
   4. shaft    φ = φ0 + g (y_a − s_b y_b)           (pulley kinematics, g = ε L / 2r)
               with functional fatigue of each wire over its own accumulated transformation
               cycles N_j = Σ|Δy_j| / 2: its recoverable stroke shrinks by f_s g_j and its
@@ -290,7 +292,7 @@ class ActuatorParams:
             if getattr(self, name) <= 0:
                 raise ValueError(f'{name} must be positive, got {getattr(self, name)}')
         for name in ('tau_fast_s', 'delay_s', 'gain_ratio_b', 'stroke_ratio_b',
-                     'duty_limit_sharpness'):
+                     'duty_limit_sharpness', 'latent_heat_k'):
             if getattr(self, name) < 0:
                 raise ValueError(f'{name} must be non-negative, got {getattr(self, name)}')
         if not 0.0 < self.duty_limit <= 1.0:
@@ -379,6 +381,9 @@ STATE_THETA = 0         # wire temperatures θ_a, θ_b [°C]
 STATE_HEAT = 2          # heat-input lags q_a, q_b [K]
 STATE_CONTRACTION = 4   # contraction fractions y_a, y_b
 STATE_ELEMENTS = 6      # play element states s_a (m), s_b (m)
+# the latent-heat root (`latent_temperature`): bracket width [K] and step limit
+LATENT_TOL_K = 1e-10
+LATENT_ITERATIONS = 60
 
 
 # argument tuples of `simulate_wires`
@@ -458,19 +463,78 @@ def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelH
             theta, q = thermal_step(theta, state[STATE_HEAT + j], th_amb, q_inf, dt, t, tau_f)
             state[STATE_THETA + j] = theta
             state[STATE_HEAT + j] = q
-            u = theta + disturbance[k] - sigma * y_other
+            shift = disturbance[k] - sigma * y_other
+            base = STATE_ELEMENTS + j * m
+            if latent > 0.0:
+                theta = latent_temperature(theta, shift, y_own, latent, state[base:base + m],
+                                           hyst)
+            u = theta + shift
             state[iu + j] = u
             acc = y0 + k1 * u
-            base = STATE_ELEMENTS + j * m
             for i in range(m):
                 v = min(max(state[base + i], u - r[i]), u + r[i])
                 v = min(max(v, lo[i]), hi[i])
                 state[base + i] = v
                 acc += w[i] * v
             state[STATE_CONTRACTION + j] = acc
-            # latent heat: the transformation absorbs (heating) or releases (cooling) heat
-            state[STATE_THETA + j] = theta - latent * (acc - y_own)
+            state[STATE_THETA + j] = theta
     return out_ya, out_yb, out_ta, out_tb
+
+
+@njit(cache=True)
+def contraction_at(u: float, s: np.ndarray, hyst: KernelHysteresis) -> float:
+    """Return y = y0 + k1 u + Σ w_i clip(clip(s_i, u − r_i, u + r_i), lo_i, hi_i) (K1-K2)."""
+    r, lo, hi, w, k1, y0 = hyst
+    acc = y0 + k1 * u
+    for i in range(r.shape[0]):
+        acc += w[i] * min(max(min(max(s[i], u - r[i]), u + r[i]), lo[i]), hi[i])
+    return acc
+
+
+@njit(cache=True)
+def latent_temperature(theta_pred: float, shift: float, y_own: float, latent: float,
+                       s: np.ndarray, hyst: KernelHysteresis) -> float:
+    """
+    Return θ after the sample's latent heat: the root of θ = θ_pred − λ (H(θ + shift) − y).
+
+    The heat the transformation absorbs or releases over the sample is taken at the
+    sample's end (backward Euler of C dθ/dt = ... − L dξ/dt, λ = L / C): θ_pred is the
+    thermal step without it, H the wire's hysteresis from its element states `s` before
+    the sample, y its contraction before it. The explicit form θ_pred − λ (H(θ_pred + shift)
+    − y) overshoots wherever λ dH/dθ > 1 (a steep loop, strong latent heat) and then
+    chatters from sample to sample, so the output jumps with the parameters. H is
+    non-decreasing (w, k1 >= 0), so the root is unique and lies between θ_pred and
+    θ_pred − λ (H(θ_pred + shift) − y); found by regula falsi (Illinois), exact in a few
+    steps on the piecewise-linear H.
+    """
+    excess = latent * (contraction_at(theta_pred + shift, s, hyst) - y_own)
+    if excess == 0.0:
+        return theta_pred
+    t_lo, t_hi = min(theta_pred, theta_pred - excess), max(theta_pred, theta_pred - excess)
+    f_lo = t_lo - theta_pred + latent * (contraction_at(t_lo + shift, s, hyst) - y_own)
+    f_hi = t_hi - theta_pred + latent * (contraction_at(t_hi + shift, s, hyst) - y_own)
+    if f_lo >= 0.0:
+        return t_lo
+    if f_hi <= 0.0:
+        return t_hi
+    side = 0
+    t = t_hi
+    for _ in range(LATENT_ITERATIONS):
+        t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo)
+        f = t - theta_pred + latent * (contraction_at(t + shift, s, hyst) - y_own)
+        if f == 0.0 or t_hi - t_lo < LATENT_TOL_K:
+            break
+        if f < 0.0:
+            t_lo, f_lo = t, f
+            if side < 0:
+                f_hi *= 0.5
+            side = -1
+        else:
+            t_hi, f_hi = t, f
+            if side > 0:
+                f_lo *= 0.5
+            side = 1
+    return t
 
 
 #: `simulate_wires` features argument that records no regressors
