@@ -154,7 +154,10 @@ def test_strong_latent_heat_is_named_from_its_own_grid():
     diag = engine.diagnose(data, candidates=['latent_heat', 'convection'])
     assert diag.missing_effect == 'latent_heat'
     named = next(c for c in diag.candidates if c['effect'] == 'latent_heat')
-    assert named['fit'].values['latent_heat_k'] == pytest.approx(25.0, rel=0.35)
+    # the loop's fitted width trades against λ: 240 s fit the training window to the noise
+    # from about 15 K up, so λ is known to within a half here
+    assert named['fit'].values['latent_heat_k'] == pytest.approx(25.0, rel=0.5)
+    assert named['fit'].validation['nrmse'] < 0.6 * diag.baseline.validation['nrmse']
 
 
 @pytest.mark.slow

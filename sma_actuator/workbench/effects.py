@@ -313,8 +313,9 @@ class LatentHeat(Effect):
 
     The martensite -> austenite transformation absorbs heat and the reverse gives it back
     (about 20 J/g for NiTi), so eq. (7) gains a term: C dθ/dt = P − hA (θ − θa) − L dξ/dt.
-    Per sample, θ ← θ − λ Δy (λ = L / C [K] per unit contraction): heating stalls while the
-    wire transforms and cooling holds the wire hot until the reverse transformation is done.
+    Per sample, θ = θ_pred − λ Δy with Δy taken at the sample's end (λ = L / C [K] per unit
+    contraction, `core.actuator.latent_temperature`): heating stalls while the wire
+    transforms and cooling holds the wire hot until the reverse transformation is done.
     """
 
     name = 'latent_heat'
