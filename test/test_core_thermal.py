@@ -219,7 +219,7 @@ def test_latent_heat_is_taken_at_the_samples_end_so_a_steep_loop_does_not_chatte
 
 def test_the_response_is_smooth_in_the_latent_heat():
     # a fit differentiates the free-run output numerically: the derivative must not depend
-    # on the step (it grew as 1 / step when the latent heat chattered)
+    # on the step (a latent heat that chatters from sample to sample makes it grow as 1 / step)
     da = np.r_[np.linspace(0.0, 0.5, 1000), np.linspace(0.5, 0.0, 1000)]
     db = np.zeros_like(da)
 
