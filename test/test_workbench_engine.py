@@ -306,6 +306,24 @@ class OwnGrid(Effect):
 
 
 @pytest.mark.slow
+@pytest.mark.slow
+def test_the_pass_from_scratch_runs_only_where_the_base_is_short_of_the_noise():
+    # neither plant record names one of these candidates: the null record's base fits to
+    # the noise, so a refit from scratch has nothing to gain; with a delay the base is
+    # far from it, and the second pass runs
+    candidates = ['sensor_nonlinearity', 'current_limit']
+    for effect, level, at_noise in (('none', 0, True), ('delay', 1, False)):
+        d = plant_records.simulate(effect, level, seed=100)
+        data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+        base = engine.fit_model(data, ())
+        stages = []
+        diag = engine.diagnose(data, base=base, candidates=candidates,
+                               progress=lambda i, n, stage: stages.append(stage))
+        assert diag.missing_effect is None, diag.candidates
+        assert engine.at_noise(base, data, engine.MIN_IMPROVEMENT) is at_noise
+        assert ('candidates from scratch' in stages) is not at_noise, stages
+
+
 def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
     data = record(act.ActuatorParams(), seconds=120.0)
     base = engine.fit_model(data, ())

@@ -41,7 +41,9 @@ held-out error. A candidate is significant only if
      delay must exceed one sample period).
 When no candidate is significant, every one without an own grid is also refitted from
 scratch (the better training fit of the two is judged again): with two effects missing,
-the base can sit so far from the data that a warm refit stays in its basin. And when a
+the base can sit so far from the data that a warm refit stays in its basin. A base that
+already fits its training window to within the noise (`at_noise`) has no such basin: the
+second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
 in training RMSE and no worse held out, the base's own fit sat in a poor minimum: the
 diagnosis starts again from that fit (`better_base`, `Diagnosis.refitted` says so).
@@ -486,7 +488,8 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
     diag = rank_candidates(base, list(entries.values()))
     # nothing named: a base far from the data (another effect missing too) can hold a warm
     # refit in its basin, so each candidate is also refitted from scratch and judged again
-    if diag.missing_effect is None and isinstance(data, DynamicData):
+    if (diag.missing_effect is None and isinstance(data, DynamicData)
+            and not at_noise(base, data, min_improvement)):
         rescue = [t + (entries[t[2]]['fit'],) for t in tasks
                   if 'fit' in entries[t[2]] and not get_effect(t[2]).own_grid]
         if rescue:
@@ -520,6 +523,18 @@ def noise_floor(data: Any) -> Optional[float]:
         return None
     records = data.segments or (('', 0, len(data)),)
     return noise_rms(*(data.position[a:b] for _, a, b in records)) / span
+
+
+def at_noise(base: ModelFit, data: DynamicData, min_improvement: float) -> bool:
+    """
+    Return True when the base fits its training window to within the measurement noise.
+
+    True when training NRMSE <= noise floor / (1 − min_improvement): no refit, from
+    anywhere, can fit that window by `min_improvement` better without fitting the noise,
+    so there is no basin for a refit from scratch to escape.
+    """
+    floor = noise_floor(data)
+    return floor is not None and bool(base.train['nrmse'] * (1.0 - min_improvement) <= floor)
 
 
 def better_base(base: ModelFit, entries: list, min_improvement: float) -> Optional[tuple]:
