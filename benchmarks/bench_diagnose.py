@@ -33,9 +33,10 @@ import argparse
 import sys
 import time
 
-from sma_actuator.workbench.parallel import available_cores, one_blas_thread
+from sma_actuator.workbench.parallel import available_cores, keep_freed_memory, one_blas_thread
 
 one_blas_thread()   # before numpy loads, as `sma-model` runs
+keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 
 import numpy as np  # noqa: E402, I100
 from sma_actuator.core.actuator import ActuatorParams, simulate  # noqa: E402

@@ -35,9 +35,10 @@ from pathlib import Path
 import sys
 import time
 
-from sma_actuator.workbench.parallel import one_blas_thread
+from sma_actuator.workbench.parallel import keep_freed_memory, one_blas_thread
 
 one_blas_thread()   # before numpy loads, as `sma-model` and the record workers run
+keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402, I100

@@ -30,9 +30,10 @@ import argparse
 from pathlib import Path
 import time
 
-from sma_actuator.workbench.parallel import one_blas_thread
+from sma_actuator.workbench.parallel import keep_freed_memory, one_blas_thread
 
 one_blas_thread()   # before numpy loads, as `sma-model` runs: the same fits, the same figures
+keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 
 import numpy as np  # noqa: E402, I100
 from sma_actuator.workbench.crossval import cross_validate  # noqa: E402

@@ -16,7 +16,8 @@
 Shared pytest fixtures.
 
 ROS tests run in their own DDS domain (random ROS_DOMAIN_ID, localhost-only discovery)
-so that concurrently running test sessions on one machine never see each other's topics.
+so that concurrently running test sessions on one machine never see each other's topics;
+the workers of one session (pytest-xdist) draw from disjoint sets of ids.
 """
 import os
 from pathlib import Path
@@ -30,6 +31,10 @@ for _name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):
     os.environ.setdefault(_name, '1')
 
 import pytest  # noqa: E402
+
+from sma_actuator.workbench.parallel import keep_freed_memory  # noqa: E402
+
+keep_freed_memory()   # as `sma-model` runs: fits side by side must not fault their arrays in
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -71,10 +76,22 @@ def pytest_collection_modifyitems(items):
             item.add_marker(pytest.mark.ros)
 
 
+def domain_ids():
+    """
+    Return the DDS domain ids this test process draws from.
+
+    1-100, split between pytest-xdist workers (worker k of N takes k + 1, k + 1 + N, ...),
+    so that tests running side by side in one session never share a domain.
+    """
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    count = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1'))
+    return range(1 + int(worker.lstrip('gw') or 0), 101, max(count, 1))
+
+
 @pytest.fixture
 def ros_domain_id():
     """Return a DDS domain id private to this test (also exported for subprocess nodes)."""
-    domain = random.SystemRandom().randint(1, 100)
+    domain = random.SystemRandom().choice(domain_ids())
     old = os.environ.get('ROS_DOMAIN_ID')
     os.environ['ROS_DOMAIN_ID'] = str(domain)
     yield domain

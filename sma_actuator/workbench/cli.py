@@ -38,9 +38,10 @@ import sys
 import time
 from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
-from .parallel import one_blas_thread
+from .parallel import keep_freed_memory, one_blas_thread
 
 one_blas_thread()   # before numpy loads: a fit must not depend on --jobs
+keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 
 import numpy as np  # noqa: E402, I100
 

@@ -20,6 +20,7 @@ Diagnose's candidate refits, and the hidden-effect tests and benchmark (one reco
 from __future__ import annotations
 
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+import ctypes
 import multiprocessing
 import os
 from typing import Callable, Iterable, Iterator, Optional, Tuple, TypeVar
@@ -27,6 +28,11 @@ from typing import Callable, Iterable, Iterator, Optional, Tuple, TypeVar
 T = TypeVar('T')
 R = TypeVar('R')
 BLAS_THREADS = ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')
+# glibc malloc: blocks up to this size come from the heap (glibc's own upper limit) ...
+MMAP_THRESHOLD_B = 32 << 20
+# ... and the heap's free top is given back to the kernel only beyond this size
+TRIM_THRESHOLD_B = 1 << 30
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3   # mallopt parameters (malloc.h)
 
 
 def one_blas_thread() -> None:
@@ -39,6 +45,25 @@ def one_blas_thread() -> None:
     """
     for name in BLAS_THREADS:
         os.environ.setdefault(name, '1')
+
+
+def keep_freed_memory() -> None:
+    """
+    Keep freed arrays of up to 32 MiB in this process for reuse (glibc; elsewhere no-op).
+
+    A fit allocates and frees regressor matrices of a few MiB thousands of times. By
+    default glibc maps each with mmap and unmaps it when freed, so every new one is faulted
+    in page by page again; on a virtual machine that returns freed pages to its host, two
+    fits doing that side by side each run at half speed (docs/workbench.md, "Speed").
+    Served from a heap that is not trimmed, they cost at most the largest working set.
+    Sets this process (mallopt) and, through the environment, the processes it starts.
+    """
+    os.environ.setdefault('MALLOC_MMAP_THRESHOLD_', str(MMAP_THRESHOLD_B))
+    os.environ.setdefault('MALLOC_TRIM_THRESHOLD_', str(TRIM_THRESHOLD_B))
+    mallopt = getattr(ctypes.CDLL(None), 'mallopt', None)
+    if mallopt is not None:
+        mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_B)
+        mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_B)
 
 
 def available_cores() -> int:
