@@ -41,7 +41,7 @@ BOUND_S = 240.0
 # longest wait for the probe to see every endpoint of the loop, named, in the graph [s]
 GRAPH_NAMES_S = 30.0
 # a recording run goes on until the recorder has counted this many messages of each topic
-RECORDED = {'/sma/duty': 10, '/sma/setpoint': 1}
+RECORDED = {'/sma/duty': 10, '/sma/setpoint': 1, '/sma/joint_states': 10}
 
 
 @pytest.fixture(autouse=True)
