@@ -34,7 +34,7 @@ import pytest  # noqa: E402
 
 from sma_actuator.workbench.parallel import keep_freed_memory  # noqa: E402
 
-keep_freed_memory()   # as `sma-model` runs: fits side by side must not fault their arrays in
+keep_freed_memory()   # as `sma-model` runs: fits reuse their freed arrays
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -52,10 +52,10 @@ def keep_freed_memory() -> None:
     Keep freed arrays of up to 32 MiB in this process for reuse (glibc; elsewhere no-op).
 
     A fit allocates and frees regressor matrices of a few MiB thousands of times. By
-    default glibc maps each with mmap and unmaps it when freed, so every new one is faulted
-    in page by page again; on a virtual machine that returns freed pages to its host, two
-    fits doing that side by side each run at half speed (docs/workbench.md, "Speed").
-    Served from a heap that is not trimmed, they cost at most the largest working set.
+    default glibc maps many of them with mmap and unmaps or trims them when freed, so the
+    next ones are faulted in page by page again: kernel time that is about a tenth of a
+    diagnosis's CPU time on a virtual machine (docs/workbench.md, "Speed"). Served from a
+    heap that is not trimmed, they cost at most the largest working set.
     Sets this process (mallopt) and, through the environment, the processes it starts.
     """
     os.environ.setdefault('MALLOC_MMAP_THRESHOLD_', str(MMAP_THRESHOLD_B))
