@@ -44,6 +44,48 @@ def test_a_signal_sets_the_stop_flag_and_raises_nothing(restore_signal_handlers,
     assert stop.wait(2.0)
 
 
+HUNG_TEARDOWN = """
+import threading
+from sma_actuator.nodes import ros_console
+stop = ros_console.install_stop_signals(grace_s={grace})
+print('ready', flush=True)
+stop.wait()
+lock = threading.Lock()
+lock.acquire()
+lock.acquire({hang})   # a teardown that never ends: deadlocked in the middleware, say
+"""
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_a_process_hung_after_its_stop_signal_dumps_its_stacks_and_exits_1(sig):
+    proc = subprocess.Popen([sys.executable, '-c', HUNG_TEARDOWN.format(grace=0.5, hang='')],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline() == 'ready\n'
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=NOTICE_S + 0.5)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1
+    assert time.monotonic() - t0 >= 0.5           # not before its grace
+    assert 'Timeout (0:00:00.500000)!' in err      # faulthandler's dump of every thread
+    assert 'File "<string>", line 9 in <module>' in err   # where the main thread hangs
+
+
+def test_a_process_that_stops_within_its_grace_exits_normally():
+    proc = subprocess.Popen(
+        [sys.executable, '-c', HUNG_TEARDOWN.format(grace=NOTICE_S + 5.0, hang='timeout=0.2')],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline() == 'ready\n'
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=NOTICE_S)
+    finally:
+        proc.kill()
+    assert (proc.returncode, err) == (0, '')
+
+
 def test_spin_until_stopped_returns_on_the_flag_with_the_context_still_up(ros_context):
     node = rclpy.create_node('spinner', context=ros_context)
     stop, ticks = threading.Event(), []

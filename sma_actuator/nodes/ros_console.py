@@ -19,6 +19,8 @@ A node's ``main`` runs :func:`handle_command_line` (help and stray arguments, be
 starts), :func:`init_with_stop_signals`, :func:`create_node` (a bad parameter: one line on
 stderr, exit status 2) and :func:`spin_until_stopped`.
 """
+import faulthandler
+import os
 import re
 import signal
 import sys
@@ -35,7 +37,11 @@ import yaml
 from .ros_params import declared_names, Param, ParameterError, RCLPY_PARAMETERS
 
 
-def install_stop_signals() -> threading.Event:
+# a node still alive this long after its stop signal is hung (in DDS teardown, say)
+STOP_GRACE_S = 10.0
+
+
+def install_stop_signals(grace_s: Optional[float] = None) -> threading.Event:
     """
     SIGINT and SIGTERM set the returned Event and raise nothing.
 
@@ -45,17 +51,44 @@ def install_stop_signals() -> threading.Event:
     and exit status 1 (ros/joint_state_publisher#117; seen here under load). A flag that the
     spin loop polls stops every node between callbacks, with its context still valid, so
     the shutdown path can still publish a zero duty.
+
+    With `grace_s`, the first signal also starts :func:`exit_if_still_running_after`.
     """
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
+    if grace_s is not None:
+        exit_if_still_running_after(grace_s)
     return stop
+
+
+def exit_if_still_running_after(grace_s: float) -> None:
+    """
+    From the first SIGINT/SIGTERM on, allow the process `grace_s` seconds [s] to exit.
+
+    Past that, faulthandler prints every thread's stack to stderr and ends the process with
+    status 1, instead of a hung teardown waiting for its launcher's SIGKILL. Python runs
+    signal handlers only in the main thread, between bytecodes: a main thread blocked in
+    C code never runs them. The wakeup pipe is written by the C-level handler itself, so a
+    helper thread sees the signal anyway, and faulthandler's timer thread needs no GIL.
+    Call from the main thread.
+    """
+    read_fd, write_fd = os.pipe()
+    os.set_blocking(write_fd, False)
+    signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+
+    def arm_on_signal() -> None:
+        os.read(read_fd, 1)
+        faulthandler.dump_traceback_later(grace_s, exit=True)
+    threading.Thread(target=arm_on_signal, name='stop_grace', daemon=True).start()
 
 
 def init_with_stop_signals(args: Optional[Sequence[str]] = None,
                            prog: Optional[str] = None) -> threading.Event:
     """
     Run `rclpy.init(args)` without rclpy's signal handlers; return `install_stop_signals()`.
+
+    The stop signals come with a grace of STOP_GRACE_S [s] (:func:`exit_if_still_running_after`).
 
     With `prog`, a command line rcl cannot parse (a malformed `-p`, an unreadable params
     file) ends in one line on stderr and exit status 2 instead of a traceback.
@@ -66,7 +99,7 @@ def init_with_stop_signals(args: Optional[Sequence[str]] = None,
         if prog is None:
             raise
         fail(prog, f'cannot start: {_rcl_message(err)}')
-    return install_stop_signals()
+    return install_stop_signals(STOP_GRACE_S)
 
 
 def spin_until_stopped(node: Node, stop: threading.Event,
