@@ -13,6 +13,8 @@
 # limitations under the License.
 
 """Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
+import warnings
+
 from conftest import real_data_path
 import numpy as np
 import pytest
@@ -136,6 +138,13 @@ def test_static_errors(tmp_path):
                   [[0, 0, 0], [0, 1, 1], [1.5, 0, 0], [1.5, 1, 1]])
     with pytest.raises(DataError, match=r"line 4, column 'curve': 1.5 is not a curve number"):
         load_data(path)
+    # an integer too large for a curve id once wrapped to a negative int64 in the cast
+    path = _write(tmp_path / 'big.csv', 'input,output,curve',
+                  [[0, 0, 0], [1, 1, 0], [0, 0, 1e300], [1, 1, 1e300]])
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')   # no RuntimeWarning from the cast on the way
+        with pytest.raises(DataError, match=r"line 4, column 'curve': 1e\+300 is not a curve"):
+            load_data(path)
     path = _write(tmp_path / 'odd.csv', 'input,output,curve', [[0, 0, 1], [1, 1, 1]])
     with pytest.raises(DataError, match='no even-numbered curve'):
         load_data(path)

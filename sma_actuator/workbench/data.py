@@ -61,6 +61,8 @@ STATIC_LAYOUTS = ({'input': 'input', 'output': 'output'},
 FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
                 '[,ambient_temperature][,setpoint]; a static CSV input,output[,curve] or '
                 'curve,voltage,deflection')
+# a curve id is a label of a loop: far beyond any real count, and still an int64 when cast
+MAX_CURVE_ID = 10**9
 MIN_SAMPLES = 10
 MCAP_MAGIC = b'\x89MCAP'
 STEADY_RATE_TOLERANCE = 0.01   # relative deviation of a time step from the median step
@@ -324,11 +326,11 @@ def static_from_table(path: PathLike, header: list, rows: np.ndarray,
     values = {field: cols[name] for name, field in layout.items()}
     if 'curve' in cols:
         curve = cols['curve']
-        bad = np.flatnonzero((curve != np.round(curve)) | (curve < 0))
+        bad = np.flatnonzero((curve != np.round(curve)) | (curve < 0) | (curve > MAX_CURVE_ID))
         if bad.size:
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column 'curve': {curve[k]:g} is not a "
-                            'curve number (non-negative integer)')
+                            f'curve number (integer 0 to {MAX_CURVE_ID})')
         curve = curve.astype(int)
     else:
         curve = np.zeros(len(rows), int)
