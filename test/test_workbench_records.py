@@ -28,7 +28,7 @@ from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import diagnose, diagnose_rounds, fit_model, record_scores
-from sma_actuator.workbench.records import join, loop_prior, segment_of
+from sma_actuator.workbench.records import at_fit_rate, join, loop_prior, segment_of
 from support.richsim_excitation import open_loop_duty
 import yaml
 
@@ -162,6 +162,51 @@ def test_records_at_another_rate_are_resampled(tmp_path, capsys):
     code, text, err = run(capsys, 'fit', a, b)
     assert code == 0, err
     assert 'resampled from 40 Hz to 20 Hz' in text
+
+
+def test_decimation_keeps_the_heating_energy_and_does_not_delay_the_reading():
+    dt, noise = 0.001, 0.01
+    t = np.arange(20003) * dt
+    duty = 0.6 * (np.sin(2 * np.pi * 0.37 * t) > 0) + 0.1 * (t > 7.0123)
+    clean = np.sin(np.pi * t)
+    rng = np.random.default_rng(4)
+    data = DynamicData(t, duty, np.zeros(t.size), clean + rng.normal(0, noise, t.size))
+    slow, note = at_fit_rate(data)
+    assert note == 'decimated from 1000 Hz to 100 Hz (means of 10 samples; --max-rate 100 Hz)'
+    assert (len(slow), slow.dt) == (2000, pytest.approx(0.01))
+    # each new duty is in effect for 10 old periods: the same heating energy, block by block
+    np.testing.assert_allclose(slow.duty_a * slow.dt,
+                               duty[:20000].reshape(2000, 10).sum(axis=1) * dt)
+    # the reading at each kept time, its noise averaged; a block mean would lag 4.5 ms,
+    # 0.010 rad RMS on this sine
+    error = (slow.position - np.sin(np.pi * slow.time))[1:-1]
+    assert np.sqrt(np.mean(error ** 2)) < 1.3 * noise / np.sqrt(10)
+
+
+def test_records_at_or_below_the_fitting_rate_are_kept_and_faster_ones_decimated():
+    t = np.arange(3000) * 0.004      # 250 Hz: a whole factor 3, to 83.3 Hz
+    data = DynamicData(t, 0.5 * (t > 1), np.zeros(t.size), np.sin(t))
+    slow, note = at_fit_rate(data)
+    assert slow.dt == pytest.approx(0.012) and 'to 83.33 Hz (means of 3 samples' in note
+    assert at_fit_rate(data, max_rate_hz=250.0) == (data, None)
+    assert at_fit_rate(slow) == (slow, None)
+
+
+def test_a_fast_record_is_fitted_at_the_fitting_rate_unless_asked_otherwise(tmp_path, capsys):
+    fast = single_wire_csv(tmp_path / 'fast.csv', n=12000, dt=0.005, seed=3)   # 200 Hz, 60 s
+    fits = {}
+    for max_rate in ('100', '200'):
+        code, text, err = run(capsys, 'fit', fast, '--max-rate', max_rate)
+        assert code == 0, err
+        fits[max_rate] = text
+    assert 'fast.csv: decimated from 200 Hz to 100 Hz (means of 2 samples' in fits['100']
+    assert '6000 samples at 100 Hz' in fits['100']
+    assert 'decimated' not in fits['200'] and '12000 samples at 200 Hz' in fits['200']
+
+    def validation_nrmse(text):
+        return float(text.split('validation: NRMSE ')[1].split(' %')[0])
+    # the same wire, fitted as well from half the samples
+    assert validation_nrmse(fits['100']) < 1.25 * validation_nrmse(fits['200'])
 
 
 @pytest.mark.parametrize('case', ['mixed', 'still', 'columns', 'unit', 'unit_option',

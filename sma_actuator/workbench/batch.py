@@ -41,7 +41,10 @@ import os
 from pathlib import Path
 import sys
 import time
-from typing import Any, Iterable, Iterator, List, Optional, TextIO, TYPE_CHECKING, Union
+from typing import (Any, Iterable, Iterator, List, Optional, TextIO, Tuple, TYPE_CHECKING,
+                    Union)
+
+from .limits import MAX_FIT_RATE_HZ
 
 if TYPE_CHECKING:
     from dask.distributed import Client, Future
@@ -70,6 +73,7 @@ class BatchOptions:
     candidates: tuple = None     # candidate effects for diagnose (None: the whole catalog)
     rounds: int = 1              # diagnose rounds: add the named effect and diagnose again
     rate_hz: float = None        # resampling rate for bags [Hz] (None: joint-state rate)
+    max_rate_hz: float = MAX_FIT_RATE_HZ   # faster records are decimated to this rate [Hz]
     reports: bool = True         # write an HTML report per record
     reference: dict = None       # a fitted model (from fit --out) compared with every record
 
@@ -134,16 +138,19 @@ def file_fingerprint(path: Union[str, Path]) -> str:
 
 # ------------------------------------------------------------------------------ worker tasks
 @lru_cache(maxsize=4)
-def _load(path: str, rate_hz: Optional[float],
+def _load(path: str, rates: Tuple[Optional[float], float],
           stamp: str) -> Union[DynamicData, StaticData]:
     """
     Load and check one record on a worker.
 
     Cached, since every candidate task of a record reads it; `stamp` is the file
-    fingerprint, so a changed file is read again.
+    fingerprint, so a changed file is read again. rates: (the bags' resampling rate or None,
+    the fitting rate's limit) [Hz] (`records.at_fit_rate`).
     """
     from .data import check_excitation, load_data
-    data = load_data(path, rate_hz=rate_hz)
+    from .records import at_fit_rate
+    rate_hz, max_rate_hz = rates
+    data, _ = at_fit_rate(load_data(path, rate_hz=rate_hz), max_rate_hz)
     check_excitation(data, path)
     return data
 
@@ -162,7 +169,8 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     from .engine import diagnose_rounds, fit_model
     from .report import write_diagnosis_report
     started = time.perf_counter()
-    data = _load(path, options.rate_hz, stamp)
+    rates = (options.rate_hz, options.max_rate_hz)
+    data = _load(path, rates, stamp)
     base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
     record = data.columns()
     if options.reference is not None:
@@ -170,7 +178,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     base_seconds = time.perf_counter() - started
     # the worker's thread is handed back while this task waits for its refits
     with worker_client() as client:
-        mapper = partial(_judge_on_cluster, client, path, stamp, options.rate_hz)
+        mapper = partial(_judge_on_cluster, client, path, stamp, rates)
         diags, _, final = diagnose_rounds(data, base, options.rounds,
                                           candidates=_candidates(options), mapper=mapper)
     rounds = [round_summary(diag, record, base_seconds if i == 0 else 0.0)
@@ -183,7 +191,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     return {'rounds': rounds, 'parameters': final_parameters(final)}
 
 
-def _judge_on_cluster(client: Client, path: str, stamp: str, rate_hz: Optional[float],
+def _judge_on_cluster(client: Client, path: str, stamp: str, rates: tuple,
                       tasks: list) -> Iterator[dict]:
     """
     Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
@@ -191,16 +199,16 @@ def _judge_on_cluster(client: Client, path: str, stamp: str, rate_hz: Optional[f
     The tasks travel without the record: each worker reads it by its path (cached).
     """
     from dask.distributed import as_completed
-    futures = [client.submit(task_candidate, path, stamp, rate_hz, task[1:], pure=False)
+    futures = [client.submit(task_candidate, path, stamp, rates, task[1:], pure=False)
                for task in tasks]
     for fut in as_completed(futures):
         yield fut.result()
 
 
-def task_candidate(path: str, stamp: str, rate_hz: Optional[float], task: tuple) -> dict:
+def task_candidate(path: str, stamp: str, rates: tuple, task: tuple) -> dict:
     """Run one `engine.judge_candidate` task (without its data) on the record at `path`."""
     from .engine import judge_candidate
-    return judge_candidate((_load(path, rate_hz, stamp),) + tuple(task))
+    return judge_candidate((_load(path, rates, stamp),) + tuple(task))
 
 
 def compare_reference(spec: dict, data: Any) -> float:

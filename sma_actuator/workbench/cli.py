@@ -45,6 +45,7 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 
 import numpy as np  # noqa: E402, I100
 
+from .limits import MAX_FIT_RATE_HZ  # noqa: E402, I100
 from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 
 EXIT_BAD_INPUT = 2
@@ -54,6 +55,9 @@ PROG = 'sma-model'
 COMPARED = 'compared'
 # a held-out error within this factor of the measurement noise's leaves nothing to find
 NEAR_NOISE = 1.5
+MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
+                 '(duty: block means; position: means centred on each kept sample) [Hz] '
+                 '(default: %(default)g)')
 
 
 class UsageError(ValueError):
@@ -178,6 +182,7 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     fitted together are bad input.
     """
     from .data import check_excitation, load_data
+    from .records import at_fit_rate
     paths = all_data(args)
     seen = {}
     for path in paths:
@@ -188,7 +193,10 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     unit = getattr(args, 'position_unit', None)
     loaded = []
     for path in paths:
-        d = load_data(path, rate_hz=args.rate, position_unit=unit)
+        d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit),
+                              args.max_rate)
+        if note:
+            _note(args, f'{path}: {note}')
         check_excitation(d, path)
         loaded.append((path, d))
     first = loaded[0][1]
@@ -687,7 +695,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     from ..core.model_file import is_fitted
     options = BatchOptions(effects=tuple(spec['effects']), kind=args.kind or spec.get('kind'),
                            candidates=tuple(args.candidates) if args.candidates else None,
-                           rounds=args.rounds, rate_hz=args.rate, reports=not args.no_reports,
+                           rounds=args.rounds, rate_hz=args.rate, max_rate_hz=args.max_rate,
+                           reports=not args.no_reports,
                            reference=json_safe(spec) if is_fitted(spec) else None)
     _note(args, f'batch: {len(paths)} records -> {out}')
     results = []
@@ -764,6 +773,8 @@ def build_parser() -> argparse.ArgumentParser:
     common.add_argument('--force', action='store_true', help='overwrite existing output files')
     common.add_argument('--rate', type=_positive_float, metavar='HZ',
                         help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
+    common.add_argument('--max-rate', type=_positive_float, metavar='HZ',
+                        default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
     parser = OneLineParser(prog=PROG, description='Compare the SMA actuator model with '
                            'measurements, find the missing physical effect, add it.')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND',
@@ -825,6 +836,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help='local cluster size in processes (default: every core)')
     bat.add_argument('--rate', type=_positive_float, metavar='HZ',
                      help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
+    bat.add_argument('--max-rate', type=_positive_float, metavar='HZ',
+                     default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
     bat.add_argument('--no-reports', action='store_true', help='skip the per-record reports')
     bat.add_argument('--force', action='store_true', help='recompute finished records')
     bat.add_argument('--json', action='store_true', help='print a JSON summary')

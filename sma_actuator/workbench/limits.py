@@ -35,6 +35,10 @@ MIN_SAMPLE_PERIOD_S = 1e-4
 MAX_SAMPLE_PERIOD_S = 10.0
 MIN_RATE_HZ = 1.0 / MAX_SAMPLE_PERIOD_S
 MAX_RATE_HZ = 1.0 / MIN_SAMPLE_PERIOD_S
+#: Records sampled faster are averaged down to this rate or below for fitting [Hz]: the
+#: model's fastest dynamics (tens of ms) sit well inside its 50 Hz band, and diagnose's
+#: detection is measured on records at 20 to 100 Hz.
+MAX_FIT_RATE_HZ = 100.0
 #: Files with at least this many rows report their load progress on stderr.
 PROGRESS_MIN_ROWS = 100_000
 PROGRESS_STEP_PERCENT = 10

@@ -25,11 +25,13 @@ Default train/validation rule: with one record, the first 70 % of time trains an
 validates; with two or more, the last record given is held out (train on the others);
 `validate` names the held-out records instead.
 """
-from typing import Optional
+from typing import Any, Optional, Tuple
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from .data import DataError
+from .limits import MAX_FIT_RATE_HZ
 from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
 from ..core.identification import flexinol_loop_ratio
 
@@ -107,6 +109,48 @@ def _resample(data: DynamicData, dt: float) -> DynamicData:
     return DynamicData(t, data.duty_a[idx], data.duty_b[idx], interp(data.position),
                        ambient=interp(data.ambient), setpoint=interp(data.setpoint),
                        position_unit=data.position_unit, layout=data.layout)
+
+
+def decimate(data: DynamicData, factor: int) -> DynamicData:
+    """
+    Return `data` at 1/factor of its rate; sample k of the result is at time t[k M], M = factor.
+
+    A duty is the one in effect until the next sample, so the new duty is the mean over
+    [t[k M], t[(k + 1) M]): the same heating energy (eq. 7's R i² is linear in the PWM
+    duty). Position, ambient and setpoint are the means of the M samples centred on t[k M]:
+    measurement noise falls by √M and the reading does not lag. A last partial block is
+    dropped (under M samples).
+    """
+    m = int(factor)
+    n = len(data) // m
+    keep = np.arange(n) * m
+
+    def block_mean(x: np.ndarray) -> np.ndarray:
+        return x[:n * m].reshape(n, m).mean(axis=1)
+
+    def centred_mean(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
+        return None if x is None else uniform_filter1d(x, m, mode='nearest')[keep]
+    return DynamicData(data.time[keep], block_mean(data.duty_a), block_mean(data.duty_b),
+                       centred_mean(data.position), ambient=centred_mean(data.ambient),
+                       setpoint=centred_mean(data.setpoint), position_unit=data.position_unit,
+                       layout=data.layout)
+
+
+def at_fit_rate(data: Any, max_rate_hz: float = MAX_FIT_RATE_HZ) -> Tuple[Any, Optional[str]]:
+    """
+    Return (`data` at no more than `max_rate_hz` [Hz], a note saying what was done or None).
+
+    A dynamic record sampled faster is decimated (`decimate`) by the smallest whole factor
+    that brings it to `max_rate_hz` or below; slower records and static curves are returned
+    as they are.
+    """
+    if getattr(data, 'kind', None) != DynamicData.kind or 1.0 / data.dt <= max_rate_hz * (
+            1.0 + SAMPLING_TOLERANCE):
+        return data, None
+    factor = int(np.ceil(1.0 / (data.dt * max_rate_hz) - SAMPLING_TOLERANCE))
+    slow = decimate(data, factor)
+    return slow, (f'decimated from {1.0 / data.dt:.4g} Hz to {1.0 / slow.dt:.4g} Hz (means of '
+                  f'{factor} samples; --max-rate {max_rate_hz:g} Hz)')
 
 
 def check_compatible(records: list) -> None:
