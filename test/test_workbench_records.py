@@ -190,6 +190,8 @@ def test_records_at_or_below_the_fitting_rate_are_kept_and_faster_ones_decimated
     assert slow.dt == pytest.approx(0.012) and 'to 83.33 Hz (means of 3 samples' in note
     assert at_fit_rate(data, max_rate_hz=250.0) == (data, None)
     assert at_fit_rate(slow) == (slow, None)
+    short = DynamicData(t[:29], data.duty_a[:29], data.duty_b[:29], data.position[:29])
+    assert at_fit_rate(short) == (short, None)       # 9 samples would be too few to fit
 
 
 def test_a_fast_record_is_fitted_at_the_fitting_rate_unless_asked_otherwise(tmp_path, capsys):

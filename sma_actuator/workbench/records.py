@@ -30,7 +30,7 @@ from typing import Any, Optional, Tuple
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from .data import DataError
+from .data import DataError, MIN_SAMPLES
 from .limits import MAX_FIT_RATE_HZ
 from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
 from ..core.identification import flexinol_loop_ratio
@@ -141,13 +141,15 @@ def at_fit_rate(data: Any, max_rate_hz: float = MAX_FIT_RATE_HZ) -> Tuple[Any, O
     Return (`data` at no more than `max_rate_hz` [Hz], a note saying what was done or None).
 
     A dynamic record sampled faster is decimated (`decimate`) by the smallest whole factor
-    that brings it to `max_rate_hz` or below; slower records and static curves are returned
-    as they are.
+    that brings it to `max_rate_hz` or below; slower records, records too short to keep
+    MIN_SAMPLES samples (small anyway) and static curves are returned as they are.
     """
     if getattr(data, 'kind', None) != DynamicData.kind or 1.0 / data.dt <= max_rate_hz * (
             1.0 + SAMPLING_TOLERANCE):
         return data, None
     factor = int(np.ceil(1.0 / (data.dt * max_rate_hz) - SAMPLING_TOLERANCE))
+    if len(data) // factor < MIN_SAMPLES:
+        return data, None
     slow = decimate(data, factor)
     return slow, (f'decimated from {1.0 / data.dt:.4g} Hz to {1.0 / slow.dt:.4g} Hz (means of '
                   f'{factor} samples; --max-rate {max_rate_hz:g} Hz)')
