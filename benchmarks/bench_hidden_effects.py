@@ -102,9 +102,12 @@ def main():
               f'{str(row["named"]):>20s} {imp:>11s} {row["seconds"]:5.0f}  '
               f'{"ok" if ok else "MISSED"}', flush=True)
 
-    cases = [] if args.effects else [('none', 0.0, args, 100)]
+    unknown = sorted(set(effects) - set(catalog))
+    if unknown:
+        ap.error(f'unknown effect(s) {", ".join(unknown)}; known: {", ".join(catalog)}')
+    cases = [('none', 0.0, args, 100)] if not args.effects or 'none' in effects else []
     order = [e for e in catalog if e != 'none']
-    for effect in effects:
+    for effect in (e for e in effects if e != 'none'):
         k = order.index(effect)          # same seeds whether run alone or with the others
         if plant:
             levels = range(len(catalog[effect]))
