@@ -102,9 +102,10 @@ def main():
               f'{str(row["named"]):>20s} {imp:>11s} {row["seconds"]:5.0f}  '
               f'{"ok" if ok else "MISSED"}', flush=True)
 
-    unknown = sorted(set(effects) - set(catalog))
+    unknown = sorted(set(effects) - set(catalog) - {'none'})
     if unknown:
-        ap.error(f'unknown effect(s) {", ".join(unknown)}; known: {", ".join(catalog)}')
+        known = ', '.join(['none'] + [e for e in catalog if e != 'none'])
+        ap.error(f'unknown effect(s) {", ".join(unknown)}; known: {known}')
     cases = [('none', 0.0, args, 100)] if not args.effects or 'none' in effects else []
     order = [e for e in catalog if e != 'none']
     for effect in (e for e in effects if e != 'none'):
