@@ -23,9 +23,11 @@ Also the null case. Two sources of records:
       (test/support/richsim.py EFFECTS); the figure the hidden-effect tests sample from;
   --source plant: the package's own plant model with the effect switched on, as
       `plant_sim` makes it (test/support/plant_records.py; weak, middle, strong setting).
+--layout single (rich simulator, open loop): wire b is never heated, so the record is one
+wire against a bias spring; effects that need two wires are left out.
 
     python benchmarks/bench_hidden_effects.py [--source richsim|plant] [--duration 480]
-        [--rate 40] [--excitation open]
+        [--rate 40] [--excitation open] [--layout antagonistic|single]
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
         [--jobs N]             (records diagnosed in parallel, one BLAS thread each; the
                                 seconds column then includes the contention)
@@ -42,6 +44,7 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402, I100
+from sma_actuator.workbench.effects import get_effect  # noqa: E402
 from sma_actuator.workbench.engine import diagnose  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
@@ -57,9 +60,9 @@ def run_case(case):
     else:
         d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
                      duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise,
-                     seed=seed)
+                     seed=seed, layout=args.layout)
     data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
-                       d.get('ambient_temperature'))
+                       d.get('ambient_temperature'), layout=args.layout)
     t0 = time.perf_counter()
     diag = diagnose(data, kind='classical' if effect == 'saturation' else None)
     mine = next((c for c in diag.candidates if c['effect'] == effect), None)
@@ -79,16 +82,20 @@ def main():
     ap.add_argument('--noise', type=float, default=None,
                     help='position noise [rad] (default 0.002 richsim, 0.001 plant)')
     ap.add_argument('--excitation', choices=('open', 'closed'), default='open')
+    ap.add_argument('--layout', choices=('antagonistic', 'single'), default='antagonistic')
     ap.add_argument('--effects', nargs='*', default=None)
     ap.add_argument('--jobs', type=int, default=1)
     args = ap.parse_args()
     plant = args.source == 'plant'
     if args.noise is None:
         args.noise = 0.001 if plant else 0.002
+    if args.layout == 'single' and (plant or args.excitation != 'open'):
+        ap.error('--layout single needs --source richsim and --excitation open')
     catalog = plant_records.EFFECTS if plant else EFFECTS
-    effects = args.effects or [e for e in catalog if e != 'none']
+    effects = args.effects or [e for e in catalog if e != 'none' and not (
+        args.layout == 'single' and get_effect(e).needs_two_wires)]
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
-          f'{"open" if plant else args.excitation} loop, noise {args.noise} rad'
+          f'{"open" if plant else args.excitation} loop, {args.layout}, noise {args.noise} rad'
           + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else ''))
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '
           f'{"improvement":>11s} {"s":>5s}')

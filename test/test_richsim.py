@@ -268,6 +268,19 @@ def test_excitation_covers_loops_and_keeps_wires_sane(excitation):
         assert d['position'].max() > 0.95 and d['position'].min() < -0.9
 
 
+def test_single_layout_works_one_wire_through_its_own_loop():
+    pair = simulate('none', 1.0, 'open', duration_s=600, seed=0)
+    one = simulate('none', 1.0, 'open', duration_s=600, seed=0, layout='single')
+    assert not np.any(one['duty_b']) and np.any(pair['duty_b'])
+    # wire a takes the larger command; wire b stays cold, so the shaft follows wire a alone
+    np.testing.assert_allclose(one['duty_a'], np.maximum(pair['duty_a'], pair['duty_b']))
+    assert one['true_austenite_b'].max() < 1e-9
+    aus = one['true_austenite_a']
+    assert aus.max() > 0.99 and turning_points(aus) >= 5
+    assert np.corrcoef(aus, one['true_position'])[0, 1] > 0.999
+    assert one['position'].min() > one['true_position'][0] - 0.02
+
+
 def test_runs_are_reproducible_per_seed():
     a = simulate('convection', 1.0, 'closed', duration_s=60, seed=7)
     b = simulate('convection', 1.0, 'closed', duration_s=60, seed=7)
@@ -320,6 +333,8 @@ def test_csv_round_trip(tmp_path, excitation, ncols):
     ({'seed': -3}, 'seed'),
     ({'params': {'kq': 1.0}}, 'kq'),
     ({'params': {'cooling_tau_s': 0.0}}, 'cooling_tau_s'),
+    ({'layout': 'triple'}, 'layout'),
+    ({'layout': 'single', 'excitation': 'closed'}, 'layout'),
 ])
 def test_bad_arguments_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=name):

@@ -14,8 +14,9 @@
 """
 `sma-model` on several records of one rig, single-wire rigs, units and honest scores.
 
-Small records from the package's own simulator (in-process `cli.main`), and the measured
-spring-biased wire records in ../shared/data/real/spring_biased_wire.
+Small records from the package's own simulator (in-process `cli.main`), one single-wire
+record from the independent rich simulator, and the measured spring-biased wire records in
+../shared/data/real/spring_biased_wire.
 """
 import json
 from pathlib import Path
@@ -29,6 +30,7 @@ from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import diagnose, diagnose_rounds, fit_model, record_scores
 from sma_actuator.workbench.records import at_fit_rate, join, loop_prior, segment_of
+from support import richsim
 from support.richsim_excitation import open_loop_duty
 import yaml
 
@@ -394,6 +396,21 @@ def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
     params = ActuatorParams(delay_s=0.4, duty_limit=0.45)
     y = simulate(params, da, db, dt).position_rad + rng.normal(0, 0.002, len(t))
     return DynamicData(t, da, db, y)
+
+
+def test_diagnose_names_a_hidden_delay_of_one_wire_against_a_spring():
+    # the independent simulator with wire b never heated: wire a alone against the tension
+    d = richsim.simulate('delay', magnitude=1.375, excitation='open', duration_s=240.0,
+                         rate_hz=40, noise_rad=0.002, seed=221, layout='single')
+    data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
+                       d['ambient_temperature'], layout='single')
+    diag = diagnose(data, candidates=['delay', 'fast_dynamics', 'asymmetric_wires'])
+    assert diag.missing_effect == 'delay'
+    named = diag.candidates[0]
+    assert named['fit'].values['delay_s'] == pytest.approx(0.2 * 1.375, rel=0.1)
+    assert named['improvement'] >= 0.4
+    pair_only = next(c for c in diag.candidates if c['effect'] == 'asymmetric_wires')
+    assert pair_only['explanation'].startswith('not applicable: needs two wires')
 
 
 @pytest.mark.slow

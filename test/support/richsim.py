@@ -75,6 +75,7 @@ EFFECTS = {
                       'above the knee duty 0.45 / M', 'magnitude_range': (0.5, 1.5)},
 }
 EXCITATIONS = ('open', 'closed')
+LAYOUTS = ('antagonistic', 'single')
 MAX_MAGNITUDE = 3.0
 
 DEFAULTS = {
@@ -249,25 +250,32 @@ def _streams(seed):
 
 
 def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, rate_hz=40,
-             noise_rad=0.002, seed=0, params=None):
+             noise_rad=0.002, seed=0, params=None, layout='antagonistic'):
     """
     Simulate one recording with hidden `effect` at `magnitude` (EFFECTS lists the ranges).
 
     excitation: 'open' (random duty sequences) or 'closed' (own PI at 25 ms tracking random
-    setpoints).  Returns a dict of equal-length arrays: time [s], duty_a, duty_b [0..1]
-    (mean commanded duty over the following sample interval), position [rad] (potentiometer
-    with noise_rad Gaussian noise and 12-bit ADC), ambient_temperature [degC] (measured),
-    setpoint [rad] (closed loop only) and true_* hidden states for tests.
+    setpoints). layout 'single' (open loop only): wire b is never heated, so wire a works
+    against the loop tension alone, as one wire against a bias spring; duty_b is 0 and wire a
+    takes the larger of the two commands. Returns a dict of equal-length arrays: time [s],
+    duty_a, duty_b [0..1] (mean commanded duty over the following sample interval), position
+    [rad] (potentiometer with noise_rad Gaussian noise and 12-bit ADC), ambient_temperature
+    [degC] (measured), setpoint [rad] (closed loop only) and true_* hidden states for tests.
     """
     m, rate, noise, dur = _check_common(effect, magnitude, rate_hz, noise_rad, duration_s, seed)
     if excitation not in EXCITATIONS:
         raise ValueError(f'excitation={excitation!r}; choose one of {EXCITATIONS}')
+    if layout not in LAYOUTS or (layout == 'single' and excitation != 'open'):
+        raise ValueError(f'layout={layout!r} with excitation={excitation!r}; choose one of '
+                         f"{LAYOUTS} ('single' in open loop only)")
     pp = _params(params)
     streams = _streams(seed)
     hard = min(1.0, 0.5 * m) if effect == 'saturation' else 0.0
     dt_cmd = pp['cmd_dt_s']
     if excitation == 'open':
         cmd = exc.open_loop_duty(streams['excitation'], dur, dt_cmd, pp['duty_max'], hard)
+        if layout == 'single':   # wire a also takes the sequences meant for wire b
+            cmd[:, 0], cmd[:, 1] = cmd.max(axis=1), 0.0
         setp = np.zeros(cmd.shape[0])
     else:
         setp = exc.closed_loop_setpoint(streams['excitation'], dur, dt_cmd, hard=hard,
