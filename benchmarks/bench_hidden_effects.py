@@ -28,6 +28,8 @@ wire against a bias spring; effects that need two wires are left out.
 
     python benchmarks/bench_hidden_effects.py [--source richsim|plant] [--duration 480]
         [--rate 40] [--excitation open] [--layout antagonistic|single]
+        [--param KEY=VALUE ...] (another rig: richsim DEFAULTS keys, e.g.
+                                 wire_diameter_m=200e-6 cooling_tau_s=2.5)
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
         [--jobs N]             (records diagnosed in parallel, one BLAS thread each; the
                                 seconds column then includes the contention)
@@ -60,7 +62,7 @@ def run_case(case):
     else:
         d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
                      duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise,
-                     seed=seed, layout=args.layout)
+                     seed=seed, params=args.params, layout=args.layout)
     data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                        d.get('ambient_temperature'), layout=args.layout)
     t0 = time.perf_counter()
@@ -74,6 +76,26 @@ def run_case(case):
             'seconds': time.perf_counter() - t0}
 
 
+def rig_params(ap, pairs, plant):
+    """Return {key: value} of the --param KEY=VALUE pairs, checked by the simulator."""
+    params = {}
+    for pair in pairs:
+        key, sep, value = pair.partition('=')
+        try:
+            params[key] = float(value)
+        except ValueError:
+            ap.error(f'--param {pair!r}: expected KEY=NUMBER')
+        if not sep:
+            ap.error(f'--param {pair!r}: expected KEY=NUMBER')
+    if params and plant:
+        ap.error('--param needs --source richsim')
+    try:
+        simulate('none', duration_s=1.0, params=params)
+    except ValueError as err:
+        ap.error(f'--param: {err}')
+    return params
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--duration', type=float, default=480.0)
@@ -83,6 +105,8 @@ def main():
                     help='position noise [rad] (default 0.002 richsim, 0.001 plant)')
     ap.add_argument('--excitation', choices=('open', 'closed'), default='open')
     ap.add_argument('--layout', choices=('antagonistic', 'single'), default='antagonistic')
+    ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
+                    help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ap.add_argument('--effects', nargs='*', default=None)
     ap.add_argument('--jobs', type=int, default=1)
     args = ap.parse_args()
@@ -91,12 +115,14 @@ def main():
         args.noise = 0.001 if plant else 0.002
     if args.layout == 'single' and (plant or args.excitation != 'open'):
         ap.error('--layout single needs --source richsim and --excitation open')
+    args.params = rig_params(ap, args.param, plant)
     catalog = plant_records.EFFECTS if plant else EFFECTS
     effects = args.effects or [e for e in catalog if e != 'none' and not (
         args.layout == 'single' and get_effect(e).needs_two_wires)]
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
           f'{"open" if plant else args.excitation} loop, {args.layout}, noise {args.noise} rad'
-          + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else ''))
+          + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else '')
+          + ''.join(f', {k} = {v:g}' for k, v in args.params.items()))
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '
           f'{"improvement":>11s} {"s":>5s}')
     rows = []
