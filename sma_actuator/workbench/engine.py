@@ -365,9 +365,11 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
     scratch = {k: v for k, v in start.items() if k != 'tau_s'}
     for eff in map(get_effect, effects):
         if same_grid and eff.name not in base_fit.effects and eff.own_grid:
-            # also from scratch, on a grid of its own
-            trials.append((dict(scratch, **eff.scratch_start(params)), False,
-                           eff.scratch_bounds(params)))
+            # also from scratch, on a grid of its own, from each start a fresh fit tries:
+            # the basin a start reaches on the base grid is not the one it reaches there
+            for alt in [{}] + eff.alternative_starts(data):
+                trials.append((dict(scratch, **eff.scratch_start(params), **alt), False,
+                               eff.scratch_bounds(params)))
     res = None
     for trial_start, warm, bounds in trials:
         trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,
