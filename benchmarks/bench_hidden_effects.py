@@ -80,12 +80,10 @@ def rig_params(ap, pairs, plant):
     """Return {key: value} of the --param KEY=VALUE pairs, checked by the simulator."""
     params = {}
     for pair in pairs:
-        key, sep, value = pair.partition('=')
-        try:
+        key, _, value = pair.partition('=')
+        try:   # without '=' the value is '', not a number either
             params[key] = float(value)
         except ValueError:
-            ap.error(f'--param {pair!r}: expected KEY=NUMBER')
-        if not sep:
             ap.error(f'--param {pair!r}: expected KEY=NUMBER')
     if params and plant:
         ap.error('--param needs --source richsim')
