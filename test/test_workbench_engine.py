@@ -137,9 +137,9 @@ RIG_B = {'wire_diameter_m': 200e-6, 'resistance_ohm_per_m': 29.0, 'wire_length_m
 
 @pytest.mark.slow
 def test_the_refit_from_scratch_tries_every_start_a_fresh_fit_tries():
-    # a 0.275 s delay on that rig: refitted from scratch from the default start only, the
-    # delay ended at 0.284 s and 0.63 % training NRMSE, worse held out than the base (3.41 %
-    # against 2.59 %); the alternative 0.3 s start, tried on the base grid only, did no better
+    # a 0.275 s delay on that rig: from the default start alone, the refit from scratch ends
+    # in a poor basin (0.284 s, 0.63 % training NRMSE, worse held out than the base), and on
+    # the base grid the 0.3 s start does no better; from scratch at 0.3 s it fits the noise
     d = simulate('delay', magnitude=1.375, excitation='open', duration_s=480.0, rate_hz=40,
                  noise_rad=0.002, seed=221, params=RIG_B)
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
