@@ -15,9 +15,10 @@
 """
 Dead-time interlock on the applied duty, and the two-controller scenario of issue 13.
 
-The rule (`control.interlock`) is checked on its own; then plant_sim runs with two
-controller processes of opposite setpoints, and the plant's applied duties must never
-heat both wires within the dead time of each other, while /diagnostics shows ERROR.
+The rule (`control.interlock`) is checked on its own; then plant_sim runs with one
+controller, and a second of the opposite setpoint joins: the applied duties never heat
+both wires within the dead time of each other, and from the plant's discovery of the
+second publisher on both wires get zero while /diagnostics shows ERROR.
 """
 import os
 import subprocess
@@ -73,13 +74,12 @@ def test_zero_dead_time_still_refuses_both_at_once():
 
 
 @pytest.mark.slow
-def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
+def test_a_second_controller_zeroes_both_wires_and_the_plant_reports_error(
         ros_context, ros_domain_id):
     rclpy = pytest.importorskip('rclpy')
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
-    from sensor_msgs.msg import Temperature
 
     from sma_actuator.nodes import common as c
     from sma_actuator.nodes.plant_sim import PlantSim
@@ -89,35 +89,40 @@ def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
     plant = PlantSim(context=ros_context, parameter_overrides=[
         Parameter('interlock_dead_time_s', value=dead_time_s)])
     watcher = rclpy.create_node('watcher', context=ros_context, namespace=c.NAMESPACE)
-    diags, temps = [], {'wire_a': [], 'wire_b': []}
+    diags = []
     watcher.create_subscription(
         DiagnosticArray, c.DIAGNOSTICS,
         lambda m: diags.extend(s for s in m.status if s.name.startswith('plant_sim')),
         c.DIAGNOSTICS_QOS)
-    for frame, topic in zip(c.WIRE_FRAMES, c.WIRE_TEMPERATURES):
-        watcher.create_subscription(
-            Temperature, topic, lambda m, frame=frame: temps[frame].append(m.temperature),
-            c.SENSOR_QOS)
     for n in (plant, watcher):
         ex.add_node(n)
     env = dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id))
-    procs = [subprocess.Popen([sys.executable, '-m', 'sma_actuator.nodes.controller',
-                               '--ros-args', '-r', f'__node:={name}',
-                               '-p', f'initial_setpoint_rad:={sp}'],
-                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-             for name, sp in (('ca', 0.6), ('cb', -0.6))]
-    record = []    # (plant time [s], applied duty pair) after every executor callback
 
-    def spin(seconds):
+    def controller(name, setpoint_rad):
+        return subprocess.Popen(
+            [sys.executable, '-m', 'sma_actuator.nodes.controller', '--ros-args',
+             '-r', f'__node:={name}', '-p', f'initial_setpoint_rad:={setpoint_rad}'],
+            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    # (plant time [s], applied duty pair, two publishers seen, wire temperatures [degC])
+    # after every executor callback from the start of the second controller on
+    record = []
+
+    def spin(seconds, until=lambda: False):
         end = time.monotonic() + seconds
-        while time.monotonic() < end:
+        while time.monotonic() < end and not until():
             ex.spin_once(timeout_sec=0.01)
-            if not record or record[-1][1] != plant.applied:
-                record.append((plant.applied_time_s, plant.applied))
+            record.append((plant.applied_time_s, plant.applied, plant.duty_publishers > 1,
+                           tuple(plant.actuator.temperature_c)))
 
+    procs = [controller('cb', -0.6)]
     try:
-        assert spin_until(ex, lambda: plant.count_publishers(c.DUTY) >= 2, 30), \
-            'controller processes did not come up'
+        # one controller alone heats its wire, as it should
+        assert spin_until(ex, lambda: plant.applied[1] > 0, 30), 'controller cb never heated'
+        procs.append(controller('ca', 0.6))
+        spin(30.0, until=lambda: plant.duty_publishers >= 2)
+        assert plant.duty_publishers >= 2, 'the plant never saw the second controller'
+        seen = len(record)
         spin(6.0)
     finally:
         for proc in procs:
@@ -126,21 +131,27 @@ def test_two_controllers_never_heat_both_wires_and_the_plant_reports_error(
     try:
         assert any(s.level == DiagnosticStatus.ERROR and 'publishers' in s.message
                    for s in diags), 'no ERROR for two publishers on the duty topic'
-        assert all(not (a > 0 and b > 0) for _, (a, b) in record)
-        # after a wire went off, the other waits the dead time (plant time)
+        # until the second publisher is discovered, the dead-time interlock keeps the
+        # wires apart: never both on, and a wire heats only after the other's dead time
+        assert all(not (a > 0 and b > 0) for _, (a, b), _, _ in record)
         off_at, before = [None, None], (0.0, 0.0)
-        for t, pair in record:
+        for t, pair, _, _ in record:
             for wire in (0, 1):
                 if before[wire] > 0 and not pair[wire] > 0:
                     off_at[wire] = t
             for wire in (0, 1):
                 other = off_at[1 - wire]
                 if pair[wire] > 0 and other is not None:
-                    assert t - other >= dead_time_s - 1e-9, (t, pair, record[-20:])
+                    assert t - other >= dead_time_s - 1e-9, (t, pair)
             before = pair
-        hot_a = max(temps['wire_a']) - plant.params.ambient_c
-        hot_b = max(temps['wire_b']) - plant.params.ambient_c
-        assert min(hot_a, hot_b) < 15.0, (hot_a, hot_b)   # never both wires hot
+        # once it is discovered, both wires get zero and only cool
+        after = record[seen:]
+        assert all(conflict for _, _, conflict, _ in after), 'a controller went away'
+        assert all(pair == (0.0, 0.0) for _, pair, _, _ in after), 'heat with two publishers'
+        temps = [theta for *_, theta in after]
+        for wire in (0, 1):
+            assert all(b[wire] <= a[wire] + 1e-9 for a, b in zip(temps, temps[1:])), wire
+        assert temps[-1][1] < temps[0][1] - 1.0, (temps[0], temps[-1])   # cb's wire cools
     finally:
         ex.shutdown()
         for n in (plant, watcher):
