@@ -50,7 +50,7 @@ from sma_actuator.workbench.effects import get_effect  # noqa: E402
 from sma_actuator.workbench.engine import diagnose  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
-from support.richsim import EFFECTS, simulate  # noqa: E402
+from support.richsim import EFFECTS, parse_rig, simulate  # noqa: E402
 
 
 def run_case(case):
@@ -78,20 +78,12 @@ def run_case(case):
 
 def rig_params(ap, pairs, plant):
     """Return {key: value} of the --param KEY=VALUE pairs, checked by the simulator."""
-    params = {}
-    for pair in pairs:
-        key, _, value = pair.partition('=')
-        try:   # without '=' the value is '', not a number either
-            params[key] = float(value)
-        except ValueError:
-            ap.error(f'--param {pair!r}: expected KEY=NUMBER')
-    if params and plant:
+    if pairs and plant:
         ap.error('--param needs --source richsim')
     try:
-        simulate('none', duration_s=1.0, params=params)
+        return parse_rig(pairs)
     except ValueError as err:
         ap.error(f'--param: {err}')
-    return params
 
 
 def main():

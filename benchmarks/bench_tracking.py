@@ -35,6 +35,8 @@ estimator off and on; and pi_inverse without the early handover (`control.handov
 
 Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
      [--models DIR] (fitted models are cached in DIR; delete it to refit)
+     [--param KEY=VALUE ...] (another rig of the rich simulator: test/support/richsim.py
+     DEFAULTS keys, e.g. --param wire_length_m=0.3)
 """
 import argparse
 from pathlib import Path
@@ -54,6 +56,8 @@ from sma_actuator.profiles import Profile
 from sma_actuator.workbench.engine import fit_model
 
 DT = 0.025
+# the rich simulator's rig parameters for this run (--param; {}: its defaults)
+RICH_RIG = {}
 SINE = Profile('sine', 0.5, period_s=20.0, delay_s=1.0)
 # plant_sim parameters of each case (level 1-2 of test/support/plant_records.py)
 PLANT_CASES = {
@@ -88,7 +92,7 @@ def make_plant(source, case, seed):
         return CorePlant(ActuatorParams(**changes), DT, seed=seed)
     from support.richsim_loop import RichPlant
     effect, magnitude = RICH_CASES[case][0]
-    return RichPlant(effect, magnitude, seed=seed)
+    return RichPlant(effect, magnitude, seed=seed, params=RICH_RIG)
 
 
 def excitation_record(source, case, seconds, seed):
@@ -101,7 +105,8 @@ def excitation_record(source, case, seconds, seed):
     if source == 'richsim':
         from support.richsim import simulate
         effect, magnitude = RICH_CASES[case][0]
-        d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT, seed=seed)
+        d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT, seed=seed,
+                     params=RICH_RIG)
         return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
     duty_a, duty_b = multilevel(seconds, DT, seed=seed)
@@ -117,7 +122,8 @@ def excitation_record(source, case, seconds, seed):
 
 def fitted_model(models, source, case, effects, seconds, seed):
     """Fit (or read the cached) model file; return (model, validation NRMSE, path)."""
-    path = models / f'{source}_{case}_{"+".join(effects) or "base"}.yaml'
+    rig = ''.join(f'_{k}={v:g}' for k, v in sorted(RICH_RIG.items()) if source == 'richsim')
+    path = models / f'{source}{rig}_{case}_{"+".join(effects) or "base"}.yaml'
     if not path.exists():
         fit = fit_model(excitation_record(source, case, seconds, seed), tuple(effects))
         write_model(path, fit.to_dict(), force=True)
@@ -209,12 +215,23 @@ def main():
     ap.add_argument('--no-drift', action='store_true', help='skip the drift table')
     ap.add_argument('--figure', default='', metavar='PNG',
                     help='also plot pi_inverse on the delayed plant, base vs delay model')
+    ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
+                    help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ns = ap.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
+    from support.richsim import parse_rig
+    if ns.param and 'richsim' not in ns.source:
+        ap.error('--param needs --source richsim')
+    try:
+        RICH_RIG.update(parse_rig(ns.param))
+    except ValueError as err:
+        ap.error(f'--param: {err}')
     models = Path(ns.models)
     models.mkdir(parents=True, exist_ok=True)
     print('0.05 Hz ±0.5 rad sine, 3 periods, RMS error after the first [rad]; models fitted on '
           f'{ns.excitation_s:g} s of open-loop excitation (validation NRMSE in brackets)')
+    if RICH_RIG:
+        print('rich simulator rig: ' + ', '.join(f'{k} = {v:g}' for k, v in RICH_RIG.items()))
     print(f'{"plant":8s} {"case":20s} {"model":24s} {"pi":>8s} {"pi_inverse":>11s} '
           f'{"inv/pi":>7s} {"effect cuts pi_inverse":>23s}')
     for source in ns.source:

@@ -341,6 +341,16 @@ def test_bad_arguments_name_the_parameter(kwargs, name):
         simulate(**{'duration_s': 5, **kwargs})
 
 
+def test_rig_parameters_from_the_command_line_are_parsed_and_checked():
+    assert richsim.parse_rig(['wire_length_m=0.3', 'hyst_centre_c=-5']) == {
+        'wire_length_m': 0.3, 'hyst_centre_c': -5.0}
+    assert richsim.parse_rig([]) == {}
+    for pair, name in (('wire_length_m', 'KEY=NUMBER'), ('wire_length_m=long', 'KEY=NUMBER'),
+                       ('kq=1', 'kq'), ('cooling_tau_s=0', 'cooling_tau_s')):
+        with pytest.raises(ValueError, match=name):
+            richsim.parse_rig([pair])
+
+
 def test_write_csv_rejects_incomplete_data(tmp_path):
     with pytest.raises(ValueError, match='ambient_temperature'):
         richsim.write_csv({'time': [0.0], 'duty_a': [0], 'duty_b': [0], 'position': [0]},

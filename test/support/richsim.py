@@ -124,6 +124,24 @@ def _params(params):
     return pp
 
 
+def parse_rig(pairs):
+    """
+    Return the rig parameters {key: value} of 'KEY=VALUE' strings, checked as `simulate` does.
+
+    For command lines (`--param wire_length_m=0.3`); a malformed pair, an unknown key or an
+    out-of-range value raises ValueError with a one-line message.
+    """
+    params = {}
+    for pair in pairs:
+        key, _, value = pair.partition('=')
+        try:   # without '=' the value is '', not a number either
+            params[key] = float(value)
+        except ValueError:
+            raise ValueError(f'{pair!r}: expected KEY=NUMBER') from None
+    _params(params)
+    return params
+
+
 def wire_row(pp, length_factor=1.0, strain_factor=1.0, h_factor=1.0, fatigue_kappa=1.0):
     """
     Per-wire properties (columns W_*) from geometry.
