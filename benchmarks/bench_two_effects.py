@@ -16,13 +16,16 @@
 Two hidden effects at once: whether `diagnose --rounds` finds both.
 
 Records of the package's own plant (test/support/plant_records.py, 480 s at 40 Hz, open
-loop, noise 0.001 rad) with two catalog effects switched on at a weak or middle level.
+loop, noise 0.001 rad) with two catalog effects switched on at a weak or middle level; or,
+with `--source richsim`, of the independent rich simulator (test/support/richsim.py, 480 s
+at 40 Hz, open loop, noise 0.002 rad) with two of its effects, level 0/1/2 the low end,
+middle and high end of each effect's magnitude range.
 For each pair: the effects added round by round (up to 3 rounds), the held-out NRMSE
 after each (in brackets: a base refitted before a round's effect was named, see
 `engine.better_base`), the seconds, and `ok` when exactly the two hidden effects were
 added.
 
-    python benchmarks/bench_two_effects.py [--jobs 2] [--rounds 3]
+    python benchmarks/bench_two_effects.py [--jobs 2] [--rounds 3] [--source richsim]
 """
 import argparse
 from pathlib import Path
@@ -39,6 +42,7 @@ from sma_actuator.core.identification import DynamicData  # noqa: E402, I100
 from sma_actuator.workbench.engine import diagnose_rounds, fit_model  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
+from support.richsim import EFFECTS as RICH_EFFECTS, simulate  # noqa: E402
 
 # (effect, level, effect, level): each pair of kinds once, weak (0) and middle (1) levels
 PAIRS = [('delay', 0, 'convection', 0), ('fast_dynamics', 0, 'phase_resistance', 0),
@@ -47,15 +51,39 @@ PAIRS = [('delay', 0, 'convection', 0), ('fast_dynamics', 0, 'phase_resistance',
          ('sensor_nonlinearity', 0, 'fatigue_drift', 0), ('delay', 1, 'stress_coupling', 1),
          ('convection', 0, 'current_limit', 1), ('latent_heat', 2, 'sensor_nonlinearity', 1),
          ('fast_dynamics', 1, 'asymmetric_wires', 1)]
+# the same for the rich simulator, which has no latent heat but a drifting ambient
+RICH_PAIRS = [('delay', 1, 'convection', 1), ('fast_dynamics', 1, 'phase_resistance', 1),
+              ('convection', 1, 'stress_coupling', 1), ('phase_resistance', 1, 'ambient_drift', 0),
+              ('asymmetric_wires', 1, 'current_limit', 1),
+              ('sensor_nonlinearity', 1, 'fatigue_drift', 1), ('delay', 1, 'stress_coupling', 1),
+              ('convection', 0, 'current_limit', 1),
+              ('ambient_drift', 1, 'sensor_nonlinearity', 1),
+              ('fast_dynamics', 1, 'asymmetric_wires', 1)]
+
+
+def rich_magnitude(effect, level):
+    """Magnitude of a rich-simulator effect at level 0/1/2: low end, middle, high end."""
+    lo, hi = RICH_EFFECTS[effect]['magnitude_range']
+    return lo + 0.5 * level * (hi - lo)
+
+
+def record(source, e1, l1, e2, l2, seed):
+    """Return the DynamicData of a two-effect record of `source`."""
+    if source == 'richsim':
+        d = simulate(e1, rich_magnitude(e1, l1), 'open', duration_s=480.0, rate_hz=40,
+                     noise_rad=0.002, seed=seed, also=[(e2, rich_magnitude(e2, l2))])
+        return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
+                           d['ambient_temperature'])
+    changes = dict(plant_records.EFFECTS[e1][l1], **plant_records.EFFECTS[e2][l2])
+    d = plant_records.simulate_with(changes, seed=seed)
+    return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
 
 
 def run_case(case):
     """Run the rounds on one two-effect record; return (both found, its result line)."""
-    (e1, l1, e2, l2, seed), rounds = case
+    (e1, l1, e2, l2, seed), rounds, source = case
     started = time.perf_counter()
-    changes = dict(plant_records.EFFECTS[e1][l1], **plant_records.EFFECTS[e2][l2])
-    d = plant_records.simulate_with(changes, seed=seed)
-    data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+    data = record(source, e1, l1, e2, l2, seed)
     base = fit_model(data)
     _, added, _ = diagnose_rounds(data, base, rounds)
     names = [a['added'] for a in added]
@@ -76,11 +104,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--jobs', type=int, default=2, help='records in parallel')
     ap.add_argument('--rounds', type=int, default=3)
+    ap.add_argument('--source', choices=('plant', 'richsim'), default='plant')
     args = ap.parse_args()
-    print('plant: 480 s at 40 Hz, open loop, noise 0.001 rad; two effects per record')
+    noise = 0.002 if args.source == 'richsim' else 0.001
+    print(f'{args.source}: 480 s at 40 Hz, open loop, noise {noise} rad; two effects per '
+          'record')
     print(f'{"effect 1":22s} {"effect 2":24s} {"added, round by round":52s} '
           f'{"held-out NRMSE":30s}     s')
-    cases = [(pair + (700 + i,), args.rounds) for i, pair in enumerate(PAIRS)]
+    pairs = RICH_PAIRS if args.source == 'richsim' else PAIRS
+    cases = [(pair + (700 + i,), args.rounds, args.source) for i, pair in enumerate(pairs)]
     found = []
     for _, (ok, line) in imap_on_cores(run_case, cases, args.jobs):
         found.append(ok)

@@ -281,6 +281,15 @@ def test_single_layout_works_one_wire_through_its_own_loop():
     assert one['position'].min() > one['true_position'][0] - 0.02
 
 
+def test_two_hidden_effects_at_once_act_together_in_either_order():
+    kw = {'duration_s': 120, 'seed': 6}
+    both = simulate('delay', 1.0, also=[('current_limit', 1.0)], **kw)
+    swapped = simulate('current_limit', 1.0, also=[('delay', 1.0)], **kw)
+    np.testing.assert_array_equal(both['position'], swapped['position'])
+    for alone in (simulate('delay', 1.0, **kw), simulate('current_limit', 1.0, **kw)):
+        assert np.abs(both['true_position'] - alone['true_position']).max() > 0.05
+
+
 def test_runs_are_reproducible_per_seed():
     a = simulate('convection', 1.0, 'closed', duration_s=60, seed=7)
     b = simulate('convection', 1.0, 'closed', duration_s=60, seed=7)
@@ -335,6 +344,10 @@ def test_csv_round_trip(tmp_path, excitation, ncols):
     ({'params': {'cooling_tau_s': 0.0}}, 'cooling_tau_s'),
     ({'layout': 'triple'}, 'layout'),
     ({'layout': 'single', 'excitation': 'closed'}, 'layout'),
+    ({'effect': 'delay', 'also': [('delay', 1.0)]}, 'also'),
+    ({'also': [('saturation', 1.0)]}, 'also'),
+    ({'also': [('convection', -1.0)]}, 'also'),
+    ({'also': ['convection']}, 'also'),
 ])
 def test_bad_arguments_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=name):

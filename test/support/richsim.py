@@ -189,10 +189,17 @@ def _effect_settings(effect, m, duration_s, rng):
     return table[effect], wire_b, 0.0
 
 
-def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None):
-    """Plant namedtuple and (2, N_WIRE_FIELDS) wire array for `effect` at `magnitude`."""
+def build_plant(pp, effect='none', magnitude=1.0, duration_s=600.0, rng=None, also=()):
+    """
+    Plant namedtuple and (2, N_WIRE_FIELDS) wire array for `effect` at `magnitude`.
+
+    also: further (effect, magnitude) pairs hidden in the same plant (`check_also`).
+    """
     rng = np.random.default_rng(0) if rng is None else rng
     over, wire_b, hard = _effect_settings(effect, magnitude, duration_s, rng)
+    for name, m in also:
+        more, more_b, more_hard = _effect_settings(name, m, duration_s, rng)
+        over, wire_b, hard = {**over, **more}, {**wire_b, **more_b}, max(hard, more_hard)
     base = {
         'supply_v': pp['supply_v'], 'i_max_a': pp['i_max_a'], 'pulley_r_m': pp['pulley_r_m'],
         'phi0_rad': pp['phi0_rad'], 'adc_half_range_rad': pp['adc_half_range_rad'],
@@ -236,9 +243,30 @@ def _check_common(effect, magnitude, rate_hz, noise_rad, duration_s, seed):
     return m, rate, noise, dur
 
 
-def _run_commands(pp, effect, m, rate, noise, dur, streams, closed, cmd, setp):
+def check_also(effect, also):
+    """
+    Return the checked list of further hidden (effect, magnitude) pairs of `simulate`.
+
+    Each is another catalog effect than `effect` and the others, not 'none' or 'saturation'
+    (the excitation, not the plant); magnitudes as for `effect`.
+    """
+    out, seen = [], {effect}
+    for pair in also or ():
+        try:
+            name, m = pair
+        except (TypeError, ValueError):
+            raise ValueError(f'also: expected (effect, magnitude) pairs, got {pair!r}') from None
+        if name not in EFFECTS or name in ('none', 'saturation') or name in seen:
+            raise ValueError(f'also: effect {name!r} must be another catalog effect than '
+                             f"{sorted(seen)}, not 'none' or 'saturation'")
+        seen.add(name)
+        out.append((name, _check_number(f'also[{name!r}] magnitude', m, 0.0, MAX_MAGNITUDE)))
+    return out
+
+
+def _run_commands(pp, effect, m, rate, noise, dur, streams, closed, cmd, setp, also=()):
     """Integrate on the fine grid and package the per-sample arrays."""
-    plant, wires, _ = build_plant(pp, effect, m, dur, streams['effect'])
+    plant, wires, _ = build_plant(pp, effect, m, dur, streams['effect'], also)
     stride = max(1, int(math.ceil(1.0 / (rate * pp['fine_dt_s']) - 1e-9)))
     dt = 1.0 / (rate * stride)
     n_samples = int(round(dur * rate))
@@ -268,7 +296,7 @@ def _streams(seed):
 
 
 def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, rate_hz=40,
-             noise_rad=0.002, seed=0, params=None, layout='antagonistic'):
+             noise_rad=0.002, seed=0, params=None, layout='antagonistic', also=()):
     """
     Simulate one recording with hidden `effect` at `magnitude` (EFFECTS lists the ranges).
 
@@ -279,8 +307,10 @@ def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, ra
     duty_a, duty_b [0..1] (mean commanded duty over the following sample interval), position
     [rad] (potentiometer with noise_rad Gaussian noise and 12-bit ADC), ambient_temperature
     [degC] (measured), setpoint [rad] (closed loop only) and true_* hidden states for tests.
+    also: further effects hidden at once, (effect, magnitude) pairs (`check_also`).
     """
     m, rate, noise, dur = _check_common(effect, magnitude, rate_hz, noise_rad, duration_s, seed)
+    also = check_also(effect, also)
     if excitation not in EXCITATIONS:
         raise ValueError(f'excitation={excitation!r}; choose one of {EXCITATIONS}')
     if layout not in LAYOUTS or (layout == 'single' and excitation != 'open'):
@@ -300,7 +330,7 @@ def simulate(effect='none', magnitude=1.0, excitation='open', duration_s=600, ra
                                         hard_amplitude=1.1)
         cmd = np.zeros((setp.size, 2))
     closed = excitation == 'closed'
-    return _run_commands(pp, effect, m, rate, noise, dur, streams, closed, cmd, setp)
+    return _run_commands(pp, effect, m, rate, noise, dur, streams, closed, cmd, setp, also)
 
 
 def simulate_profile(duty_a, duty_b, effect='none', magnitude=1.0, rate_hz=40,
