@@ -152,9 +152,11 @@ class HardwareBridge(Node):
     def on_duty(self, msg: Float64MultiArray, info: Dict[str, int]) -> None:
         """Check a duty command (value, age) and send it to the MCU at once."""
         sent_ns = info.get('source_timestamp', 0) if isinstance(info, dict) else 0
-        # source timestamps are the sender's system clock (same host, or synchronised)
-        age_s = (time.time_ns() - sent_ns) * 1e-9 if sent_ns > 0 else 0.0
         with self._lock:
+            # the age is taken once the lock is held, next to the write: a wait for the lock
+            # (or a freeze during it) must not pass an old command as fresh
+            # source timestamps are the sender's system clock (same host, or synchronised)
+            age_s = (time.time_ns() - sent_ns) * 1e-9 if sent_ns > 0 else 0.0
             self._write(self.core.on_duty_command(msg.data, time.monotonic(), age_s))
 
     def check_duty_publishers(self) -> None:
