@@ -50,7 +50,7 @@ from sma_actuator.workbench.effects import get_effect  # noqa: E402
 from sma_actuator.workbench.engine import diagnose  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
-from support.richsim import EFFECTS, parse_rig, simulate  # noqa: E402
+from support.richsim import EFFECTS, rig_from_command_line, simulate  # noqa: E402
 
 
 def run_case(case):
@@ -76,16 +76,6 @@ def run_case(case):
             'seconds': time.perf_counter() - t0}
 
 
-def rig_params(ap, pairs, plant):
-    """Return {key: value} of the --param KEY=VALUE pairs, checked by the simulator."""
-    if pairs and plant:
-        ap.error('--param needs --source richsim')
-    try:
-        return parse_rig(pairs)
-    except ValueError as err:
-        ap.error(f'--param: {err}')
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--duration', type=float, default=480.0)
@@ -105,7 +95,7 @@ def main():
         args.noise = 0.001 if plant else 0.002
     if args.layout == 'single' and (plant or args.excitation != 'open'):
         ap.error('--layout single needs --source richsim and --excitation open')
-    args.params = rig_params(ap, args.param, plant)
+    args.params = rig_from_command_line(ap, args.param, not plant)
     catalog = plant_records.EFFECTS if plant else EFFECTS
     effects = args.effects or [e for e in catalog if e != 'none' and not (
         args.layout == 'single' and get_effect(e).needs_two_wires)]

@@ -219,13 +219,8 @@ def main():
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ns = ap.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-    from support.richsim import parse_rig
-    if ns.param and 'richsim' not in ns.source:
-        ap.error('--param needs --source richsim')
-    try:
-        RICH_RIG.update(parse_rig(ns.param))
-    except ValueError as err:
-        ap.error(f'--param: {err}')
+    from support.richsim import rig_from_command_line
+    RICH_RIG.update(rig_from_command_line(ap, ns.param, 'richsim' in ns.source))
     models = Path(ns.models)
     models.mkdir(parents=True, exist_ok=True)
     print('0.05 Hz ±0.5 rad sine, 3 periods, RMS error after the first [rad]; models fitted on '

@@ -142,6 +142,21 @@ def parse_rig(pairs):
     return params
 
 
+def rig_from_command_line(parser, pairs, richsim_used=True):
+    """
+    Return `parse_rig(pairs)` for a script's repeatable `--param KEY=VALUE` option.
+
+    A bad pair, or pairs when the rich simulator is not used, is a usage error of `parser`
+    (one line, exit 2).
+    """
+    if pairs and not richsim_used:
+        parser.error('--param needs --source richsim')
+    try:
+        return parse_rig(pairs)
+    except ValueError as err:
+        parser.error(f'--param: {err}')
+
+
 def wire_row(pp, length_factor=1.0, strain_factor=1.0, h_factor=1.0, fatigue_kappa=1.0):
     """
     Per-wire properties (columns W_*) from geometry.
