@@ -25,7 +25,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
 
-N_DELAY, N_NONE = 11, 11
+N_DELAY, N_NONE = 7, 7
 N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed CSV
 DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
@@ -71,7 +71,7 @@ def _write_bag(path, rec):
 @pytest.fixture(scope='module')
 def fleet(tmp_path_factory):
     """
-    25 records.
+    17 records.
 
     Delay (0.8 s) and effect-free CSVs, one good and one corrupt bag, one malformed CSV. Returns
     (directory, {file name: hidden effect or 'error'}).
@@ -203,7 +203,7 @@ def test_records_are_found_in_files_directories_and_globs(fleet):
     found = batch.find_records([str(root)])
     assert {p.name for p in found} == set(truth)
     globbed = batch.find_records([str(root / 'delay_0*.csv'), str(root / 'bags')])
-    assert {p.name for p in globbed} == {f'delay_0{i}.csv' for i in range(10)} | {
+    assert {p.name for p in globbed} == {f'delay_{i:02d}.csv' for i in range(N_DELAY)} | {
         'delay_bag', 'corrupt_bag'}
     assert len(batch.find_records([str(root / 'none_00.csv')] * 2)) == 1
 

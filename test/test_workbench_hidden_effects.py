@@ -18,10 +18,11 @@ Hidden-effect tests of `diagnose`.
 Data from the independent rich simulator (test/support/richsim.py: Preisach hysteresis, RK4 thermal
 model, its own formulation of every effect) with one hidden effect at a time, plus a null case.
 
-Every catalog effect has a case: diagnose names the hidden effect first and adding it
-cuts the held-out NRMSE by at least 40 %; on the null cases nothing is significant. Cases
-vary magnitude, excitation (open/closed loop), noise and sample rate (20-100 Hz).
-`benchmarks/bench_hidden_effects.py` prints the detection rate over magnitudes.
+Every catalog effect has one case (the hardest one it has been checked on): diagnose names
+the hidden effect first and adding it cuts the held-out NRMSE by at least 40 %; on the null
+cases nothing is significant. Cases vary magnitude, excitation (open/closed loop), noise and
+sample rate (20-100 Hz). `benchmarks/bench_hidden_effects.py` prints the detection rate over
+magnitudes: 34 records, more than CI has the time for.
 """
 import pytest
 from sma_actuator.core.identification import DynamicData
@@ -40,14 +41,12 @@ STRONG = [
     ('fast_dynamics', 1.2, 'open', 0.003, 50, 14),
     ('delay', 1.5, 'closed', 0.002, 40, 15),
     ('ambient_drift', 1.0, 'open', 0.002, 20, 17),
-    ('stress_coupling', 1.0, 'open', 0.002, 30, 19),
     # shapes the training window, idle in the held-out one: switching it off in the refit
     # left the gain, the base refitted on that grid does not reach it
     ('stress_coupling', 2.0, 'open', 0.002, 40, 262),
     ('asymmetric_wires', 1.5, 'open', 0.002, 40, 20),
     ('sensor_nonlinearity', 1.5, 'open', 0.002, 40, 21),
     ('current_limit', 1.2, 'open', 0.002, 60, 23),
-    ('fatigue_drift', 1.5, 'open', 0.002, 40, 22),
     ('fatigue_drift', 0.3, 'open', 0.002, 40, 290),
     ('convection', 1.5, 'open', 0.002, 40, 16),
     ('phase_resistance', 1.0, 'open', 0.001, 40, 18),
