@@ -365,14 +365,13 @@ class OwnGrid(Effect):
 
 
 @pytest.mark.slow
-@pytest.mark.slow
 def test_the_pass_from_scratch_runs_only_where_the_base_is_short_of_the_noise():
     # neither plant record names one of these candidates: the null record's base fits to
     # the noise, so a refit from scratch has nothing to gain; with a delay the base is
     # far from it, and the second pass runs
     candidates = ['sensor_nonlinearity', 'current_limit']
     for effect, level, at_noise in (('none', 0, True), ('delay', 1, False)):
-        d = plant_records.simulate(effect, level, seed=100)
+        d = plant_records.simulate(effect, level, duration_s=240.0, seed=100)
         data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
         base = engine.fit_model(data, ())
         stages = []

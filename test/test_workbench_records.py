@@ -385,7 +385,7 @@ def test_diagnose_names_the_record_stroke_when_one_record_has_another(tmp_path):
     assert best.validation['nrmse'] < 0.6 * base.validation['nrmse']
 
 
-def two_effect_record(duration_s=360.0, rate_hz=25.0, seed=5):
+def two_effect_record(duration_s=240.0, rate_hz=25.0, seed=5):
     """Return the package's plant with a transport delay and a current limit at once."""
     rng = np.random.default_rng(seed)
     cmd = open_loop_duty(rng, duration_s, duty_max=0.6)
