@@ -486,3 +486,11 @@ def test_a_delay_below_one_sample_period_is_not_resolved():
     assert 'below one sample period' in eff.unresolved({'delay_s': 0.6 * DT}, data)
     assert eff.unresolved({'delay_s': 2.0 * DT}, data) is None
     assert get_effect('convection').unresolved({'convection_exponent': 1e-6}, data) is None
+
+
+def test_a_lag_below_half_a_sample_period_is_not_resolved():
+    # a 10 Hz record of a weak current limit named a 15 ms lag by its typical gain
+    data = record(act.ActuatorParams(), seconds=20.0)
+    eff = get_effect('fast_dynamics')
+    assert 'below half a sample period' in eff.unresolved({'tau_fast_s': 0.4 * DT}, data)
+    assert eff.unresolved({'tau_fast_s': 0.6 * DT}, data) is None

@@ -186,6 +186,21 @@ class FastDynamics(Effect):
         means τ >= τ_base / 2.
         """
         return {'tau_s': (0.5 * params.tau_s, 20.0, params.tau_s)}
+
+    def unresolved(self, values: Dict[str, float], data: Data) -> Optional[str]:
+        """
+        Return why a lag below half a sample period is not resolved.
+
+        A lag τ_fast much shorter than τ acts on the slow response as a delay of τ_fast
+        (1 / (τ_fast s + 1) ≈ e^(−τ_fast s)); below half a sample period it is a sub-sample
+        shift, which `Delay.unresolved` calls sample alignment too.
+        """
+        dt = getattr(data, 'dt', None)
+        if dt and values.get('tau_fast_s', np.inf) < 0.5 * dt:
+            return (f'the fitted lag {1e3 * values["tau_fast_s"]:.0f} ms is below half a sample '
+                    f'period ({1e3 * dt:.0f} ms): a sub-sample shift (sample alignment), not '
+                    'a resolved lag')
+        return None
     signature = ('residual spikes right after duty steps, same sign as the step; '
                  'residual correlates with the duty rate')
 
