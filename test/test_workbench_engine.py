@@ -489,7 +489,7 @@ def test_a_delay_below_one_sample_period_is_not_resolved():
 
 
 def test_a_lag_below_half_a_sample_period_is_not_resolved():
-    # a 10 Hz record of a weak current limit named a 15 ms lag by its typical gain
+    # below half a sample period a lag is a sub-sample shift, as a delay below one sample is
     data = record(act.ActuatorParams(), seconds=20.0)
     eff = get_effect('fast_dynamics')
     assert 'below half a sample period' in eff.unresolved({'tau_fast_s': 0.4 * DT}, data)
