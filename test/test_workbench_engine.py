@@ -171,6 +171,30 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
 
 
+def test_near_tied_candidates_are_ranked_by_bic_and_say_so():
+    def entry(name, gain, significant, bic_change):
+        return {'effect': name, 'improvement': gain, 'significant': significant,
+                'bic': bic_change, 'explanation': name + '.'}
+
+    def ranked(*entries):
+        diag = engine.rank_candidates(None, list(entries))
+        return diag.missing_effect, [c['effect'] for c in diag.candidates], diag.candidates
+
+    # a larger gain that is not significant never goes before a significant one
+    name, order, _ = ranked(entry('a', 0.9, False, -50.0), entry('b', 0.3, True, -20.0))
+    assert (name, order) == ('b', ['b', 'a'])
+    # within 10 % of the best gain the lower BIC (the more parsimonious fit) goes first
+    name, order, out = ranked(entry('a', 0.61, True, -40.0), entry('b', 0.56, True, -45.0),
+                              entry('c', 0.20, True, -90.0))
+    assert (name, order) == ('b', ['b', 'a', 'c'])
+    assert all('Near tie: b, a' in c['explanation'] for c in out[:2])
+    assert 'Near tie' not in out[2]['explanation']
+    # further apart, the held-out gain decides whatever the BIC says
+    name, order, out = ranked(entry('a', 0.61, True, -40.0), entry('b', 0.50, True, -45.0))
+    assert (name, order) == ('a', ['a', 'b'])
+    assert not any('Near tie' in c['explanation'] for c in out)
+
+
 @pytest.mark.slow
 def test_a_delay_held_out_behind_one_excursion_is_named_by_its_typical_gain():
     # a 0.275 s delay with stress coupling in the independent simulator: in the first 24 s
