@@ -195,6 +195,29 @@ def test_near_tied_candidates_are_ranked_by_bic_and_say_so():
     assert not any('Near tie' in c['explanation'] for c in out)
 
 
+def test_the_named_effect_says_which_unresolved_candidate_fits_better():
+    def entry(name, gain, significant, unresolved=None):
+        return {'effect': name, 'improvement': gain, 'significant': significant, 'bic': -50.0,
+                'explanation': name + '.', 'unresolved': unresolved}
+
+    # at 10 Hz a 72 ms delay (below one sample) fits better than the lag that is named
+    why = 'the fitted delay 72 ms is below one sample period (100 ms)'
+    diag = engine.rank_candidates(None, [entry('delay', 0.60, False, why),
+                                         entry('fast_dynamics', 0.46, True),
+                                         entry('convection', 0.05, False)])
+    named = diag.candidates[0]
+    assert diag.missing_effect == 'fast_dynamics' and named['effect'] == 'fast_dynamics'
+    assert 'delay fits the held-out window better (+60 % against +46 %)' in named['explanation']
+    assert why in named['explanation']
+    # ranked again (a later pass): said once
+    engine.rank_candidates(None, diag.candidates)
+    assert named['explanation'].count('fits the held-out window better') == 1
+    # an unresolved candidate that gains less, or a named one that gains more: nothing said
+    diag = engine.rank_candidates(None, [entry('delay', 0.40, False, why),
+                                         entry('fast_dynamics', 0.86, True)])
+    assert diag.candidates[0]['explanation'] == 'fast_dynamics.'
+
+
 @pytest.mark.slow
 def test_a_delay_held_out_behind_one_excursion_is_named_by_its_typical_gain():
     # a 0.275 s delay with stress coupling in the independent simulator: in the first 24 s

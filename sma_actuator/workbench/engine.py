@@ -444,7 +444,7 @@ class Diagnosis:
             base['refitted'] = self.refitted
         return {'baseline': base,
                 'candidates': [{k: v for k, v in c.items()
-                                if k not in ('fit', 'bic', 'seconds', 'base_refit')}
+                                if k not in ('fit', 'bic', 'seconds', 'base_refit', 'unresolved')}
                                for c in self.candidates],
                 'missing_effect': self.missing_effect}
 
@@ -675,8 +675,31 @@ def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') ->
 
     out = sorted(entries, key=key, reverse=True)
     _settle_near_ties(out, gain)
-    best = next((c['effect'] for c in out if c['significant']), None)
-    return Diagnosis(base, out, best)
+    best = next((c for c in out if c['significant']), None)
+    if best is not None:
+        _note_unresolved_rivals(best, out)
+    return Diagnosis(base, out, None if best is None else best['effect'])
+
+
+def _note_unresolved_rivals(named: dict, ranked: list) -> None:
+    """
+    Say in the named entry's explanation which unresolved candidates fit better.
+
+    A candidate that passed every check but resolution (`Effect.unresolved`: a delay below
+    one sample, a lag below half a sample) and gains more held out than the named effect is
+    another explanation of the same data that this sample rate cannot confirm: at 10 Hz a
+    50 ms delay and a 0.1 s lag shift the sampled response alike.
+    """
+    rivals = [c for c in ranked if c.get('unresolved') and c is not named
+              and (c['improvement'] or 0.0) > (named['improvement'] or 0.0)]
+    for c in rivals:
+        if f" {c['effect']} fits the held-out window better" in named['explanation']:
+            continue   # ranked again after a later pass
+        named['explanation'] += (
+            f" {c['effect']} fits the held-out window better ({100 * c['improvement']:+.0f} % "
+            f"against {100 * (named['improvement'] or 0.0):+.0f} %) but is not resolved "
+            f"({c['unresolved']}): at this sample rate the two are not told apart; record "
+            'faster to separate them.')
 
 
 def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
@@ -765,6 +788,8 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
                        if k in eff.parameters) or 'modified PI (saturated plays)'
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
             'significant': significant,
+            # the only check it failed: a rival to whatever is named instead
+            'unresolved': unresolved if evident and carried else None,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> '
