@@ -171,7 +171,7 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
 
 
-def test_near_tied_candidates_are_ranked_by_bic_and_say_so():
+def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
     def entry(name, gain, significant, bic_change):
         return {'effect': name, 'improvement': gain, 'significant': significant,
                 'bic': bic_change, 'explanation': name + '.'}
@@ -183,13 +183,15 @@ def test_near_tied_candidates_are_ranked_by_bic_and_say_so():
     # a larger gain that is not significant never goes before a significant one
     name, order, _ = ranked(entry('a', 0.9, False, -50.0), entry('b', 0.3, True, -20.0))
     assert (name, order) == ('b', ['b', 'a'])
-    # within 10 % of the best gain the lower BIC (the more parsimonious fit) goes first
-    name, order, out = ranked(entry('a', 0.61, True, -40.0), entry('b', 0.56, True, -45.0),
+    # within 10 % of the best gain: held-out order, whatever the BIC (the parameter count)
+    name, order, out = ranked(entry('b', 0.56, True, -45.0), entry('a', 0.61, True, -40.0),
                               entry('c', 0.20, True, -90.0))
-    assert (name, order) == ('b', ['b', 'a', 'c'])
-    assert all('Near tie: b, a' in c['explanation'] for c in out[:2])
+    assert (name, order) == ('a', ['a', 'b', 'c'])
+    assert all('Near tie: a, b' in c['explanation'] for c in out[:2])
     assert 'Near tie' not in out[2]['explanation']
-    # further apart, the held-out gain decides whatever the BIC says
+    engine.rank_candidates(None, out)   # ranked again (a later pass): said once
+    assert out[0]['explanation'].count('Near tie') == 1
+    # further apart: no tie is said
     name, order, out = ranked(entry('a', 0.61, True, -40.0), entry('b', 0.50, True, -45.0))
     assert (name, order) == ('a', ['a', 'b'])
     assert not any('Near tie' in c['explanation'] for c in out)

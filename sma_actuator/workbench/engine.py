@@ -55,8 +55,8 @@ else; checks 2 and 4 stay as they are.
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
-cannot really tell them apart: the one with the lowest BIC (the more parsimonious
-explanation) is put first and every explanation in the group says so.
+can hardly tell them apart: they stay in held-out order and every explanation in the
+group says so.
 """
 from dataclasses import dataclass, field, fields
 from functools import partial
@@ -79,7 +79,7 @@ MIN_IMPROVEMENT = 0.20
 # scale; smaller falls come from training fits that hardly changed
 BIC_MARGIN = 10.0
 # significant candidates whose held-out gains are this close (relative to the best) explain
-# the data about equally well: parsimony (BIC) decides between them
+# the data about equally well: the explanation says so
 NEAR_TIE = 0.10
 # blocks of equal time the held-out window is cut into for the typical gain (`typical_gain`)
 HELD_OUT_BLOCKS = 5
@@ -674,7 +674,7 @@ def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') ->
         return c['significant'], -np.inf if value is None else value
 
     out = sorted(entries, key=key, reverse=True)
-    _settle_near_ties(out, gain)
+    _flag_near_ties(out, gain)
     best = next((c for c in out if c['significant']), None)
     if best is not None:
         _note_unresolved_rivals(best, out)
@@ -819,17 +819,23 @@ def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
     return fit_model(data, list(base.effects), kind=base.kind, base_fit=off)
 
 
-def _settle_near_ties(ranked: list, gain: str = 'improvement') -> None:
-    """Among significant candidates within NEAR_TIE of the best gain, lowest BIC first."""
+def _flag_near_ties(ranked: list, gain: str = 'improvement') -> None:
+    """
+    Say in each explanation which significant candidates come within NEAR_TIE of the best.
+
+    Their order stays the held-out one: by BIC the parameter count would decide (their
+    training fits are alike), against effects with more parameters whatever held-out says.
+    """
     sig = [c for c in ranked if c['significant']]
     if len(sig) < 2:
         return
     group = [c for c in sig if c[gain] >= (1.0 - NEAR_TIE) * sig[0][gain]]
     if len(group) < 2:
         return
-    group.sort(key=lambda c: c['bic'])
     names = ', '.join(c['effect'] for c in group)
     for c in group:
+        if ' Near tie: ' in c['explanation']:
+            continue   # ranked again after a later pass
         c['explanation'] += (f' Near tie: {names} improve the held-out error within '
-                             f'{100 * NEAR_TIE:.0f} % of each other; ranked by BIC (parsimony).')
-    ranked[:len(group)] = group
+                             f'{100 * NEAR_TIE:.0f} % of each other; the data barely '
+                             'separate them.')
