@@ -690,14 +690,15 @@ def _note_unresolved_rivals(named: dict, ranked: list) -> None:
     another explanation of the same data that this sample rate cannot confirm: at 10 Hz a
     50 ms delay and a 0.1 s lag shift the sampled response alike.
     """
+    # both gains are set: the named entry is significant, a rival passed check 1
     rivals = [c for c in ranked if c.get('unresolved') and c is not named
-              and (c['improvement'] or 0.0) > (named['improvement'] or 0.0)]
+              and c['improvement'] > named['improvement']]
     for c in rivals:
         if f" {c['effect']} fits the held-out window better" in named['explanation']:
             continue   # ranked again after a later pass
         named['explanation'] += (
             f" {c['effect']} fits the held-out window better ({100 * c['improvement']:+.0f} % "
-            f"against {100 * (named['improvement'] or 0.0):+.0f} %) but is not resolved "
+            f"against {100 * named['improvement']:+.0f} %) but is not resolved "
             f"({c['unresolved']}): at this sample rate the two are not told apart; record "
             'faster to separate them.')
 
