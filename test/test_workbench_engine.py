@@ -171,10 +171,37 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
 
 
+def test_bic_counts_independent_samples_on_the_whiter_residual():
+    rng = np.random.default_rng(3)
+    n = 16000
+    noise = 0.002 * rng.standard_normal(n)
+    drift = 0.004 * np.linspace(-1.0, 1.0, n)   # a slow drift the base lacks [rad]
+
+    def fit(effects, residual):
+        return engine.ModelFit(effects, 'modified', {}, None, None, None, None, 0, residual)
+
+    base = fit([], noise + drift)
+    with_drift = fit(['fatigue_drift'], noise)
+    long, short = (engine.correlation_length(f.residual) for f in (base, with_drift))
+    assert long > 1000 and short <= 2
+    # counted on the base residual alone, n / long samples: the drift could never pass
+    n_eff = n / long
+    alone = (engine.bic(with_drift.residual, 4, n_eff) - engine.bic(base.residual, 0, n_eff))
+    assert alone > -engine.BIC_MARGIN
+    # counted on the whiter residual (the model with the effect), it passes by far
+    assert engine.bic_gain(base, with_drift) < -100 * engine.BIC_MARGIN
+    assert engine.bic_gain(base, with_drift, long) == engine.bic_gain(base, with_drift)
+    # a candidate that leaves the drift in keeps the base's count, and its 4 % lower RSS
+    # does not pay for 4 parameters
+    shaved = fit(['sensor_nonlinearity'], noise + 0.98 * drift)
+    assert engine.correlation_length(shaved.residual) > 1000
+    assert engine.bic_gain(base, shaved) > -engine.BIC_MARGIN
+
+
 def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
     def entry(name, gain, significant, bic_change):
         return {'effect': name, 'improvement': gain, 'significant': significant,
-                'bic': bic_change, 'explanation': name + '.'}
+                'bic_change': bic_change, 'explanation': name + '.'}
 
     def ranked(*entries):
         diag = engine.rank_candidates(None, list(entries))
@@ -199,8 +226,8 @@ def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
 
 def test_the_named_effect_says_which_unresolved_candidate_fits_better():
     def entry(name, gain, significant, unresolved=None):
-        return {'effect': name, 'improvement': gain, 'significant': significant, 'bic': -50.0,
-                'explanation': name + '.', 'unresolved': unresolved}
+        return {'effect': name, 'improvement': gain, 'significant': significant,
+                'bic_change': -50.0, 'explanation': name + '.', 'unresolved': unresolved}
 
     # at 10 Hz a 72 ms delay (below one sample) fits better than the lag that is named
     why = 'the fitted delay 72 ms is below one sample period (100 ms)'

@@ -27,11 +27,11 @@ held-out error. A candidate is significant only if
   2. the Bayesian information criterion of the free-run residual on the training window
      agrees: BIC = n_eff ln(RSS / n) + k ln(n_eff) falls by more than `BIC_MARGIN` (10,
      "very strong" evidence), with n_eff the number of
-     effectively independent samples (n divided by the base residual's correlation
-     length), so serially correlated residuals cannot buy extra parameters cheaply; the
-     candidate nests the base model, so a missing effect must fit the training window
-     better by more than its extra parameters' worth (a held-out gain without that is luck
-     of the split, not physics), and
+     effectively independent samples (n divided by the residual's correlation length, the
+     shorter of the base's and the candidate's), so serially correlated residuals cannot
+     buy extra parameters cheaply; the candidate nests the base model, so a missing effect
+     must fit the training window better by more than its extra parameters' worth (a
+     held-out gain without that is luck of the split, not physics), and
   3. the effect itself carries the gain (the counterfactual): the base model refitted
      from where the candidate's refit ended (its hysteresis grid, weights and time
      constant) with the effect off must be worse on held-out data by at least
@@ -78,6 +78,8 @@ MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
 # scale; smaller falls come from training fits that hardly changed
 BIC_MARGIN = 10.0
+# candidate entry keys kept out of `Diagnosis.to_json` (objects, timings, internal checks)
+INTERNAL_KEYS = ('fit', 'bic_change', 'seconds', 'base_refit', 'unresolved')
 # significant candidates whose held-out gains are this close (relative to the best) explain
 # the data about equally well: the explanation says so
 NEAR_TIE = 0.10
@@ -413,6 +415,23 @@ def bic(residual: np.ndarray, n_parameters: int, n_eff: float) -> float:
     return n_eff * np.log(np.mean(r ** 2) + 1e-300) + n_parameters * np.log(max(n_eff, 2))
 
 
+def bic_gain(base: ModelFit, fit: ModelFit, base_length: Optional[int] = None) -> float:
+    """
+    Return BIC(fit) − BIC(base) on their training residuals (negative: `fit` is better).
+
+    Both are counted on n_eff = n / L effectively independent samples, L the shorter
+    correlation length of the two residuals (`base_length`: the base's, if known). A slow
+    effect the base lacks stretches the base residual's correlation over the whole record
+    (a drift: 16 750 samples at 1694 samples of correlation count as 9.9), while the
+    residual of the model with the effect shows the noise's own correlation (2 samples).
+    """
+    length = min(base_length or correlation_length(base.residual),
+                 correlation_length(fit.residual))
+    n_eff = max(len(base.residual) / length, 2.0)
+    return (bic(fit.residual, _free_count(fit), n_eff)
+            - bic(base.residual, _free_count(base), n_eff))
+
+
 def _free_count(fit: ModelFit) -> int:
     """Return the effects' parameter count; an effect that sets the PI kind counts one."""
     return sum(len(get_effect(e).parameters) + (1 if get_effect(e).kind else 0)
@@ -443,8 +462,7 @@ class Diagnosis:
         if self.refitted:
             base['refitted'] = self.refitted
         return {'baseline': base,
-                'candidates': [{k: v for k, v in c.items()
-                                if k not in ('fit', 'bic', 'seconds', 'base_refit', 'unresolved')}
+                'candidates': [{k: v for k, v in c.items() if k not in INTERNAL_KEYS}
                                for c in self.candidates],
                 'missing_effect': self.missing_effect}
 
@@ -506,8 +524,7 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
             diag = rank_candidates(base, list(entries.values()))
     if (diag.missing_effect is None and isinstance(data, DynamicData)
             and not at_noise(base, data, min_improvement)):
-        named = typical_pass(data, base, list(entries.values()), tasks[0][4] if tasks else 0.0,
-                             min_improvement)
+        named = typical_pass(data, base, list(entries.values()), min_improvement)
         if named:
             diag = rank_candidates(base, list(entries.values()), 'typical_gain')
     # a named effect has beaten its counterfactual (the base refitted on its grid) already
@@ -579,7 +596,7 @@ def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optio
     return float(np.median(gains))
 
 
-def typical_pass(data: DynamicData, base: ModelFit, entries: list, bic0: float,
+def typical_pass(data: DynamicData, base: ModelFit, entries: list,
                  min_improvement: float) -> list:
     """
     Judge entries again on their typical held-out gain; return the names made significant.
@@ -592,7 +609,7 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list, bic0: float,
     named = []
     for c in entries:
         fit = c.get('fit')
-        if fit is None or c['significant'] or c['bic'] >= bic0 - BIC_MARGIN:
+        if fit is None or c['significant'] or c['bic_change'] >= -BIC_MARGIN:
             continue
         eff = get_effect(c['effect'])
         gain = typical_gain(data, base, fit)
@@ -652,14 +669,12 @@ def candidate_tasks(data: Any, base: ModelFit, candidates: Optional[list] = None
     """
     One `judge_candidate` task per candidate effect not already in `base`.
 
-    A task is (data, base, name, n_eff, bic0, min_improvement): n_eff is the number of
-    effectively independent training residual samples (n / correlation length) and bic0
-    the base model's BIC on them, the reference every candidate is judged against.
+    A task is (data, base, name, base_length, min_improvement): base_length is the
+    correlation length (samples) of the base's training residual, computed once here.
     """
     names = [n for n in (candidates or CATALOG) if n not in base.effects]
-    n_eff = max(len(base.residual) / correlation_length(base.residual), 2.0)
-    bic0 = bic(base.residual, _free_count(base), n_eff)
-    return [(data, base, name, n_eff, bic0, min_improvement) for name in names]
+    base_length = correlation_length(base.residual)
+    return [(data, base, name, base_length, min_improvement) for name in names]
 
 
 def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') -> 'Diagnosis':
@@ -744,7 +759,7 @@ def judge_candidate(task: tuple) -> dict:
     return entry
 
 
-def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
+def _judge(data: Any, base: ModelFit, name: str, base_length: int,
            min_improvement: float, warm: Optional[ModelFit] = None) -> dict:
     """
     Return the candidate entry of `name` (without its time).
@@ -769,8 +784,8 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
                 'significant': False, 'explanation': f'fit failed: {err}'}
     v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
     gain = (v0 - v1) / v0 if v0 > 0 else 0.0
-    bic1 = bic(fit.residual, _free_count(fit), n_eff)
-    evident = gain >= min_improvement and bic1 < bic0 - BIC_MARGIN
+    bic_change = bic_gain(base, fit, base_length)
+    evident = gain >= min_improvement and bic_change < -BIC_MARGIN
     # the counterfactual costs a fit, so it runs only where the first two checks pass
     base_refit = _regridded_base(data, base, fit, eff) if evident else None
     v_off = None if base_refit is None else base_refit.validation['nrmse']
@@ -795,9 +810,9 @@ def _judge(data: Any, base: ModelFit, name: str, n_eff: float, bic0: float,
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> '
                             f'{100 * fit.train["nrmse"]:.2f} %, '
-                            f'BIC change {bic1 - bic0:+.1f}{checks}; '
+                            f'BIC change {bic_change:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
-            'fit': fit, 'bic': float(bic1), 'base_refit': base_refit}
+            'fit': fit, 'bic_change': float(bic_change), 'base_refit': base_refit}
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
