@@ -186,12 +186,12 @@ def test_bic_counts_independent_samples_on_the_whiter_residual():
     assert long > 1000 and short <= 2
     # counted on the base residual alone, n / long samples: the drift could never pass
     n_eff = n / long
-    alone = (engine.bic(with_drift.residual, 4, n_eff) - engine.bic(base.residual, 0, n_eff))
+    alone = engine.bic(with_drift.residual, 4, n_eff) - engine.bic(base.residual, 0, n_eff)
     assert alone > -engine.BIC_MARGIN
     # counted on the whiter residual (the model with the effect), it passes by far
     assert engine.bic_gain(base, with_drift) < -100 * engine.BIC_MARGIN
     assert engine.bic_gain(base, with_drift, long) == engine.bic_gain(base, with_drift)
-    # a candidate that leaves the drift in keeps the base's count, and its 4 % lower RSS
+    # a candidate that leaves the drift in keeps the base's count, and its 2 % lower RSS
     # does not pay for 4 parameters
     shaved = fit(['sensor_nonlinearity'], noise + 0.98 * drift)
     assert engine.correlation_length(shaved.residual) > 1000
