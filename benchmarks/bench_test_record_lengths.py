@@ -35,13 +35,13 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from support.parallel import imap_on_cores  # noqa: E402, I100
-from test_workbench_hidden_effects import _diagnose_case, STRONG  # noqa: E402
+from test_workbench_hidden_effects import diagnose_case, STRONG  # noqa: E402
 
 
 def timed_case(case: tuple) -> tuple:
     """Return (seconds, missing effect, ranking) of one test case."""
     t0 = time.perf_counter()
-    missing, ranking = _diagnose_case(case)
+    missing, ranking = diagnose_case(case)
     return time.perf_counter() - t0, missing, ranking
 
 

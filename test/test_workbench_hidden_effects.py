@@ -57,7 +57,7 @@ STRONG = [
 ARGS = 'effect,magnitude,excitation,noise,rate,duration,seed'
 
 
-def _diagnose_case(case):
+def diagnose_case(case):
     """(missing effect, [(effect, improvement, significant), ...] best first) of one case."""
     effect, magnitude, excitation, noise, rate, duration, seed = case
     d = simulate(effect, magnitude=magnitude, excitation=excitation, duration_s=duration,
@@ -81,7 +81,7 @@ def diagnosed(request):
              for item in request.session.items
              if item.module.__name__ == __name__ and hasattr(item, 'callspec')]
     cases = list(dict.fromkeys(cases))
-    return dict(imap_on_cores(_diagnose_case, cases))
+    return dict(imap_on_cores(diagnose_case, cases))
 
 
 @pytest.mark.parametrize(ARGS, STRONG, ids=[f'{c[0]}-M{c[1]}-{c[2]}-{c[4]}Hz' for c in STRONG])
