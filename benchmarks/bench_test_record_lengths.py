@@ -35,7 +35,7 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from support.parallel import imap_on_cores  # noqa: E402, I100
-from test_workbench_hidden_effects import diagnose_case, STRONG  # noqa: E402
+from test_workbench_hidden_effects import ARGS, diagnose_case, STRONG  # noqa: E402
 
 
 def timed_case(case: tuple) -> tuple:
@@ -57,7 +57,8 @@ def main() -> None:
     ap.add_argument('--effects', nargs='*', help='only these cases (effect names, none)')
     ap.add_argument('--jobs', type=int, default=1)
     args = ap.parse_args()
-    cases = [c[:5] + (args.duration,) + c[6:] for c in STRONG
+    at = ARGS.split(',').index('duration')
+    cases = [c[:at] + (args.duration,) + c[at + 1:] for c in STRONG
              if not args.effects or c[0] in args.effects]
     print(f'hidden-effect test cases on {args.duration:.0f} s records')
     print(f'{"effect":20s} {"M":>5s} {"loop":6s} {"rate":>6s} {"named":>20s} {"s":>5s}  '
