@@ -427,6 +427,7 @@ def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelH
     out_tb = np.empty(n)
     n_rows = feat_a.shape[0]
     iu = STATE_ELEMENTS + 2 * m
+    weighted = np.nonzero(w)[0]
     for k in range(n):
         # record the state at t_k
         out_ta[k], out_tb[k] = state[STATE_THETA], state[STATE_THETA + 1]
@@ -467,33 +468,40 @@ def simulate_wires(inputs: KernelInputs, dt: float, p: np.ndarray, hyst: KernelH
             base = STATE_ELEMENTS + j * m
             if latent > 0.0:
                 theta = latent_temperature(theta, shift, y_own, latent, state[base:base + m],
-                                           hyst)
+                                           hyst, weighted)
             u = theta + shift
             state[iu + j] = u
-            acc = y0 + k1 * u
+            # the element update carries no sum from element to element, so it vectorises;
+            # the sum then runs over the nonzero weights only (a fitted w is sparse)
             for i in range(m):
                 v = min(max(state[base + i], u - r[i]), u + r[i])
-                v = min(max(v, lo[i]), hi[i])
-                state[base + i] = v
-                acc += w[i] * v
+                state[base + i] = min(max(v, lo[i]), hi[i])
+            acc = y0 + k1 * u
+            for i in weighted:
+                acc += w[i] * state[base + i]
             state[STATE_CONTRACTION + j] = acc
             state[STATE_THETA + j] = theta
     return out_ya, out_yb, out_ta, out_tb
 
 
 @njit(cache=True)
-def contraction_at(u: float, s: np.ndarray, hyst: KernelHysteresis) -> float:
-    """Return y = y0 + k1 u + Σ w_i clip(clip(s_i, u − r_i, u + r_i), lo_i, hi_i) (K1-K2)."""
+def contraction_at(u: float, s: np.ndarray, hyst: KernelHysteresis,
+                   weighted: np.ndarray) -> float:
+    """
+    Return y = y0 + k1 u + Σ w_i clip(clip(s_i, u − r_i, u + r_i), lo_i, hi_i) (K1-K2).
+
+    weighted: the indices i with w_i != 0, in order (the other terms are zero).
+    """
     r, lo, hi, w, k1, y0 = hyst
     acc = y0 + k1 * u
-    for i in range(r.shape[0]):
+    for i in weighted:
         acc += w[i] * min(max(min(max(s[i], u - r[i]), u + r[i]), lo[i]), hi[i])
     return acc
 
 
 @njit(cache=True)
 def latent_temperature(theta_pred: float, shift: float, y_own: float, latent: float,
-                       s: np.ndarray, hyst: KernelHysteresis) -> float:
+                       s: np.ndarray, hyst: KernelHysteresis, weighted: np.ndarray) -> float:
     """
     Return θ after the sample's latent heat: the root of θ = θ_pred − λ (H(θ + shift) − y).
 
@@ -505,14 +513,14 @@ def latent_temperature(theta_pred: float, shift: float, y_own: float, latent: fl
     chatters from sample to sample, so the output jumps with the parameters. H is
     non-decreasing (w, k1 >= 0), so the root is unique and lies between θ_pred and
     θ_pred − λ (H(θ_pred + shift) − y); found by regula falsi (Illinois), exact in a few
-    steps on the piecewise-linear H.
+    steps on the piecewise-linear H. weighted: as in `contraction_at`.
     """
-    excess = latent * (contraction_at(theta_pred + shift, s, hyst) - y_own)
+    excess = latent * (contraction_at(theta_pred + shift, s, hyst, weighted) - y_own)
     if excess == 0.0:
         return theta_pred
     t_lo, t_hi = min(theta_pred, theta_pred - excess), max(theta_pred, theta_pred - excess)
-    f_lo = t_lo - theta_pred + latent * (contraction_at(t_lo + shift, s, hyst) - y_own)
-    f_hi = t_hi - theta_pred + latent * (contraction_at(t_hi + shift, s, hyst) - y_own)
+    f_lo = t_lo - theta_pred + latent * (contraction_at(t_lo + shift, s, hyst, weighted) - y_own)
+    f_hi = t_hi - theta_pred + latent * (contraction_at(t_hi + shift, s, hyst, weighted) - y_own)
     if f_lo >= 0.0:
         return t_lo
     if f_hi <= 0.0:
@@ -521,7 +529,7 @@ def latent_temperature(theta_pred: float, shift: float, y_own: float, latent: fl
     t = t_hi
     for _ in range(LATENT_ITERATIONS):
         t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo)
-        f = t - theta_pred + latent * (contraction_at(t + shift, s, hyst) - y_own)
+        f = t - theta_pred + latent * (contraction_at(t + shift, s, hyst, weighted) - y_own)
         if f == 0.0 or t_hi - t_lo < LATENT_TOL_K:
             break
         if f < 0.0:

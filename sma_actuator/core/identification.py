@@ -381,7 +381,8 @@ class _Problem:
         # X = [fa − s_b fb, u_a − s_b u_b (or 0), (g_a, g_b), 1], built in place
         n_drift = 2 if drift else 0
         X = np.empty((len(ua), m + 2 + n_drift))
-        np.multiply(fb, sb, out=fb)
+        if sb != 1.0:   # a pass over the large array saved on the common equal strokes
+            np.multiply(fb, sb, out=fb)
         np.subtract(fa, fb, out=X[:, :m])
         X[:, m] = (ua - sb * ub) if self.linear_term else 0.0
         if drift:
