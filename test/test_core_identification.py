@@ -130,6 +130,20 @@ def test_column_range_is_the_min_and_max_over_both_arrays():
     np.testing.assert_array_equal(hi, np.maximum(a.max(0), b.max(0)))
 
 
+@pytest.mark.parametrize('delay_samples', [0.4, 12.3, 299.5])
+def test_delayed_rows_are_the_delayed_signal_of_every_column_at_those_rows(delay_samples):
+    from sma_actuator.core.actuator import delay_signal
+    from sma_actuator.core.kernels import delayed_rows
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(300, 4))
+    at = np.arange(300)[3::2]
+    got = delayed_rows(x, at, delay_samples)
+    # the first rows fall before the record's start and hold its first sample
+    expected = np.column_stack([delay_signal(c, 0.5, 0.5 * delay_samples) for c in x.T])[at]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert got.shape == (len(at), 4)
+
+
 def test_tied_loop_keeps_the_heating_cells_and_puts_cooling_at_the_datasheet_height():
     """
     Tie a grid's widths to a heating edge 20 K above a 22 °C rest (β of the datasheet).

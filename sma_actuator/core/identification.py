@@ -390,10 +390,7 @@ class _Problem:
         X[:, -1] = 1.0
         if params.delay_s > 0:
             # act.delay_signal of every column, evaluated at the regression rows only
-            f = np.maximum(np.arange(n)[rows] - params.delay_s / d.dt, 0.0)
-            i0 = np.floor(f).astype(int)
-            a = (f - i0)[:, None]
-            X = (1.0 - a) * X[i0] + a * X[np.minimum(i0 + 1, n - 1)]
+            X = kernels.delayed_rows(X, np.arange(n)[rows], params.delay_s / d.dt)
         return X, state_lo, state_hi
 
     def free_run_error(self, params: act.ActuatorParams, values: dict,

@@ -205,3 +205,25 @@ def column_range(a: np.ndarray, b: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
                 if v > hi[i]:
                     hi[i] = v
     return lo, hi
+
+
+@njit(cache=True)
+def delayed_rows(x: np.ndarray, at: np.ndarray, delay_samples: float) -> np.ndarray:
+    """
+    Return every column of x (n, m) delayed by `delay_samples`, at the sample indices `at`.
+
+    Row k is (1 − a) x[i0] + a x[i0 + 1] with f = max(at_k − delay_samples, 0), i0 = ⌊f⌋,
+    a = f − i0 (the linear interpolation of `core.actuator.delay_signal`, holding the first
+    sample before the record starts). One pass: the regression needs only these rows of a
+    full-rate matrix, at every solve of a delayed model.
+    """
+    n, m = x.shape
+    out = np.empty((at.shape[0], m))
+    for k in range(at.shape[0]):
+        f = max(at[k] - delay_samples, 0.0)
+        i0 = int(np.floor(f))
+        a = f - i0
+        i1 = min(i0 + 1, n - 1)
+        for i in range(m):
+            out[k, i] = (1.0 - a) * x[i0, i] + a * x[i1, i]
+    return out
