@@ -30,7 +30,7 @@ from sma_actuator.workbench.engine import diagnose
 from support.parallel import imap_on_cores
 from support.richsim import simulate
 
-pytestmark = pytest.mark.slow   # about 6 min alone: CI runs it, the quick run does not
+pytestmark = pytest.mark.slow   # about 5 min alone: CI runs it, the quick run does not
 
 # effect, magnitude, excitation, noise [rad], rate [Hz], record [s], seed; each case on the
 # shortest of 240, 360 and 480 s it passes by a margin: at 240 s the stress coupling is
