@@ -35,6 +35,7 @@ estimator off and on; and pi_inverse without the early handover (`control.handov
 
 Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
      [--models DIR] (fitted models are cached in DIR; delete it to refit)
+     [--detune 1 0.5 ...] (each case again with the PI gains scaled by these factors)
      [--param KEY=VALUE ...] (another rig of the rich simulator: test/support/richsim.py
      DEFAULTS keys, e.g. --param wire_length_m=0.3)
 """
@@ -173,6 +174,24 @@ def drift_table(models, seconds, seed):
     print(f'pi_inverse without the early handover (preheat off), plain plant: {without:.4f} rad')
 
 
+def detune_table(models, sources, cases, scales, seconds, seed):
+    """Print the sine RMS with the PI gains scaled down (a gentler PI is not the cure)."""
+    print('\nthe PI gains (kp, ki of the model) scaled by ' + ', '.join(map(str, scales))
+          + ': sine RMS [rad]')
+    for source in sources:
+        for case in cases:
+            effect = (PLANT_CASES if source == 'plant' else RICH_CASES)[case][1]
+            for effects in ([[]] if effect is None else [[], [effect]]):
+                model, _, _ = fitted_model(models, source, case, effects, seconds, seed)
+                for mode in ('pi', 'pi_inverse'):
+                    kp, ki = ControllerCore(model, ControllerSettings(mode=mode)).gains()
+                    rms = [sine_rms(model, mode, source, case, kp=f * kp, ki=f * ki)
+                           for f in scales]
+                    label = f'base+{effects[0]}' if effects else 'base'
+                    print(f'{source:8s} {case:12s} {label:16s} {mode:10s} kp {kp:5.2f} '
+                          f'ki {ki:5.2f}: ' + ' '.join(f'{r:7.4f}' for r in rms), flush=True)
+
+
 def figure(path, models, seconds, seed):
     """Plot pi_inverse on plant_sim's model with a 0.3 s delay: base vs delay model."""
     import matplotlib
@@ -215,6 +234,8 @@ def main():
     ap.add_argument('--no-drift', action='store_true', help='skip the drift table')
     ap.add_argument('--figure', default='', metavar='PNG',
                     help='also plot pi_inverse on the delayed plant, base vs delay model')
+    ap.add_argument('--detune', nargs='*', type=float, default=[], metavar='SCALE',
+                    help='also run each case with the PI gains scaled by these factors')
     ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ns = ap.parse_args()
@@ -249,6 +270,8 @@ def main():
                 ratio = rms['pi_inverse'] / rms['pi']
                 print(f'{source:8s} {case:20s} {label:24s} {rms["pi"]:8.4f} '
                       f'{rms["pi_inverse"]:11.4f} {ratio:7.3f} {cut:>23s}', flush=True)
+    if ns.detune:
+        detune_table(models, ns.source, ns.cases, ns.detune, ns.excitation_s, ns.seed)
     if ns.figure:
         figure(ns.figure, models, ns.excitation_s, ns.seed)
     if 'plant' in ns.source and not ns.no_drift:
