@@ -30,9 +30,12 @@ diagnose names any gain of 20 % or more. All three measured records are fitted a
    - `gauss`: w ∝ N(e; μ_e, σ_e) N(r; μ_r, σ_r), the transformation temperature, the width of
      each branch and the loop's half-width (As, Af, Ms, Mf in other words);
    - `skew`: the same with a skew-normal edge density (the branches' asymmetry);
-   - `mix2`: two edge components (a two-stage transformation, e.g. via the R-phase).
+   - `mix2`: two edge components (a two-stage transformation, e.g. via the R-phase);
+4. `gauss` with one thermal effect of the catalog each (latent heat, convection, phase
+   resistance), the whole model in the core kernel: does an effect close the gap?
 """
 import argparse
+from functools import partial
 from pathlib import Path
 import time
 
@@ -45,6 +48,7 @@ import numpy as np  # noqa: E402, I100
 from scipy.optimize import least_squares, nnls  # noqa: E402
 from scipy.special import ndtr  # noqa: E402
 from sma_actuator.core import actuator as act  # noqa: E402
+from sma_actuator.core.hysteresis import PlayHysteresis  # noqa: E402
 from sma_actuator.core.identification import play_grid, set_values  # noqa: E402
 from sma_actuator.workbench.crossval import all_records  # noqa: E402
 from sma_actuator.workbench.data import load_data  # noqa: E402
@@ -52,6 +56,10 @@ from sma_actuator.workbench.engine import fit_model  # noqa: E402
 
 NAMES = ('square_a', 'step_a', 'ramp_a')
 ROW_STEP = 4   # every 4th sample (25 Hz) in the density fits: the same error, 4 x faster
+# thermal effects of the catalog that reshape the loop in time: (lower, upper, starts)
+THERMAL_EFFECTS = {'latent_heat_k': (0.0, 30.0, (1.0, 5.0)),
+                   'convection_exponent': (0.0, 1.0, (0.1, 0.3)),
+                   'phase_kappa': (0.0, 1.0, (0.1, 0.3))}
 
 
 def gaussian(x, mean, sd):
@@ -97,13 +105,34 @@ class LoopProblem:
         coef, *_ = np.linalg.lstsq(a, self.y[self.keep], rcond=None)
         return a @ coef - self.y[self.keep]
 
+    def residual_with(self, density, names, x):
+        """
+        Return the residual [mm] of the loop with thermal effects, x = (τ, q, effect values).
 
-def fit_family(problem, density, starts, lower, upper):
-    """Return the best least-squares fit of one family over several starts."""
+        The whole model runs in the core kernel: a feedback effect (latent heat, phase
+        resistance) moves the temperature with the contraction, so the element states are
+        not fixed features any more.
+        """
+        w = density(x[1:5])
+        w = w / max(w.sum(), 1e-300)
+        g = self.grid
+        loop = PlayHysteresis(g.r, g.lo, g.hi, w, 0.0, -float(w @ g.lo))   # cold: 0
+        values = dict(zip(names, x[5:]), tau_s=x[0])
+        model = set_values(self.params, values).with_changes(hysteresis=loop, stroke_rad=1.0,
+                                                              offset_rad=0.0)
+        d = self.data
+        h = act.simulate(model, d.duty_a, d.duty_b, d.dt).y_a[::ROW_STEP]
+        a = np.c_[h, np.ones_like(h)][self.keep]
+        coef, *_ = np.linalg.lstsq(a, self.y[self.keep], rcond=None)
+        return a @ coef - self.y[self.keep]
+
+
+def fit_family(residual, starts, lower, upper):
+    """Return the best least-squares fit of residual(x) over several starts."""
     best = None
     span = np.asarray(upper) - np.asarray(lower)
     for x0 in starts:
-        sol = least_squares(lambda x: problem.residual(density, x), np.clip(x0, lower, upper),
+        sol = least_squares(residual, np.clip(x0, lower, upper),
                             bounds=(lower, upper), diff_step=1e-3, x_scale=0.1 * span)
         if best is None or sol.cost < best.cost:
             best = sol
@@ -163,13 +192,21 @@ def main():
             x0s = [list(gauss) + ([gauss[1] + x[0]] + x[1:] if name == 'mix2' else x)
                    for x in add_x0]
         started = time.perf_counter()
-        sol = fit_family(problem, density, x0s, lower + add_lo, upper + add_hi)
+        sol = fit_family(partial(problem.residual, density), x0s, lower + add_lo,
+                         upper + add_hi)
         if gauss is None:
             gauss = sol.x
         rmse = float(np.sqrt(np.mean(sol.fun ** 2)))
         show(f'{i}. {name} ({len(sol.x) + 2} parameters)', rmse, time.perf_counter() - started,
              f'τ {sol.x[0]:.2f} s, μ_e {sol.x[1]:.1f} °C, σ_e {sol.x[2]:.2f} K, '
              f'μ_r {sol.x[3]:.2f} K, σ_r {sol.x[4]:.2f} K')
+    for i, (name, (lo_e, hi_e, starts_e)) in enumerate(THERMAL_EFFECTS.items(), 6):
+        started = time.perf_counter()
+        sol = fit_family(partial(problem.residual_with, shapes['gauss'], [name]),
+                         [list(gauss) + [x] for x in starts_e], lower + [lo_e],
+                         upper + [hi_e])
+        show(f'{i}. gauss + {name}', float(np.sqrt(np.mean(sol.fun ** 2))),
+             time.perf_counter() - started, f'τ {sol.x[0]:.2f} s, {name} {sol.x[5]:.3g}')
     return 0
 
 
