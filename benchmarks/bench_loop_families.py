@@ -118,8 +118,8 @@ class LoopProblem:
         g = self.grid
         loop = PlayHysteresis(g.r, g.lo, g.hi, w, 0.0, -float(w @ g.lo))   # cold: 0
         values = dict(zip(names, x[5:]), tau_s=x[0])
-        model = set_values(self.params, values).with_changes(hysteresis=loop, stroke_rad=1.0,
-                                                              offset_rad=0.0)
+        model = set_values(self.params, values)
+        model = model.with_changes(hysteresis=loop, stroke_rad=1.0, offset_rad=0.0)
         d = self.data
         h = act.simulate(model, d.duty_a, d.duty_b, d.dt).y_a[::ROW_STEP]
         a = np.c_[h, np.ones_like(h)][self.keep]
