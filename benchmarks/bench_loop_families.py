@@ -99,9 +99,11 @@ class LoopProblem:
 
     def residual(self, density, x):
         """Return the model minus the measurement [mm] at the kept rows, x = (τ, density q)."""
-        w = density(x[1:])
-        h = self.features(x[0]) @ (w / max(w.sum(), 1e-300))
-        a = np.c_[h, np.ones_like(h)][self.keep]
+        return self._fitted_residual(self.features(x[0]) @ _weights(density, x[1:]))
+
+    def _fitted_residual(self, contraction):
+        """Return offset + stroke · contraction − measurement [mm], both solved linearly."""
+        a = np.c_[contraction, np.ones_like(contraction)][self.keep]
         coef, *_ = np.linalg.lstsq(a, self.y[self.keep], rcond=None)
         return a @ coef - self.y[self.keep]
 
@@ -113,18 +115,21 @@ class LoopProblem:
         resistance) moves the temperature with the contraction, so the element states are
         not fixed features any more.
         """
-        w = density(x[1:5])
-        w = w / max(w.sum(), 1e-300)
+        w = _weights(density, x[1:5])
         g = self.grid
         loop = PlayHysteresis(g.r, g.lo, g.hi, w, 0.0, -float(w @ g.lo))   # cold: 0
         values = dict(zip(names, x[5:]), tau_s=x[0])
         model = set_values(self.params, values)
         model = model.with_changes(hysteresis=loop, stroke_rad=1.0, offset_rad=0.0)
         d = self.data
-        h = act.simulate(model, d.duty_a, d.duty_b, d.dt).y_a[::ROW_STEP]
-        a = np.c_[h, np.ones_like(h)][self.keep]
-        coef, *_ = np.linalg.lstsq(a, self.y[self.keep], rcond=None)
-        return a @ coef - self.y[self.keep]
+        run = act.simulate(model, d.duty_a, d.duty_b, d.dt)
+        return self._fitted_residual(run.y_a[::ROW_STEP])
+
+
+def _weights(density, q):
+    """Return the density's weights over the grid at parameters q, summing to 1."""
+    w = density(q)
+    return w / max(w.sum(), 1e-300)
 
 
 def fit_family(residual, starts, lower, upper):
@@ -165,6 +170,7 @@ def main():
 
     started = time.perf_counter()
     f = problem.features(p.tau_s)
+    # the offset is sign-free: the difference of two non-negative columns
     a = np.c_[f, np.ones(len(f)), -np.ones(len(f))][problem.keep]
     coef, _ = nnls(a, problem.y[problem.keep], maxiter=50 * a.shape[1])
     rmse = float(np.sqrt(np.mean((a @ coef - problem.y[problem.keep]) ** 2)))
