@@ -48,8 +48,11 @@ def test_scores_use_a_70_30_time_split_by_default():
     res = compare(data, pred)
     k = int(round(0.7 * len(data)))
     span = np.ptp(data.position)   # every part is normalised by the whole record's range
-    assert res.scores['train'] == pytest.approx(scores(data.position[:k], pred[:k], span))
-    assert res.scores['validation'] == pytest.approx(scores(data.position[k:], pred[k:], span))
+    for part, rows in (('train', slice(None, k)), ('validation', slice(k, None))):
+        expected = scores(data.position[rows], pred[rows], span)
+        assert {key: res.scores[part][key] for key in expected} == pytest.approx(expected)
+        # how much of the whole range the part covers (under 20 %: uninformative)
+        assert res.scores[part]['coverage'] == pytest.approx(np.ptp(data.position[rows]) / span)
     assert res.train_mask.sum() == k
 
 

@@ -124,6 +124,7 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
     assert 'each record predicted by the model fitted on the others' in err
     left_out = {r['data']: r['scores']['all']['nrmse'] for r in doc['records']}
     assert len(left_out) == 3 and max(left_out.values()) < 0.035
+    assert doc['tau_profile']['identified'] and 'do not identify' not in err
     code, text, err = run(capsys, 'fit', *records, '--validate-on', square, '--out', held,
                           '--json')
     assert code == 0, err
@@ -263,10 +264,18 @@ def test_a_quiet_validation_window_is_uninformative_not_a_huge_error(tmp_path, c
     rows[350:, 2] = rows[0, 2] + np.random.default_rng(0).normal(0, 0.01, len(rows) - 350)
     np.savetxt(a, rows, delimiter=',', header='time,duty_a,position[mm]', comments='',
                fmt='%.6f')
-    code, text, err = run(capsys, 'fit', a)
+    out = tmp_path / 'm.yaml'
+    code, text, err = run(capsys, 'fit', a, '--out', out)
     assert code == 0, err
     line = next(x for x in text.splitlines() if x.strip().startswith('validation'))
     assert 'uninformative' in line and 'hold out another record' in line
+    # compare applies the same rule to the record's last 30 %
+    code, text, err = run(capsys, 'compare', a, '--model', out, '--report', tmp_path / 'r')
+    assert code == 0, err
+    line = next(x for x in text.splitlines() if x.strip().startswith('validation'))
+    assert 'uninformative' in line and 'NRMSE' not in line
+    page = (tmp_path / 'r' / 'index.html').read_text()
+    assert '<td class="l">validation</td><td>uninformative</td>' in page
 
 
 def test_a_quiet_record_left_out_is_uninformative_not_scored(tmp_path, capsys):

@@ -355,27 +355,6 @@ def _pct(x: Optional[float]) -> str:
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
-def score_line(part: str, s: Optional[Dict[str, Any]], unit: str = '',
-               width: int = 10, held_out: Optional[bool] = None) -> str:
-    """
-    Return 'validation: NRMSE 1.23 %  RMSE 0.1 mm ...' for a scores dict (or n/a).
-
-    A held-out part (`held_out`, default: the 'validation' part) whose measured range
-    covers less than MIN_COVERAGE of the whole set's is reported as uninformative, not
-    scored.
-    """
-    if not s:
-        return f'{part:>{width}}: n/a'
-    u = f' {unit}' if unit else ''
-    if (part == 'validation' if held_out is None else held_out) \
-            and s.get('informative') is False:
-        return (f'{part:>{width}}: uninformative: the held-out part covers '
-                f'{100 * s["coverage"]:.0f} % of the measured range (hold out another record; '
-                f'RMSE {s["rmse"]:.4g}{u})')
-    return (f'{part:>{width}}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  fit '
-            f'{s["fit_percent"]:.1f} %  max error {s["max_error"]:.4g}{u}')
-
-
 def model_line(effects: Sequence[str], kind: str) -> str:
     """Return 'modified PI base + saturation, delay' ('... (the paper's model)' if none)."""
     if effects:
@@ -386,6 +365,7 @@ def model_line(effects: Sequence[str], kind: str) -> str:
 # ------------------------------------------------------------------------------ fit
 def cmd_fit(args: argparse.Namespace) -> int:
     """Run `sma-model fit`: fit the base model plus effects; print scores; write FITTED.yaml."""
+    from .compare import score_line
     from .engine import fit_model
     from ..core.model_file import check_writable, write_model
     catalog = setup_effects(args)
@@ -408,12 +388,15 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 _note(args, line)
             fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
             records = per_record(fit, data)
+        profile = _tau_profile(data, fit, progress)
     finally:
         progress.close()
+    if profile and not profile['tau_profile']['identified']:
+        _note(args, f'note: {profile["tau_profile"]["note"]}')
     if args.out:
-        write_model(args.out, fit.to_dict(), force=args.force)
+        write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
     if args.json:
-        print_json(fit_json(fit, args.out, records))
+        print_json(dict(fit_json(fit, args.out, records), **profile))
     else:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
@@ -427,6 +410,20 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.out:
         _note(args, f'wrote {args.out}')
     return 0
+
+
+def _tau_profile(data: Any, fit: Any, progress: Progress) -> Dict[str, Any]:
+    """
+    Return {'tau_profile': ...} for a dynamic fit ({} for curves).
+
+    Two more fits with the thermal time constant held (`identifiability.tau_profile`).
+    """
+    from .identifiability import tau_profile
+    from ..core.datakinds import DynamicData
+    if getattr(data, 'kind', None) != DynamicData.kind or 'tau_s' not in fit.values:
+        return {}
+    progress(0, 1, 'time-constant profile')
+    return {'tau_profile': tau_profile(data, fit).to_json()}
 
 
 def _fit_left_out(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
@@ -472,7 +469,7 @@ def fit_json(fit: Any, out: Optional[str],
 # ------------------------------------------------------------------------------ compare
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
-    from .compare import compare, summary_lines
+    from .compare import compare, score_line, summary_lines
     from .engine import load_fit
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
@@ -496,6 +493,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     except (KeyError, TypeError, ValueError) as err:
         what = f'missing {err}' if isinstance(err, KeyError) else str(err)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
+    profile = spec.get('tau_profile')
+    if isinstance(profile, dict) and profile.get('identified') is False:
+        _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),

@@ -46,14 +46,14 @@ residual: a strongly coloured residual exceeds it on many signals, so the streng
 max|r| / band ranks them.)
 """
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any, Dict, Optional
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
+from .engine import part_scores
 from ..core.datakinds import DynamicData, Split, StaticData
-from ..core.identification import scores
 
 Z99 = 2.576
 STEADY_RATE_K_PER_S = 0.1
@@ -130,10 +130,10 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
     axis, masks, tests, plane = _VIEWS[data.kind](data, y, y_hat, signals or {}, split)
     span = float(np.ptp(y))
     # every part is normalised by the range over the whole record set (a quiet window
-    # would otherwise look like a huge relative error)
-    sc = {'all': scores(y, y_hat, span),
-          'train': scores(y[train], y_hat[train], span) if train.any() else None,
-          'validation': scores(y[~train], y_hat[~train], span) if (~train).any() else None}
+    # would otherwise look like a huge relative error), and says how much of it it covers
+    sc = {'all': part_scores(data, y_hat, np.ones(y.size, bool)),
+          'train': part_scores(data, y_hat, train),
+          'validation': part_scores(data, y_hat, ~train)}
     rows = breakdown(y - y_hat, masks, span)
     return Comparison(data.kind, y, y_hat, _finite(sc), rows,
                       concentrations(rows, sc['all']['rmse']), tests, axis, train, plane,
@@ -435,13 +435,8 @@ def _finite(obj: Any) -> Any:
 def summary_lines(comparison: Comparison, top: int = 5) -> list:
     """Short text summary: scores, where the error concentrates, strongest residual links."""
     sc = comparison.scores
-    lines = []
-    for part in ('train', 'validation', 'all'):
-        s = sc.get(part)
-        if s:
-            u = f' {comparison.unit}' if comparison.unit else ''
-            lines.append(f'{part:>10}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  '
-                         f'fit {_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}{u}')
+    lines = [score_line(part, sc[part], comparison.unit)
+             for part in ('train', 'validation', 'all') if sc.get(part)]
     if comparison.concentrated:
         lines.append('error concentrates in: ' + ', '.join(
             f"{r['group']} {r['label']} (RMSE x{r['rmse'] / sc['all']['rmse']:.1f})"
@@ -457,6 +452,27 @@ def summary_lines(comparison: Comparison, top: int = 5) -> list:
             f"{k} (|r| {corr['cross'][k]['max_abs']:.2f} at lag {corr['cross'][k]['at_lag']:g} "
             f"{corr['lag_unit']})" for k in corr['flagged'][:top]))
     return lines
+
+
+def score_line(part: str, s: Optional[Dict[str, Any]], unit: str = '',
+               width: int = 10, held_out: Optional[bool] = None) -> str:
+    """
+    Return 'validation: NRMSE 1.23 %  RMSE 0.1 mm ...' for a scores dict (or n/a).
+
+    A held-out part (`held_out`, default: the 'validation' part) whose measured range
+    covers less than `engine.MIN_COVERAGE` of the whole set's is reported as uninformative, not
+    scored.
+    """
+    if not s:
+        return f'{part:>{width}}: n/a'
+    u = f' {unit}' if unit else ''
+    if (part == 'validation' if held_out is None else held_out) \
+            and s.get('informative') is False:
+        return (f'{part:>{width}}: uninformative: the held-out part covers '
+                f'{100 * s["coverage"]:.0f} % of the measured range (hold out another record; '
+                f'RMSE {s["rmse"]:.4g}{u})')
+    return (f'{part:>{width}}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  fit '
+            f'{_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}{u}')
 
 
 def _pct(x: Optional[float]) -> str:

@@ -85,6 +85,8 @@ INTERNAL_KEYS = ('fit', 'bic_change', 'seconds', 'base_refit', 'unresolved')
 NEAR_TIE = 0.10
 # blocks of equal time the held-out window is cut into for the typical gain (`typical_gain`)
 HELD_OUT_BLOCKS = 5
+# a pinned parameter's search interval, relative to its value (the optimiser needs one)
+PIN_TOLERANCE = 1e-6
 
 
 @dataclass
@@ -183,13 +185,14 @@ def _kind(effects: list, kind: Optional[str]) -> str:
 
 def fit_model(data: Any, effects: tuple = (), kind: Optional[str] = None,
               progress: Optional[Callable] = None,
-              base_fit: Optional[ModelFit] = None) -> ModelFit:
+              base_fit: Optional[ModelFit] = None, pinned: Optional[dict] = None) -> ModelFit:
     """
     Fit the base model plus `effects` (catalog names) to dynamic or static data.
 
     kind: 'classical' or 'modified' PI base (default modified; an effect with a `kind`,
     saturation, forces its kind). base_fit: a previous ModelFit whose grid and values
-    warm-start this one.
+    warm-start this one. pinned: {free parameter: value} held fixed in a dynamic fit
+    (e.g. {'tau_s': 3.0} for a profile of the error over the time constant).
     """
     effects = list(dict.fromkeys(effects))
     for e in effects:
@@ -199,15 +202,21 @@ def fit_model(data: Any, effects: tuple = (), kind: Optional[str] = None,
     kind = _kind(effects, kind)
     if progress:
         progress(0, 1, 'fit ' + ('+'.join(effects) or 'base'))
-    fit = _FITTERS[data.kind](data, effects, kind, base_fit)
+    fit = _FITTERS[data.kind](data, effects, kind, base_fit, pinned)
     if progress:
         progress(1, 1, 'fit done')
     return fit
 
 
-def _fit_static(data: StaticData, effects: list, kind: str,
-                base_fit: Optional[ModelFit]) -> ModelFit:
-    """Fit a PI operator to curves: the paper's least-squares tuning (classical: plain LS)."""
+def _fit_static(data: StaticData, effects: list, kind: str, base_fit: Optional[ModelFit],
+                pinned: Optional[dict] = None) -> ModelFit:
+    """
+    Fit a PI operator to curves: the paper's least-squares tuning (classical: plain LS).
+
+    Curves have no free parameters besides the weights: nothing can be pinned.
+    """
+    if pinned:
+        raise ValueError(f'static curves have no parameter {", ".join(pinned)} to pin')
     res = fit_static(data.input, data.output, data.curve, kind=kind,
                      nonneg=(kind == 'modified'))
     split = data.default_split()
@@ -281,15 +290,19 @@ def _tared(data: DynamicData) -> tuple:
 
 
 def _fit_dynamic(data: DynamicData, effects: list, kind: str,
-                 base_fit: Optional[ModelFit]) -> ModelFit:
-    """Fit a dynamic record; a `sensor_zero` model is fitted on the tared positions."""
+                 base_fit: Optional[ModelFit], pinned: Optional[dict] = None) -> ModelFit:
+    """
+    Fit a dynamic record; a `sensor_zero` model is fitted on the tared positions.
+
+    pinned: {free parameter: value} held fixed (`fit_model`).
+    """
     tare = 'sensor_zero' in effects
     # the residual is the same either way: the tare cancels in model − measured
     fit_data = _tared(data)[0] if tare else data
     strokes = None
     if 'record_stroke' in effects:
-        fit_data, strokes, base_fit = _stroked(fit_data, effects, kind, base_fit, tare)
-    fit = _fit_dynamic_raw(fit_data, effects, kind, base_fit)
+        fit_data, strokes, base_fit = _stroked(fit_data, effects, kind, base_fit, tare, pinned)
+    fit = _fit_dynamic_raw(fit_data, effects, kind, base_fit, pinned)
     if strokes is not None:   # back to each record's own stroke: m0 + ρ (p − m0)
         m0 = zeros(fit_data)
         fit.prediction = m0 + stroke_scale(fit_data, strokes) * (fit.prediction - m0)
@@ -306,7 +319,7 @@ def _fit_dynamic(data: DynamicData, effects: list, kind: str,
 
 
 def _stroked(data: DynamicData, effects: list, kind: str, base_fit: Optional[ModelFit],
-             tared: bool) -> tuple:
+             tared: bool, pinned: Optional[dict] = None) -> tuple:
     """
     Return (`data` scaled to the median record's stroke, {record: ρ}, the pooled fit).
 
@@ -320,7 +333,7 @@ def _stroked(data: DynamicData, effects: list, kind: str, base_fit: Optional[Mod
             and base_fit.prediction is not None and len(base_fit.prediction) == len(data)):
         pred = base_fit.prediction - (zeros(data) if tared else 0.0)
     else:
-        base_fit = _fit_dynamic_raw(data, pooled, kind, base_fit)
+        base_fit = _fit_dynamic_raw(data, pooled, kind, base_fit, pinned)
         pred = base_fit.prediction
     strokes = record_strokes(data, pred)
     m0 = zeros(data)
@@ -350,15 +363,22 @@ def rig_info(data: DynamicData, split: Optional[Split] = None) -> dict:
 
 
 def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
-                     base_fit: Optional[ModelFit]) -> ModelFit:
-    """Fit the effects' free parameters: warm from `base_fit`, its alternative starts."""
-    free = {}
+                     base_fit: Optional[ModelFit], pinned: Optional[dict] = None) -> ModelFit:
+    """
+    Fit the effects' free parameters: warm from `base_fit`, its alternative starts.
+
+    pinned: {free parameter: value} held within PIN_TOLERANCE of value.
+    """
+    pinned = pinned or {}
+    free = {k: (v * (1.0 - PIN_TOLERANCE), v * (1.0 + PIN_TOLERANCE), v)
+            for k, v in pinned.items()}
     start = dict(base_fit.values) if base_fit else {}
+    start.update(pinned)
     alternatives = []
     params = base_fit.params if base_fit is not None else act.ActuatorParams()
     for e in effects:
         eff = get_effect(e)
-        free.update(eff.bounds(params))
+        free.update({k: b for k, b in eff.bounds(params).items() if k not in pinned})
         for k, v in eff.start_values(data).items():
             start.setdefault(k, v)
         if base_fit is None or e not in base_fit.effects:
@@ -371,14 +391,15 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
     # from scratch: also without the base's time constant, so the coarse stage's
     # multi-start over τ runs; the effect moves τ (latent heat slows the transformation),
     # and a search from the base's τ ends in a basin that rounding decides
-    scratch = {k: v for k, v in start.items() if k != 'tau_s'}
+    scratch = {k: v for k, v in start.items() if k != 'tau_s' or k in pinned}
     for eff in map(get_effect, effects):
         if same_grid and eff.name not in base_fit.effects and eff.own_grid:
             # also from scratch, on a grid of its own, from each start a fresh fit tries:
             # the basin a start reaches on the base grid is not the one it reaches there
             for alt in [{}] + eff.alternative_starts(data):
                 trials.append((dict(scratch, **eff.scratch_start(params), **alt), False,
-                               eff.scratch_bounds(params)))
+                               {k: b for k, b in eff.scratch_bounds(params).items()
+                                if k not in pinned}))
     res = None
     for trial_start, warm, bounds in trials:
         trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,

@@ -309,9 +309,16 @@ def _table(header: list, rows: list, left: int = 1, hot: Optional[list] = None) 
     return f'<table><tr>{head}</tr>{"".join(body)}</table>'
 
 
+def _score_row(part: str, s: dict) -> list:
+    # a held-out part covering under engine.MIN_COVERAGE of the range has no relative score
+    if part == 'validation' and s.get('informative') is False:
+        return [part, 'uninformative', _f(s['rmse']), '-', _f(s['max_error'])]
+    return [part, _pct(s['nrmse']), _f(s['rmse']), _f(s['fit_percent'], '{:.1f}'),
+            _f(s['max_error'])]
+
+
 def _scores_html(comparison: Comparison) -> str:
-    rows = [[part, _pct(s['nrmse']), _f(s['rmse']), _f(s['fit_percent'], '{:.1f}'),
-             _f(s['max_error'])] for part, s in comparison.scores.items() if s]
+    rows = [_score_row(part, s) for part, s in comparison.scores.items() if s]
     return _table(['part', 'NRMSE', 'RMSE', 'fit %', 'max error'], rows)
 
 
