@@ -77,6 +77,57 @@ def test_column_order_case_and_extra_columns_do_not_matter(tmp_path):
     assert data.ambient is None
 
 
+@pytest.mark.parametrize('case', ['jitter', 'rounded', 'dropped'])
+def test_an_unsteady_clock_is_resampled_with_a_note(tmp_path, case):
+    """Host-clock jitter, stamps rounded to 10 ms at 40 Hz, one dropped sample."""
+    n, dt = 400, 0.025
+    t = np.arange(n) * dt
+    duty = np.where((t // 2.0) % 2 == 1, 0.6, 0.1)
+    jitter = np.r_[0.0, np.random.default_rng(0).uniform(-0.006, 0.006, n - 2), 0.0]
+    stamps = {'jitter': t + jitter, 'rounded': np.round(t, 2), 'dropped': t}[case]
+    keep = np.arange(n) != 200 if case == 'dropped' else np.ones(n, bool)
+    path = _write(tmp_path / 'u.csv', 'time,duty_a,position',
+                  np.column_stack([stamps, duty, 0.3 * np.sin(0.7 * stamps)])[keep])
+    notes = []
+    data = load_data(path, notes=notes)
+    assert len(notes) == 1 and 'resampled to a steady' in notes[0], notes
+    # the mean step: a dropped sample of 400 lengthens it by 1/398
+    assert data.dt == pytest.approx(dt, rel=3e-3)
+    # the position interpolated at the new times, each duty the one in effect there
+    np.testing.assert_allclose(data.position, 0.3 * np.sin(0.7 * data.time), atol=2e-3)
+    assert set(np.unique(data.duty_a)) == {0.1, 0.6}       # held, never interpolated
+    in_effect = duty[np.searchsorted(t, data.time + 0.5 * dt) - 1]
+    assert np.mean(data.duty_a == in_effect) > 0.97
+
+
+def test_a_steady_record_is_not_touched(dynamic_csv):
+    notes = []
+    data = load_data(dynamic_csv, notes=notes)
+    assert notes == []
+    np.testing.assert_array_equal(data.time, [float(f'{v:.6g}') for v in np.arange(40) * 0.05])
+
+
+@pytest.mark.parametrize('header,sep,scale', [('time[ms],duty_a,position', ',', 1e3),
+                                              ('time (s);duty_a;position', ';', 1.0),
+                                              ('time\tduty_a\tposition', '\t', 1.0)])
+def test_time_unit_and_separator_come_from_the_header(tmp_path, header, sep, scale):
+    t, da, _, pos = _dynamic_rows()
+    lines = [header] + [sep.join(f'{v:.6g}' for v in r)
+                        for r in np.column_stack([t * scale, da, pos])]
+    path = tmp_path / 'x.csv'
+    path.write_text('\n'.join(lines) + '\n')
+    data = load_data(path)
+    np.testing.assert_allclose(data.time, t, atol=1e-9)
+    np.testing.assert_allclose(data.position, pos, atol=1e-6)
+
+
+def test_an_unknown_time_unit_is_a_data_error(tmp_path):
+    t, da, _, pos = _dynamic_rows()
+    path = _write(tmp_path / 'x.csv', 'time[min],duty_a,position', np.column_stack([t, da, pos]))
+    with pytest.raises(DataError, match=r"unknown time unit 'min'; known: s, sec, ms, us"):
+        load_data(path)
+
+
 def test_real_morphing_wing_curves_load_as_static_data():
     data = load_data(REAL)
     assert data.kind == 'static'
@@ -107,7 +158,8 @@ def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
      r"line 11, column 'time': 0.3 repeats 0.3 on line 10"),
     (lambda ls: ls[:10] + [ls[11], ls[10]] + ls[12:],
      r"line 12, column 'time': .* goes back from"),
-    (lambda ls: ls[:10] + ls[11:], r"line 11, column 'time': step 0.1 s differs from the median"),
+    (lambda ls: ls[:10] + ls[13:],
+     r"line 11, column 'time': a gap of 0.2 s after 0.3 s, where the median step is 0.05 s"),
     (lambda ls: [ls[0], ls[1], 'time,duty_a,duty_b,angle,ambient_temperature'] + ls[3:],
      r'missing column\(s\) position \(found time, duty_a, duty_b, angle'),
     (lambda ls: [ls[0], ls[1], 'time,duty_a,duty_a,position,ambient_temperature'] + ls[3:],

@@ -193,10 +193,11 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     unit = getattr(args, 'position_unit', None)
     loaded = []
     for path in paths:
-        d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit),
-                              args.max_rate)
-        if note:
-            _note(args, f'{path}: {note}')
+        notes = []
+        d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
+                                        notes=notes), args.max_rate)
+        for line in notes + ([f'{path}: {note}'] if note else []):
+            _note(args, line)
         check_excitation(d, path)
         loaded.append((path, d))
     first = loaded[0][1]

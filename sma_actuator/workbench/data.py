@@ -16,10 +16,13 @@
 Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
 
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
-names are case-insensitive, column order is free, extra columns are ignored):
+names are case-insensitive, column order is free, extra columns are ignored; fields are
+separated by commas, or by semicolons or tabs when the header row has no comma):
 
 * dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
-  time [s] strictly increasing at a steady rate (steps within 1 % of the median),
+  time strictly increasing, in s (or the unit of a ``time[ms]`` header); a record whose
+  steps vary by more than 1 % (clock jitter, rounded stamps, one dropped sample) is
+  resampled to its mean step (`steady_columns`); a longer gap is an error;
   duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
   comment (``# ... position in mm``) or the caller names (default rad), ambient
   temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
@@ -37,12 +40,12 @@ import csv
 import os
 from pathlib import Path
 import re
-from typing import Any, Optional, Union
+from typing import Any, Optional, Tuple, Union
 
 import numpy as np
 
 from . import limits
-from ..core.datakinds import DynamicData, StaticData
+from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE, StaticData
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
 # without duty_b (or with duty_b always 0) the rig is one wire against a bias spring
@@ -51,8 +54,12 @@ DYNAMIC_OPTIONAL = ('duty_b', 'ambient_temperature', 'setpoint')
 UNITS = {'rad': 'rad', 'mrad': 'mrad', 'deg': 'deg', 'degree': 'deg', 'degrees': 'deg',
          'm': 'm', 'cm': 'cm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'in': 'in', 'v': 'V',
          'mv': 'mV', 'counts': 'counts', '%': '%'}
-# a unit in a column name: position[mm], position [mm], position (mm)
-_UNIT_IN_NAME = re.compile(r'^(position|setpoint)\s*[\[(]\s*([^\])]*?)\s*[\])]$')
+# a unit in a column name: position[mm], position [mm], position (mm), time [s]
+_UNIT_IN_NAME = re.compile(r'^(time|position|setpoint)\s*[\[(]\s*([^\])]*?)\s*[\])]$')
+#: time units a header may name -> seconds per unit
+TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6}
+# field separators tried, in order, when the header row has no comma
+OTHER_DELIMITERS = (';', '\t')
 # a unit in a comment line: '# ... Position in mm ...'
 _UNIT_IN_COMMENT = re.compile(r'\bposition\s+in\s+([^\s,;.()]+)', re.IGNORECASE)
 #: accepted static layouts: file column -> StaticData field
@@ -65,7 +72,9 @@ FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
 MAX_CURVE_ID = 10**9
 MIN_SAMPLES = 10
 MCAP_MAGIC = b'\x89MCAP'
-STEADY_RATE_TOLERANCE = 0.01   # relative deviation of a time step from the median step
+# an unsteady record is resampled only if no step exceeds this many mean steps (one
+# dropped sample is bridged, a longer gap is not invented)
+MAX_BRIDGED_STEPS = 2.5
 
 PathLike = Union[str, os.PathLike]
 
@@ -98,14 +107,14 @@ def comment_unit(path: PathLike) -> Optional[str]:
 
 
 def load_data(path: PathLike, rate_hz: Optional[float] = None,
-              position_unit: Optional[str] = None) -> Any:
+              position_unit: Optional[str] = None, notes: Optional[list] = None) -> Any:
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
     rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
-    ``# ... position in mm``; default rad). Raises `DataError` with a clear message on any
-    problem.
+    ``# ... position in mm``; default rad). notes: a list that receives a line when an
+    unsteady record is resampled. Raises `DataError` with a clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
@@ -119,10 +128,11 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
         raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
                         'or an MCAP bag)')
     header, rows, lines = read_csv_table(path)
+    header, named, seconds_per_unit = _units_from_header(path, header)
     if 'time' in header:
-        header, named = _units_from_header(path, header)
+        rows[:, header.index('time')] *= seconds_per_unit
         unit = position_unit or named or comment_unit(path) or 'rad'
-        return dynamic_from_table(path, header, rows, lines, parse_unit(unit, path))
+        return dynamic_from_table(path, header, rows, lines, parse_unit(unit, path), notes)
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
         return static_from_table(path, header, rows, lines)
     raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
@@ -171,12 +181,16 @@ def read_csv_table(path: PathLike) -> tuple:
         raise DataError(f'{path}: {len(numbered) - 1} data rows is over the limit of '
                         f'{limits.MAX_ROWS} rows (split or decimate the record)')
     header_line, header_text = numbered[0]
-    header = [h.strip().lower() for h in _csv_fields(path, header_line, header_text)]
+    delimiter = ',' if ',' in header_text else next(
+        (d for d in OTHER_DELIMITERS if d in header_text), ',')
+    header = [h.strip().lower()
+              for h in _csv_fields(path, header_line, header_text, delimiter)]
     _check_header(path, header_line, header)
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
     for line_no, text_line in numbered[1:]:
-        rows.append(_parse_row(path, line_no, header, _csv_fields(path, line_no, text_line)))
+        rows.append(_parse_row(path, line_no, header,
+                               _csv_fields(path, line_no, text_line, delimiter)))
         lines.append(line_no)
         progress(len(rows))
     if not rows:
@@ -184,10 +198,10 @@ def read_csv_table(path: PathLike) -> tuple:
     return header, np.array(rows, float), np.array(lines)
 
 
-def _csv_fields(path: PathLike, line_no: int, text: str) -> list:
+def _csv_fields(path: PathLike, line_no: int, text: str, delimiter: str = ',') -> list:
     """Split one CSV line into fields; a malformed or oversized field is a `DataError`."""
     try:
-        return next(csv.reader([text]), [])
+        return next(csv.reader([text], delimiter=delimiter), [])
     except csv.Error as err:
         raise DataError(f'{path}: line {line_no}: not a valid CSV row ({err})') from None
 
@@ -244,41 +258,62 @@ def _columns(path: PathLike, header: list, rows: np.ndarray, needed: tuple,
 
 
 def _units_from_header(path: PathLike, header: list) -> tuple:
-    """Return (header with units stripped from position/setpoint names, the unit or None)."""
-    out, unit = [], None
+    """
+    Return (header with units stripped, the position unit or None, seconds per time unit).
+
+    Units in brackets or parentheses after time, position and setpoint (``time [ms]``).
+    """
+    out, unit, seconds = [], None, 1.0
     for h in header:
         m = _UNIT_IN_NAME.match(h)
-        if m:
+        if m and m.group(1) == 'time':
+            if m.group(2) not in TIME_UNITS:
+                raise DataError(f'{path}: unknown time unit {m.group(2)!r}; known: '
+                                f'{", ".join(TIME_UNITS)}')
+            seconds = TIME_UNITS[m.group(2)]
+        elif m:
             if unit is not None and m.group(2) != unit:
                 raise DataError(f'{path}: position and setpoint columns name different units '
                                 f'({unit}, {m.group(2)})')
             unit = m.group(2)
-            h = m.group(1)
-        out.append(h)
-    return out, unit
+        out.append(m.group(1) if m else h)
+    return out, unit, seconds
 
 
 def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np.ndarray,
-                       unit: str = 'rad') -> DynamicData:
-    """`DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line."""
+                       unit: str = 'rad', notes: Optional[list] = None) -> DynamicData:
+    """
+    `DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line.
+
+    An unsteady time column is resampled (`steady_columns`); notes receives the line
+    saying so.
+    """
     cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
     if 'duty_b' not in cols:   # one wire against a bias spring
         cols['duty_b'] = np.zeros(len(rows))
     if len(rows) < MIN_SAMPLES:
         raise DataError(f'{path}: {len(rows)} data row(s); a dynamic record needs at least '
                         f'{MIN_SAMPLES}')
-    check_time(path, cols['time'], lines)
     for name in ('duty_a', 'duty_b'):
         bad = np.flatnonzero((cols[name] < 0) | (cols[name] > 1))
         if bad.size:
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
                             'outside [0, 1] (duty is a fraction, not a percentage)')
+    cols, note = steady_columns(path, cols, lines)
+    if note and notes is not None:
+        notes.append(f'{path}: {note}')
     return make_dynamic(path, cols, unit)
 
 
-def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> None:
-    """Raise `DataError` unless time [s] rises strictly at a steady rate; names the line."""
+def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> float:
+    """
+    Return the mean sample period [s] of a time column; `DataError` naming the line.
+
+    Time must rise strictly. The mean, duration / (samples − 1), is exact under clock
+    jitter and rounded stamps; a dropped sample lengthens it by one part in the number of
+    samples. It must lie within the rate limits.
+    """
     steps = np.diff(time)
     bad = np.flatnonzero(steps <= 0)
     if bad.size:
@@ -286,17 +321,61 @@ def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> None:
         what = 'repeats' if steps[bad[0]] == 0 else 'goes back from'
         raise DataError(f"{path}: line {lines[k]}, column 'time': {time[k]:g} {what} "
                         f'{time[k - 1]:g} on line {lines[k - 1]} (time must increase strictly)')
-    median = float(np.median(steps))
-    problem = limits.period_problem(median)
+    period = float((time[-1] - time[0]) / steps.size)
+    problem = limits.period_problem(period)
     if problem:
-        raise DataError(f"{path}: column 'time': median {problem}; time is in seconds")
-    off = np.flatnonzero(np.abs(steps - median) > STEADY_RATE_TOLERANCE * median)
-    if off.size:
-        k = off[0] + 1
-        raise DataError(f"{path}: line {lines[k]}, column 'time': step {steps[k - 1]:g} s "
-                        f'differs from the median step {median:g} s by more than '
-                        f'{100 * STEADY_RATE_TOLERANCE:g} % (the record must be sampled at a '
-                        'steady rate; resample it)')
+        raise DataError(f"{path}: column 'time': mean {problem}; time is in seconds (or name "
+                        'its unit: time[ms])')
+    return period
+
+
+def steady_columns(path: PathLike, cols: dict, lines: np.ndarray) -> Tuple[dict, Optional[str]]:
+    """
+    Return (the columns on a steady time grid, a note saying what was done or None).
+
+    Steps that vary by at most SAMPLING_TOLERANCE of the median (what `DynamicData`
+    accepts) are kept as they are. Otherwise
+    (clock jitter, stamps rounded to fewer digits than the rate needs, a dropped sample)
+    the record is resampled at its mean step T from its first time (`resample_columns`:
+    each duty the one in effect, other signals interpolated at their measured times). A
+    step over MAX_BRIDGED_STEPS T is a gap: a `DataError` naming the line (split the
+    record there).
+    """
+    time = cols['time']
+    period = check_time(path, time, lines)
+    steps = np.diff(time)
+    median = float(np.median(steps))
+    if np.ptp(steps) <= SAMPLING_TOLERANCE * median:
+        return cols, None
+    gaps = np.flatnonzero(steps > MAX_BRIDGED_STEPS * period)
+    if gaps.size:
+        k = gaps[0] + 1
+        raise DataError(f"{path}: line {lines[k]}, column 'time': a gap of {steps[k - 1]:g} s "
+                        f'after {time[k - 1]:g} s, where the median step is {median:g} s '
+                        '(samples are missing; split the record at the gap)')
+    spread = float(np.max(np.abs(steps - period)) / period)
+    return (resample_columns(cols, period),
+            f'time steps vary by up to {100 * spread:.0f} % of the mean {period:.4g} s; '
+            f'resampled to a steady {1.0 / period:.4g} Hz (duties held, the rest interpolated)')
+
+
+def resample_columns(cols: dict, period: float) -> dict:
+    """
+    Return the columns on the grid time[0] + k period [s] up to the last time.
+
+    Duties (zero-order hold) are the ones in effect at each new time; the other signals
+    are interpolated linearly. Columns that are None stay None.
+    """
+    time = cols['time']
+    t = np.arange(time[0], time[-1] + 0.5 * period, period)
+    t = t[t <= time[-1] + 1e-9]
+    held = np.clip(np.searchsorted(time, t, side='right') - 1, 0, len(time) - 1)
+    out = {'time': t}
+    for name, x in cols.items():
+        if name != 'time':
+            out[name] = None if x is None else (
+                x[held] if name.startswith('duty') else np.interp(t, time, x))
+    return out
 
 
 def make_dynamic(source: Any, cols: dict, unit: str = 'rad') -> DynamicData:

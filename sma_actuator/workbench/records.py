@@ -30,7 +30,7 @@ from typing import Any, Optional, Tuple
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from .data import DataError, MIN_SAMPLES
+from .data import DataError, MIN_SAMPLES, resample_columns
 from .limits import MAX_FIT_RATE_HZ
 from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
 from ..core.identification import flexinol_loop_ratio
@@ -100,14 +100,11 @@ def loop_prior(data: DynamicData, n_train: Optional[int] = None) -> Optional[flo
 
 def _resample(data: DynamicData, dt: float) -> DynamicData:
     """Return `data` on a grid of step dt [s]: duties held, other signals interpolated."""
-    t = np.arange(data.time[0], data.time[-1] + 0.5 * dt, dt)
-    t = t[t <= data.time[-1] + 1e-9]
-    idx = np.clip(np.searchsorted(data.time, t, side='right') - 1, 0, len(data) - 1)
-
-    def interp(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
-        return None if x is None else np.interp(t, data.time, x)
-    return DynamicData(t, data.duty_a[idx], data.duty_b[idx], interp(data.position),
-                       ambient=interp(data.ambient), setpoint=interp(data.setpoint),
+    cols = resample_columns({'time': data.time, 'duty_a': data.duty_a, 'duty_b': data.duty_b,
+                             'position': data.position, 'ambient': data.ambient,
+                             'setpoint': data.setpoint}, dt)
+    return DynamicData(cols['time'], cols['duty_a'], cols['duty_b'], cols['position'],
+                       ambient=cols['ambient'], setpoint=cols['setpoint'],
                        position_unit=data.position_unit, layout=data.layout)
 
 
