@@ -87,3 +87,20 @@ def test_fit_says_when_the_measured_step_leaves_the_time_constant_open(tmp_path,
                                               2.0 * profile['fitted_tau_s']])
     assert 'note: the training records do not identify the thermal time constant' in err
     assert yaml.safe_load(out.read_text())['tau_profile'] == profile
+
+
+@pytest.mark.skipif(not (WIRE / 'ramp_a.csv').is_file(), reason='shared data not found')
+def test_diagnose_blames_the_open_time_constant_not_a_missing_effect(capsys):
+    """Trained on step_a alone, ramp_a held out: 14 % held out, and no effect named for it."""
+    args = ['diagnose', str(WIRE / 'step_a.csv'), str(WIRE / 'ramp_a.csv'), '--candidates',
+            'delay', 'fast_dynamics', '--max-rate', '25', '--jobs', '1']
+    code = cli.main(args + ['--json'])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    doc = json.loads(text)
+    assert doc['missing_effect'] is None and doc['baseline']['validation_nrmse'] > 0.05
+    assert doc['baseline']['tau_profile']['identified'] is False
+    code = cli.main(args)
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    assert 'a held-out error from a wrong τ is not a missing effect' in text

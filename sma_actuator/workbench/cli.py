@@ -567,10 +567,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)
+        profile = _tau_profile(data, diags[0].baseline, progress)
     finally:
         progress.close()
     first = diags[0]
     doc = first.to_json()
+    doc['baseline'].update(profile)
     if args.rounds > 1:
         doc['rounds'] = rounds
         doc['final'] = {'effects': list(base.effects),
@@ -602,6 +604,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
                   'measured range, too little to rank effects reliably (hold out another '
                   'record: give two or more records, or --validate-on)')
+        if profile and not profile['tau_profile']['identified']:
+            print(f'note: {profile["tau_profile"]["note"]}; a held-out error from a wrong τ '
+                  'is not a missing effect')
         if args.rounds > 1:
             print('\n'.join(rounds_lines(doc, args.rounds)))
     return 0
