@@ -137,6 +137,21 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
     assert scored[out] < 0.6 * scored[held]
 
 
+def test_compare_notes_a_record_that_starts_away_from_the_models_rest(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    moved = single_wire_csv(tmp_path / 'moved.csv', seed=3, zero=1.0)   # untared by 1 mm
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, b, '--out', out)[0] == 0
+    code, text, err = run(capsys, 'compare', b, moved, '--model', out, '--json')
+    assert code == 0, err
+    offsets = {r['data']: r['start_offset'] for r in json.loads(text)['records']}
+    assert offsets[str(moved)] == pytest.approx(1.0, abs=0.05)
+    assert abs(offsets[str(b)]) < 0.05
+    assert f'note: {moved} starts at rest +1' in err and f'note: {b}' not in err
+    assert '--add sensor_zero' in err
+
+
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

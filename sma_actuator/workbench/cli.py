@@ -55,6 +55,9 @@ PROG = 'sma-model'
 COMPARED = 'compared'
 # a held-out error within this factor of the measurement noise's leaves nothing to find
 NEAR_NOISE = 1.5
+# a compared record starting at rest this far (share of the measured range) from the
+# model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
+START_OFFSET_NOTE = 0.02
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
                  '(default: %(default)g)')
@@ -499,6 +502,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
+    if data.kind == DynamicData.kind:
+        _note_start_offsets(args, data, fit.prediction, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
@@ -521,6 +526,25 @@ def cmd_compare(args: argparse.Namespace) -> int:
         result.unit = unit
         print('\n'.join(summary_lines(result)))
     return 0
+
+
+def _note_start_offsets(args: argparse.Namespace, data: DynamicData, prediction: np.ndarray,
+                        records: List[Dict[str, Any]]) -> None:
+    """
+    Add each compared record's `start_offset` [position unit]; note the large ones.
+
+    A record that starts at rest more than START_OFFSET_NOTE of the measured range away
+    from the model's rest was most likely read by an untared sensor.
+    """
+    from .records import start_offsets
+    offsets = start_offsets(data, prediction)
+    unit = unit_of(data)
+    for r in records:
+        r['start_offset'] = offsets[r['data']]
+        if abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
+            _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '
+                  "the model's rest (an untared sensor? fit with --add sensor_zero to refer "
+                  'each record to its own start rest)')
 
 
 def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:

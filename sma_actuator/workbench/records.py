@@ -47,18 +47,37 @@ MIN_REVERSAL = 0.5
 REVERSAL_SMOOTH_S = 0.2
 
 
-def record_zero(data: DynamicData) -> float:
+def start_rest(data: DynamicData) -> int:
     """
-    Return the sensor zero of one record: its mean position at rest before the first heating.
+    Return the number of samples of one record's start rest.
 
-    The rest is the first ZERO_WINDOW_S, cut where a duty first exceeds zero (at least
-    the first sample).
+    The first ZERO_WINDOW_S, cut where a duty first exceeds zero (at least the first
+    sample).
     """
     n = max(1, int(round(ZERO_WINDOW_S / data.dt)))
     heated = np.flatnonzero((data.duty_a > 0) | (data.duty_b > 0))
     if heated.size:
         n = max(1, min(n, int(heated[0])))
-    return float(np.mean(data.position[:n]))
+    return n
+
+
+def record_zero(data: DynamicData) -> float:
+    """Return the sensor zero of one record: its mean position at rest (`start_rest`)."""
+    return float(np.mean(data.position[:start_rest(data)]))
+
+
+def start_offsets(data: DynamicData, prediction: np.ndarray) -> dict:
+    """
+    Return {record: mean measured − predicted position over its start rest} [position unit].
+
+    A model without `sensor_zero` predicts where the sensor read at rest in training; a
+    record whose sensor was not tared starts off by this much.
+    """
+    out = {}
+    for name, a, b in data.segments or (('DATA', 0, len(data)),):
+        n = start_rest(segment_view(data, a, b))
+        out[name] = float(np.mean(data.position[a:a + n] - prediction[a:a + n]))
+    return out
 
 
 def reversal(data: DynamicData, n_train: Optional[int] = None) -> float:
