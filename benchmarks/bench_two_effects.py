@@ -20,12 +20,14 @@ loop, noise 0.001 rad) with two catalog effects switched on at a weak or middle 
 with `--source richsim`, of the independent rich simulator (test/support/richsim.py, 480 s
 at 40 Hz, open loop, noise 0.002 rad) with two of its effects, level 0/1/2 the low end,
 middle and high end of each effect's magnitude range.
-For each pair: the effects added round by round (up to 3 rounds), the held-out NRMSE
+For each pair: the effects added round by round (up to 3 rounds) and then removed as
+redundant next to the others (`- name`, `engine.prune_effects`), the held-out NRMSE
 after each (in brackets: a base refitted before a round's effect was named, see
-`engine.better_base`), the seconds, and `ok` when exactly the two hidden effects were
-added.
+`engine.better_base`), the seconds, and `ok` when the final model holds exactly the two
+hidden effects.
 
     python benchmarks/bench_two_effects.py [--jobs 2] [--rounds 3] [--source richsim]
+                                           [--only K ...]
 """
 import argparse
 from pathlib import Path
@@ -93,7 +95,12 @@ def run_case(case):
         if 'refitted_base_nrmse' in a:
             errors.append(f'({100 * a["refitted_base_nrmse"]:.2f})')
         errors.append(f'{100 * a["validation_nrmse"]:.2f}')
-    ok = sorted(names) == sorted([e1, e2])
+    # an effect judged redundant next to the others after the rounds: "- name", its error
+    removed = [a for a in added if a.get('removed')]
+    names += [f'- {a["added"]}' for a in removed]
+    errors += [f'{100 * a["validation_nrmse_without"]:.2f}' for a in removed]
+    kept = [a['added'] for a in added if not a.get('removed')]
+    ok = sorted(kept) == sorted([e1, e2])
     return ok, (f'{e1 + " L" + str(l1):22s} {e2 + " L" + str(l2):24s} '
                 f'{" + ".join(names) or "-":52s} '
                 f'{" > ".join(errors) + " %":30s} '
@@ -105,6 +112,8 @@ def main():
     ap.add_argument('--jobs', type=int, default=2, help='records in parallel')
     ap.add_argument('--rounds', type=int, default=3)
     ap.add_argument('--source', choices=('plant', 'richsim'), default='plant')
+    ap.add_argument('--only', type=int, nargs='+', metavar='K',
+                    help='run only these pairs (0-based, in the order of PAIRS / RICH_PAIRS)')
     args = ap.parse_args()
     noise = 0.002 if args.source == 'richsim' else 0.001
     print(f'{args.source}: 480 s at 40 Hz, open loop, noise {noise} rad; two effects per '
@@ -112,7 +121,8 @@ def main():
     print(f'{"effect 1":22s} {"effect 2":24s} {"added, round by round":52s} '
           f'{"held-out NRMSE":30s}     s')
     pairs = RICH_PAIRS if args.source == 'richsim' else PAIRS
-    cases = [(pair + (700 + i,), args.rounds, args.source) for i, pair in enumerate(pairs)]
+    cases = [(pair + (700 + i,), args.rounds, args.source) for i, pair in enumerate(pairs)
+             if args.only is None or i in args.only]
     found = []
     for _, (ok, line) in imap_on_cores(run_case, cases, args.jobs):
         found.append(ok)

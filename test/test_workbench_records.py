@@ -28,7 +28,8 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import diagnose, diagnose_rounds, fit_model, record_scores
+from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model,
+                                           prune_effects, record_scores)
 from sma_actuator.workbench.records import at_fit_rate, join, loop_prior, segment_of
 from support import richsim
 from support.richsim_excitation import open_loop_duty
@@ -409,7 +410,7 @@ def test_diagnose_names_the_record_stroke_when_one_record_has_another(tmp_path):
     assert best.validation['nrmse'] < 0.6 * base.validation['nrmse']
 
 
-def two_effect_record(duration_s=240.0, rate_hz=25.0, seed=5):
+def two_effect_record(duration_s=240.0, rate_hz=25.0, seed=5, duty_limit=0.45):
     """Return the package's plant with a transport delay and a current limit at once."""
     rng = np.random.default_rng(seed)
     cmd = open_loop_duty(rng, duration_s, duty_max=0.6)
@@ -417,7 +418,7 @@ def two_effect_record(duration_s=240.0, rate_hz=25.0, seed=5):
     t = np.arange(int(round(duration_s * rate_hz))) * dt
     tick = np.minimum((t / 0.025).astype(int), len(cmd) - 1)
     da, db = cmd[tick, 0], cmd[tick, 1]
-    params = ActuatorParams(delay_s=0.4, duty_limit=0.45)
+    params = ActuatorParams(delay_s=0.4, duty_limit=duty_limit)
     y = simulate(params, da, db, dt).position_rad + rng.normal(0, 0.002, len(t))
     return DynamicData(t, da, db, y)
 
@@ -446,3 +447,17 @@ def test_rounds_find_both_hidden_effects_and_each_lowers_the_error():
     assert set(names[:2]) == {'delay', 'current_limit'}, names
     errors = [base.validation['nrmse']] + [r['validation_nrmse'] for r in added]
     assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    # judged again next to each other, both stay
+    assert set(final.effects) == {'delay', 'current_limit'}
+    assert not any(r.get('removed') for r in added)
+
+
+@pytest.mark.slow
+def test_an_effect_the_others_make_redundant_is_removed():
+    """A delay alone, fitted with a needless current limit: the limit goes, the delay stays."""
+    data = two_effect_record(duty_limit=1.0)
+    both = fit_model(data, ('delay', 'current_limit'))
+    final, removed = prune_effects(data, both, jobs=0)
+    assert [r['removed'] for r in removed] == ['current_limit']
+    assert final.effects == ['delay']
+    assert final.values['delay_s'] == pytest.approx(0.4, rel=0.1)

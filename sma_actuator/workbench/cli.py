@@ -645,10 +645,15 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
                          f'{_pct(r["refitted_base_nrmse"])}')
         lines.append(f'  round {i}: + {r["added"]:<20} validation NRMSE '
                      f'{_pct(r["validation_nrmse"])}')
-    if len(doc['rounds']) >= limit:
-        lines.append(f'  stopped after {limit} rounds (--rounds)')
+    stopped = len(doc['rounds']) >= limit
+    lines.append(f'  stopped after {limit} rounds (--rounds)' if stopped
+                 else '  then nothing is significant')
+    for r in (r for r in doc['rounds'] if r.get('removed')):
+        lines.append(f'  then - {r["added"]:<20} validation NRMSE '
+                     f'{_pct(r["validation_nrmse_without"])} (not significant next to the '
+                     'others)')
+    if stopped:
         return lines
-    lines.append('  then nothing is significant')
     final = doc.get('final', {})
     if 'refitted' in final:
         lines.append(f'  final: {final["refitted"]}, validation NRMSE '

@@ -748,8 +748,11 @@ def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
     (the Diagnosis of every round, [{'added': name, 'validation_nrmse': x}, ...], the
     final ModelFit). A round whose diagnosis refitted its base (`Diagnosis.refitted`) also
     has 'refitted_base_nrmse', the held-out NRMSE of that better base fit; after a last
-    round that names nothing the final fit is its base, refitted or not. kw: passed to
-    `diagnose` (candidates, progress, jobs, ...).
+    round that names nothing the final fit is its base, refitted or not. With two effects
+    or more added, each is judged again next to the others (`prune_effects`); one that is
+    no longer significant leaves the final fit, and its round gets 'removed': True and
+    'validation_nrmse_without', the held-out NRMSE once it is removed. kw:
+    passed to `diagnose` (candidates, progress, jobs, ...).
     """
     diags, added = [], []
     for _ in range(max(int(rounds), 1)):
@@ -764,7 +767,42 @@ def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
         if diag.refitted:
             added[-1]['refitted_base_nrmse'] = base.validation['nrmse']
         base = best['fit']
+    if len(added) >= 2:
+        base, removed = prune_effects(data, base, **kw)
+        for r in removed:
+            entry = next(a for a in added if a['added'] == r['removed'])
+            entry.update(removed=True, validation_nrmse_without=r['validation_nrmse'])
     return diags, added, base
+
+
+def prune_effects(data: Any, fit: ModelFit, **kw: Any) -> tuple:
+    """
+    Drop the named effects the others make redundant; return (the fit, [{'removed', ...}]).
+
+    The rounds add one effect at a time, each judged against the model before it, and a
+    later effect can take over what an earlier one stood in for (a current limit for an
+    unmodelled lag). So each effect is judged again as if it were the last one missing:
+    the model with the others, refitted warm from `fit`, is diagnosed with that effect
+    as the only candidate (all four checks of `diagnose`). One that is not named again is
+    removed, and the check starts over on the smaller model. Each entry has the removed
+    'removed' effect and the held-out 'validation_nrmse' of the model without it.
+    kw: passed to `diagnose` (progress, jobs; the candidates are the fit's effects).
+    """
+    kw = {k: v for k, v in kw.items() if k != 'candidates'}
+    removed = []
+    while len(fit.effects) >= 2:
+        for name in fit.effects:
+            rest = tuple(e for e in fit.effects if e != name)
+            kind = None if get_effect(name).kind else fit.kind
+            diag = diagnose(data, base=fit_model(data, rest, kind=kind, base_fit=fit),
+                            candidates=[name], **kw)
+            if diag.missing_effect != name:
+                fit = diag.baseline
+                removed.append({'removed': name, 'validation_nrmse': fit.validation['nrmse']})
+                break
+        else:
+            break
+    return fit, removed
 
 
 def judge_candidate(task: tuple) -> dict:

@@ -122,11 +122,15 @@ def save_rounds_plot(directory: PathLike, doc: dict) -> Path:
     """
     Write rounds.png: validation NRMSE [%] after each round of `diagnose --rounds`.
 
-    doc: the diagnose JSON document with 'baseline' and 'rounds'; returns the path.
+    doc: the diagnose JSON document with 'baseline' and 'rounds'; an effect removed after
+    the rounds (`engine.prune_effects`) is a last point; returns the path.
     """
-    labels = ['base'] + [f'+ {r["added"]}' for r in doc['rounds']]
-    values = [doc['baseline']['validation_nrmse']] + [r['validation_nrmse']
-                                                      for r in doc['rounds']]
+    removed = [r for r in doc['rounds'] if r.get('removed')]
+    labels = (['base'] + [f'+ {r["added"]}' for r in doc['rounds']]
+              + [f'- {r["added"]}' for r in removed])
+    values = ([doc['baseline']['validation_nrmse']]
+              + [r['validation_nrmse'] for r in doc['rounds']]
+              + [r['validation_nrmse_without'] for r in removed])
     fig, axes = _figure(w=max(4, 1.6 * len(labels)), h=3.5)
     ax = axes[0, 0]
     ax.plot(range(len(values)), 100 * np.asarray(values, float), 'o-', color='tab:red')
