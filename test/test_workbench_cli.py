@@ -427,3 +427,19 @@ def test_rounds_text_shows_the_base_refits_and_the_error_falling():
     doc['baseline']['refitted'] = why
     assert cli.diagnosis_lines(dict(doc, candidates=[], missing_effect=None),
                                'modified')[1] == f'  {why}'
+
+
+def test_rounds_text_and_plot_show_an_effect_removed_after_the_rounds(tmp_path):
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.1086},
+           'rounds': [{'added': 'asymmetric_wires', 'validation_nrmse': 0.0759},
+                      {'added': 'current_limit', 'validation_nrmse': 0.0296, 'removed': True,
+                       'validation_nrmse_without': 0.0011},
+                      {'added': 'fast_dynamics', 'validation_nrmse': 0.0011}],
+           'final': {'effects': ['asymmetric_wires', 'fast_dynamics'],
+                     'validation_nrmse': 0.0011}}
+    lines = cli.rounds_lines(doc, 3)
+    assert lines[-2:] == ['  stopped after 3 rounds (--rounds)',
+                          '  then - current_limit        validation NRMSE 0.11 % (not '
+                          'significant next to the others)']
+    from sma_actuator.workbench.report import save_rounds_plot
+    assert save_rounds_plot(tmp_path, doc).stat().st_size > 0
