@@ -269,9 +269,19 @@ class _DynamicKind:
     @staticmethod
     def records(data: DynamicData, prediction: np.ndarray, split: Optional[Split] = None,
                 role: Optional[str] = None) -> List[Dict[str, Any]]:
-        """Return the per-record scores of `prediction` (`engine.record_scores`)."""
+        """
+        Return the per-record scores of `prediction` (`engine.record_scores`).
+
+        Compared records also get their `start_offset` (`records.start_offsets`).
+        """
         from .engine import record_scores
-        return record_scores(data, prediction, split, role)
+        from .records import start_offsets
+        rows = record_scores(data, prediction, split, role)
+        if role == COMPARED:
+            offsets = start_offsets(data, prediction)
+            for r in rows:
+                r['start_offset'] = offsets[r['data']]
+        return rows
 
     @staticmethod
     def scored(data: DynamicData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
@@ -423,7 +433,6 @@ def _tau_profile(data: Any, fit: Any, progress: Progress) -> Dict[str, Any]:
     Two more fits with the thermal time constant held (`identifiability.tau_profile`).
     """
     from .identifiability import tau_profile
-    from ..core.datakinds import DynamicData
     if getattr(data, 'kind', None) != DynamicData.kind or 'tau_s' not in fit.values:
         return {}
     progress(0, 1, 'time-constant profile')
@@ -502,8 +511,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
-    if data.kind == DynamicData.kind:
-        _note_start_offsets(args, data, fit.prediction, records)
+    _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
@@ -528,19 +536,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _note_start_offsets(args: argparse.Namespace, data: DynamicData, prediction: np.ndarray,
+def _note_start_offsets(args: argparse.Namespace, data: Any,
                         records: List[Dict[str, Any]]) -> None:
     """
-    Add each compared record's `start_offset` [position unit]; note the large ones.
+    Note each compared record whose `start_offset` [position unit] is large.
 
     A record that starts at rest more than START_OFFSET_NOTE of the measured range away
     from the model's rest was most likely read by an untared sensor.
     """
-    from .records import start_offsets
-    offsets = start_offsets(data, prediction)
     unit = unit_of(data)
     for r in records:
-        r['start_offset'] = offsets[r['data']]
         if abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
             _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '
                   "the model's rest (an untared sensor? fit with --add sensor_zero to refer "

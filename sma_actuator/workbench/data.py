@@ -306,9 +306,9 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
     return make_dynamic(path, cols, unit)
 
 
-def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> float:
+def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> Tuple[np.ndarray, float]:
     """
-    Return the mean sample period [s] of a time column; `DataError` naming the line.
+    Return (the time steps [s], their mean) of a time column; `DataError` naming the line.
 
     Time must rise strictly. The mean, duration / (samples − 1), is exact under clock
     jitter and rounded stamps; a dropped sample lengthens it by one part in the number of
@@ -326,7 +326,7 @@ def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> float:
     if problem:
         raise DataError(f"{path}: column 'time': mean {problem}; time is in seconds (or name "
                         'its unit: time[ms])')
-    return period
+    return steps, period
 
 
 def steady_columns(path: PathLike, cols: dict, lines: np.ndarray) -> Tuple[dict, Optional[str]]:
@@ -342,8 +342,7 @@ def steady_columns(path: PathLike, cols: dict, lines: np.ndarray) -> Tuple[dict,
     record there).
     """
     time = cols['time']
-    period = check_time(path, time, lines)
-    steps = np.diff(time)
+    steps, period = check_time(path, time, lines)
     median = float(np.median(steps))
     if np.ptp(steps) <= SAMPLING_TOLERANCE * median:
         return cols, None
