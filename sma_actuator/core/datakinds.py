@@ -48,6 +48,11 @@ MIN_DUTY_EXCITATION = 0.05
 SAMPLING_TOLERANCE = 0.01
 
 
+def uniform_steps(steps: np.ndarray) -> bool:
+    """Return True if the time steps [s] spread by at most SAMPLING_TOLERANCE x their median."""
+    return bool(np.ptp(steps) <= SAMPLING_TOLERANCE * np.median(steps))
+
+
 @dataclass(frozen=True)
 class Split:
     """
@@ -192,7 +197,7 @@ class DynamicData(_Data):
             k = int(np.flatnonzero(steps <= 0)[0])
             raise ValueError(f'time must be strictly increasing (row {k + 1}: {self.time[k + 1]} '
                              f'after {self.time[k]})')
-        if np.ptp(steps) > SAMPLING_TOLERANCE * np.median(steps):
+        if not uniform_steps(steps):
             raise ValueError('time must be uniformly sampled (steps vary by more than '
                              f'{100 * SAMPLING_TOLERANCE:g} %)')
         for name in ('duty_a', 'duty_b'):

@@ -45,7 +45,7 @@ from typing import Any, Optional, Tuple, Union
 import numpy as np
 
 from . import limits
-from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE, StaticData
+from ..core.datakinds import DynamicData, StaticData, uniform_steps
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
 # without duty_b (or with duty_b always 0) the rig is one wire against a bias spring
@@ -333,19 +333,18 @@ def steady_columns(path: PathLike, cols: dict, lines: np.ndarray) -> Tuple[dict,
     """
     Return (the columns on a steady time grid, a note saying what was done or None).
 
-    Steps that vary by at most SAMPLING_TOLERANCE of the median (what `DynamicData`
-    accepts) are kept as they are. Otherwise
-    (clock jitter, stamps rounded to fewer digits than the rate needs, a dropped sample)
-    the record is resampled at its mean step T from its first time (`resample_columns`:
-    each duty the one in effect, other signals interpolated at their measured times). A
-    step over MAX_BRIDGED_STEPS T is a gap: a `DataError` naming the line (split the
-    record there).
+    Steps that `DynamicData` accepts as uniform (`datakinds.uniform_steps`) are kept as
+    they are. Otherwise (clock jitter, stamps rounded to fewer digits than the rate needs,
+    a dropped sample) the record is resampled at its mean step T from its first time
+    (`resample_columns`: each duty the one in effect, other signals interpolated at their
+    measured times). A step over MAX_BRIDGED_STEPS T is a gap: a `DataError` naming the
+    line (split the record there).
     """
     time = cols['time']
     steps, period = check_time(path, time, lines)
-    median = float(np.median(steps))
-    if np.ptp(steps) <= SAMPLING_TOLERANCE * median:
+    if uniform_steps(steps):
         return cols, None
+    median = float(np.median(steps))
     gaps = np.flatnonzero(steps > MAX_BRIDGED_STEPS * period)
     if gaps.size:
         k = gaps[0] + 1
