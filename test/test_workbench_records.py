@@ -28,7 +28,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model,
+from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model, load_fit,
                                            prune_effects, record_scores)
 from sma_actuator.workbench.records import at_fit_rate, join, loop_prior, segment_of
 from support import richsim
@@ -40,16 +40,24 @@ DT = 0.05
 
 
 def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[mm]',
-                    dt=DT, comment='', stroke=1.0):
-    """Write a simulated single wire against a spring (mm), resting first; returns path."""
+                    dt=DT, comment='', stroke=1.0, start_duty=0.0, warm=False):
+    """
+    Write a simulated single wire against a spring (mm); returns path.
+
+    The first 2 s hold start_duty (0: resting first). warm: the wire has been held at
+    start_duty for 60 s before the record begins (a log begun mid-run).
+    """
     rng = np.random.default_rng(seed)
     hold = int(round(4.0 / dt))
     levels = np.repeat(rng.uniform(0.2, 0.6, n // hold + 1), hold)[:n]
     levels[rng.random(levels.size) < 0.0] = 0.0
     duty = np.where((np.arange(n) // hold) % 2 == 1, levels, 0.0)
-    duty[:int(2.0 / dt)] = 0.0
-    tr = simulate(ActuatorParams(), duty, np.zeros(n), dt)
-    y = 8.0 * stroke * (tr.position_rad - tr.position_rad[0]) + zero + rng.normal(0, 0.01, n)
+    duty[:int(2.0 / dt)] = start_duty
+    lead = int(round(60.0 / dt)) if warm else 0
+    tr = simulate(ActuatorParams(), np.r_[np.full(lead, start_duty), duty],
+                  np.zeros(lead + n), dt)
+    y = (8.0 * stroke * (tr.position_rad[lead:] - tr.position_rad[0]) + zero
+         + rng.normal(0, 0.01, n))
     cols = [np.arange(n) * dt, duty, y]
     if 'duty_b' in header:
         cols.insert(2, np.zeros(n))
@@ -151,6 +159,30 @@ def test_compare_notes_a_record_that_starts_away_from_the_models_rest(tmp_path, 
     assert abs(offsets[str(b)]) < 0.05
     assert f'note: {moved} starts at rest +1' in err and f'note: {b}' not in err
     assert '--add sensor_zero' in err
+
+
+def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    warm = single_wire_csv(tmp_path / 'warm.csv', seed=3, start_duty=0.4, warm=True)
+    cold = single_wire_csv(tmp_path / 'cold.csv', seed=3, start_duty=0.4)
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, b, '--out', out)[0] == 0
+    code, text, err = run(capsys, 'compare', b, warm, cold, '--model', out, '--json')
+    assert code == 0, err
+    rows = {r['data']: r for r in json.loads(text)['records']}
+    assert [rows[str(p)]['warm_start'] for p in (b, warm, cold)] == [False, True, False]
+    assert f'note: {warm} starts with the wires warm (duty_a 0.4' in err
+    assert f'note: {cold}' not in err and f'{warm} starts at rest' not in err
+    nrmse = {p: rows[str(p)]['scores']['all']['nrmse'] for p in (b, warm, cold)}
+    assert max(nrmse.values()) < 0.01
+    record = load_data(warm)
+    from_rest = load_fit(yaml.safe_load(out.read_text())).simulate(join([('w', record)]))
+    assert np.sqrt(np.mean((from_rest - record.position) ** 2)) > 0.2 * np.ptp(record.position)
+    code, text, err = run(capsys, 'compare', warm, '--model', out, '--json')
+    alone = json.loads(text)['records'][0]
+    assert alone['warm_start'] and alone['scores']['all']['rmse'] == pytest.approx(
+        rows[str(warm)]['scores']['all']['rmse'], rel=1e-6)
 
 
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):

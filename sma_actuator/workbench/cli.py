@@ -225,7 +225,8 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     return loaded
 
 
-def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]]) -> Any:
+def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
+                 warm: Tuple[str, ...] = ()) -> Any:
     """Return the checked records joined (`records.join`), the held-out ones last."""
     from .records import join
     if not loaded[0][1].joinable:
@@ -234,7 +235,7 @@ def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]]) -> Any
     if not held and len(loaded) > 1 and getattr(args, 'command', '') != 'compare':
         held = [loaded[-1][0]]
     notes = []
-    data = join(loaded, held_out=tuple(held), notes=notes)
+    data = join(loaded, held_out=tuple(held), notes=notes, warm=warm)
     for line in notes:
         _note(args, line)
     return data
@@ -252,7 +253,8 @@ def _record_lines(data: DynamicData, role: Optional[str] = None) -> List[str]:
     if not data.segments:
         return [describe(data)]
     if len(data.segments) == 1:
-        return [f'{data.segments[0][0]}: {describe(data)}']
+        name, a, b = data.segments[0]
+        return [f'{name}: {describe(segment_view(data, a, b))}']
     out = []
     for name, a, b in data.segments:
         held = data.split is not None and a >= data.split
@@ -402,7 +404,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 _note(args, line)
             fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
             records = per_record(fit, data)
-        profile = _tau_profile(data, fit, progress)
+        profile = _tau_profile(args, data, fit, progress)
     finally:
         progress.close()
     if profile and not profile['tau_profile']['identified']:
@@ -426,7 +428,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _tau_profile(data: Any, fit: Any, progress: Progress) -> Dict[str, Any]:
+def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
+                 progress: Progress) -> Dict[str, Any]:
     """
     Return {'tau_profile': ...} for a dynamic fit ({} for curves).
 
@@ -435,8 +438,8 @@ def _tau_profile(data: Any, fit: Any, progress: Progress) -> Dict[str, Any]:
     from .identifiability import tau_profile
     if getattr(data, 'kind', None) != DynamicData.kind or 'tau_s' not in fit.values:
         return {}
-    progress(0, 1, 'time-constant profile')
-    return {'tau_profile': tau_profile(data, fit).to_json()}
+    profile = tau_profile(data, fit, jobs=args.jobs, progress=progress)
+    return {'tau_profile': profile.to_json()}
 
 
 def _fit_left_out(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
@@ -483,7 +486,7 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, score_line, summary_lines
-    from .engine import load_fit
+    from .records import warm_starts
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -494,23 +497,24 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if not is_fitted(spec):
         raise UsageError(f'{args.model}: holds no fitted model (no "model" section); run '
                          f'{PROG} fit DATA --out FITTED.yaml first')
-    data = load_checked_data(args)
+    loaded = load_checked_records(args)
     names = ' '.join(all_data(args))
+    first = loaded[0][1]
     fitted_on = StaticData if is_static_model(spec) else DynamicData
-    if fitted_on.kind != data.kind:
+    if fitted_on.kind != first.kind:
         raise UsageError(f'{args.model} was fitted on {fitted_on.noun} but '
-                         f'{names} is {data.noun}')
-    check_rig(spec, data, args.model)
-    try:
-        fit = load_fit(spec, data=data)
-    except (KeyError, TypeError, ValueError) as err:
-        what = f'missing {err}' if isinstance(err, KeyError) else str(err)
-        raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
+                         f'{names} is {first.noun}')
+    check_rig(spec, first, args.model)
+    fit = _fitted(args, spec)
+    warm = warm_starts(fit, loaded) if first.joinable else ()
+    data = join_records(args, loaded, warm)
+    fit = _fitted(args, spec, data)
     profile = spec.get('tau_profile')
     if isinstance(profile, dict) and profile.get('identified') is False:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
+    _note_warm_starts(args, loaded, warm, records)
     _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
@@ -536,6 +540,29 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None) -> Any:
+    """Return the model file's fit (`engine.load_fit`), scored on `data` if given."""
+    from .engine import load_fit
+    try:
+        return load_fit(spec, data=data)
+    except (KeyError, TypeError, ValueError) as err:
+        what = f'missing {err}' if isinstance(err, KeyError) else str(err)
+        raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
+
+
+def _note_warm_starts(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
+                      warm: Tuple[str, ...], records: List[Dict[str, Any]]) -> None:
+    """Mark each compared record `warm_start` and note the ones simulated from warm."""
+    first_duties = {name: (d.duty_a[0], d.duty_b[0]) for name, d in loaded if name in warm}
+    for r in records:
+        r['warm_start'] = r['data'] in warm
+        if r['warm_start']:
+            duty_a, duty_b = first_duties[r['data']]
+            _note(args, f'note: {r["data"]} starts with the wires warm (duty_a {duty_a:.3g}, '
+                  f'duty_b {duty_b:.3g} on at its first sample): simulated from the steady '
+                  'state of those duties, not from rest')
+
+
 def _note_start_offsets(args: argparse.Namespace, data: Any,
                         records: List[Dict[str, Any]]) -> None:
     """
@@ -549,7 +576,8 @@ def _note_start_offsets(args: argparse.Namespace, data: Any,
         if abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
             _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '
                   "the model's rest (an untared sensor? fit with --add sensor_zero to refer "
-                  'each record to its own start rest)')
+                  'each record to its own start rest; or wires still warm from an earlier '
+                  'run? start the record at rest)')
 
 
 def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:
@@ -596,7 +624,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)
-        profile = _tau_profile(data, diags[0].baseline, progress)
+        profile = _tau_profile(args, data, diags[0].baseline, progress)
     finally:
         progress.close()
     first = diags[0]

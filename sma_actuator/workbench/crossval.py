@@ -46,13 +46,19 @@ def all_records(records: Sequence[Tuple[str, DynamicData]],
 
 
 def _fit_task(item: tuple) -> ModelFit:
-    """Fit the (data, effects, kind) task of an (index, task) item (runs in a worker)."""
-    data, effects, kind = item[1]
-    return fit_model(data, effects=effects, kind=kind)
+    """Fit the (data, effects, kind, pinned) task of an (index, task) item (in a worker)."""
+    data, effects, kind, pinned = item[1]
+    return fit_model(data, effects=effects, kind=kind, pinned=pinned)
 
 
-def _fit_all(tasks: list, jobs: int, progress: Optional[Callable]) -> List[ModelFit]:
-    """Return the fits of `tasks` in order, on `jobs` processes (0: every core)."""
+def fit_all(tasks: list, jobs: int = 0, progress: Optional[Callable] = None,
+            label: str = 'fits') -> List[ModelFit]:
+    """
+    Return the fits of the (data, effects, kind, pinned) `tasks` in order (`engine.fit_model`).
+
+    jobs: processes (0: every core); plug-in effects are fitted in this process, a worker
+    would not have them. progress(done, total, label) after each fit.
+    """
     poolable = all(is_builtin(e) for e in tasks[0][1])
     workers = min(jobs or available_cores(), len(tasks)) if poolable else 1
     items = list(enumerate(tasks))
@@ -60,7 +66,7 @@ def _fit_all(tasks: list, jobs: int, progress: Optional[Callable]) -> List[Model
     for done, (item, fit) in enumerate(imap_on_cores(_fit_task, items, workers), 1):
         fits[item[0]] = fit
         if progress:
-            progress(done, len(tasks), 'fits')
+            progress(done, len(tasks), label)
     return fits
 
 
@@ -84,8 +90,7 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
     folds = [join(list(records), held_out=(name,)) for name in names]
     data = all_records(records)
     effects = tuple(effects)
-    fits = _fit_all([(d, effects, kind) for d in folds] + [(data, effects, kind)], jobs,
-                    progress)
+    fits = fit_all([(d, effects, kind, None) for d in folds + [data]], jobs, progress)
     final = fits[-1]
     left_out = np.full(len(data), np.nan)
     for name, fold, fit in zip(names, folds, fits):

@@ -23,9 +23,10 @@ branch to temperature and so τ to time. `tau_profile` refits with τ held at a 
 and above the fitted one: where the training error does not rise, τ is not identified.
 """
 from dataclasses import dataclass
-from typing import Any, Tuple
+from typing import Any, Callable, Optional, Tuple
 
-from .engine import fit_model, ModelFit
+from .crossval import fit_all
+from .engine import ModelFit
 
 #: τ is held at these multiples of the fitted value
 PROFILE_FACTORS = (0.5, 2.0)
@@ -68,16 +69,18 @@ class TauProfile:
                 'a record at another duty level, or one that cools')
 
 
-def tau_profile(data: Any, fit: ModelFit, factors: Tuple[float, ...] = PROFILE_FACTORS
-                ) -> TauProfile:
+def tau_profile(data: Any, fit: ModelFit, factors: Tuple[float, ...] = PROFILE_FACTORS,
+                jobs: int = 0, progress: Optional[Callable] = None) -> TauProfile:
     """
     Refit `fit`'s model on `data` with τ held at each factor × the fitted τ.
 
     Each refit starts from scratch (its own hysteresis grid), with the fit's effects and
-    their other parameters free, and is scored on the same training window.
+    their other parameters free, and is scored on the same training window. The refits run
+    on `jobs` processes (0: every core); progress(done, total, label) after each.
     """
     tau = float(fit.values['tau_s'])
     held = tuple(f * tau for f in factors)
-    errors = tuple(float(fit_model(data, tuple(fit.effects), fit.kind,
-                                   pinned={'tau_s': t}).train['nrmse']) for t in held)
-    return TauProfile(tau, float(fit.train['nrmse']), held, errors)
+    tasks = [(data, tuple(fit.effects), fit.kind, {'tau_s': t}) for t in held]
+    fits = fit_all(tasks, jobs, progress, 'time-constant profile fits')
+    return TauProfile(tau, float(fit.train['nrmse']), held,
+                      tuple(float(f.train['nrmse']) for f in fits))

@@ -17,8 +17,10 @@ Join several dynamic records of one rig into one record set.
 Each record is simulated from its own initial state: the records are joined with a rest
 gap of `REST_GAP_S` of zero duty between them, long enough for the model's wires to cool
 to ambient, so every record starts at rest; the gaps are not scored (`DynamicData.scored`)
-and not regressed. Records at another sample rate are resampled to the first record's rate
-(duties held, position and ambient interpolated). Held-out records go last, so the
+and not regressed. A record that starts warm (a log begun mid-run, `warm_starts`) is led
+in by its first duties held as long after the rest, so it starts in their steady state.
+Records at another sample rate are resampled to the first record's rate (duties held,
+position and ambient interpolated). Held-out records go last, so the
 training window is one prefix (`DynamicData.split`).
 
 Default train/validation rule: with one record, the first 70 % of time trains and the rest
@@ -45,6 +47,11 @@ ZERO_WINDOW_S = 1.0
 MIN_REVERSAL = 0.5
 # moving mean over the measured position before looking for reversals [s] (sensor noise)
 REVERSAL_SMOOTH_S = 0.2
+# a record that starts with a duty on starts warm when the steady state of its first duties
+# predicts its first ZERO_WINDOW_S this much closer than a start at rest (mean |error|) ...
+WARM_ADVANTAGE = 0.5
+# ... and the start at rest misses by more than this share of the record's range
+WARM_MIN_MISS = 0.02
 
 
 def start_rest(data: DynamicData) -> int:
@@ -194,16 +201,32 @@ def check_compatible(records: list) -> None:
                                 'fitted together need the same columns)')
 
 
-def join(records: list, held_out: tuple = (),
-         notes: Optional[list] = None) -> DynamicData:
+def _lead_in(d: DynamicData, n: int, warm: bool) -> tuple:
+    """
+    Return the unscored lead-in of record `d`: n samples at rest (then n more if warm).
+
+    The n more hold the warm record's first duties: it so starts on the heating branch of
+    their steady state, whatever the record before it left.
+    """
+    def first(x: Optional[np.ndarray], k: int) -> Optional[np.ndarray]:
+        return None if x is None else np.full(k, x[0])
+    k = 2 * n if warm else n
+    heat = np.arange(k) >= n
+    return (first(d.duty_a, k) * heat, first(d.duty_b, k) * heat, first(d.position, k),
+            first(d.ambient, k), first(d.setpoint, k), np.zeros(k, bool))
+
+
+def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
+         warm: tuple = ()) -> DynamicData:
     """
     Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
 
     held_out: names of the records to validate on (they go last). With one record and none
     held out, that record is returned as it is (the time split applies). notes: a list
-    that receives one line per resampled record.
+    that receives one line per resampled record. warm: names of records led in by their
+    first duties held for REST_GAP_S after the rest (they start in that steady state).
     """
-    if len(records) == 1 and not held_out:
+    if len(records) == 1 and not held_out and not warm:
         name, d = records[0]
         return DynamicData(d.time, d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                            d.position_unit, d.layout, ((name, 0, len(d)),), None, None)
@@ -223,13 +246,9 @@ def join(records: list, held_out: tuple = (),
             d = _resample(d, dt)
         if split is None and name in held_out:
             split = at
-        if i:
-            rest = d.position[0]
-            parts.append((np.zeros(gap), np.zeros(gap), np.full(gap, rest),
-                          None if d.ambient is None else np.full(gap, d.ambient[0]),
-                          None if d.setpoint is None else np.full(gap, d.setpoint[0]),
-                          np.zeros(gap, bool)))
-            at += gap
+        if i or name in warm:
+            parts.append(_lead_in(d, gap, name in warm))
+            at += len(parts[-1][0])
         parts.append((d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                       np.ones(len(d), bool)))
         segments.append((name, at, at + len(d)))
@@ -239,6 +258,33 @@ def join(records: list, held_out: tuple = (),
     d0 = records[0][1]
     return DynamicData(np.arange(at) * dt, cols[0], cols[1], cols[2], cols[3], cols[4],
                        d0.position_unit, d0.layout, tuple(segments), cols[5], split)
+
+
+def warm_starts(model: Any, records: list) -> tuple:
+    """
+    Return the names of the (name, DynamicData) records that `model` sees start warm.
+
+    A record whose first sample has a duty on was begun at rest as that duty came on, or
+    logged mid-run with the wires warm. Such a record is simulated both ways: from rest and
+    from the steady state of its first duties (`join(..., warm=...)`). It starts warm when
+    the mean |measured − predicted| over its first ZERO_WINDOW_S is below WARM_ADVANTAGE
+    times the start at rest's, and the start at rest misses by more than WARM_MIN_MISS of
+    the record's range.
+    """
+    out = []
+    for name, d in records:
+        if d.duty_a[0] <= 0 and d.duty_b[0] <= 0:
+            continue
+        n = min(len(d), max(1, int(round(ZERO_WINDOW_S / d.dt))))
+        miss = []
+        for warm in ((), (name,)):
+            joined = join([(name, d)], warm=warm)
+            a = segment_of(joined, name)[0]
+            predicted = model.simulate(joined)[a:a + n]
+            miss.append(float(np.mean(np.abs(d.position[:n] - predicted))))
+        if miss[1] < WARM_ADVANTAGE * miss[0] and miss[0] > WARM_MIN_MISS * d.span():
+            out.append(name)
+    return tuple(out)
 
 
 def segment_of(data: DynamicData, name: str) -> tuple:
