@@ -128,6 +128,32 @@ def test_an_unknown_time_unit_is_a_data_error(tmp_path):
         load_data(path)
 
 
+@pytest.mark.parametrize('header,time_scale,duty_scale,unit', [
+    ('time_ms,duty_a[%],position_mm', 1e3, 100.0, 'mm'),
+    ('time [s],duty_a (%),position (mm)', 1.0, 100.0, 'mm'),
+    ('time,duty_a[-],position[°]', 1.0, 1.0, 'deg')])
+def test_units_of_time_duty_and_position_come_from_the_header(tmp_path, header, time_scale,
+                                                              duty_scale, unit):
+    t, da, _, pos = _dynamic_rows()
+    path = _write(tmp_path / 'x.csv', header,
+                  np.column_stack([t * time_scale, da * duty_scale, pos]))
+    data = load_data(path)
+    np.testing.assert_allclose(data.time, t, atol=1e-9)
+    np.testing.assert_allclose(data.duty_a, da, atol=1e-6)
+    assert data.position_unit == unit
+
+
+def test_an_unknown_duty_unit_and_a_percentage_without_its_unit_are_data_errors(tmp_path):
+    t, da, _, pos = _dynamic_rows()
+    path = _write(tmp_path / 'v.csv', 'time,duty_a[V],position', np.column_stack([t, da, pos]))
+    with pytest.raises(DataError, match=r"unknown duty unit 'v'; known: -, 1, fraction, %"):
+        load_data(path)
+    path = _write(tmp_path / 'p.csv', 'time,duty_a,position',
+                  np.column_stack([t, 100 * da, pos]))
+    with pytest.raises(DataError, match=r'outside \[0, 1\] .*name a percentage: duty_a\[%\]'):
+        load_data(path)
+
+
 def test_real_morphing_wing_curves_load_as_static_data():
     data = load_data(REAL)
     assert data.kind == 'static'

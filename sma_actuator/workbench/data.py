@@ -53,11 +53,18 @@ DYNAMIC_OPTIONAL = ('duty_b', 'ambient_temperature', 'setpoint')
 #: position units the workbench knows (lower-case spelling -> how it is shown)
 UNITS = {'rad': 'rad', 'mrad': 'mrad', 'deg': 'deg', 'degree': 'deg', 'degrees': 'deg',
          'm': 'm', 'cm': 'cm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'in': 'in', 'v': 'V',
-         'mv': 'mV', 'counts': 'counts', '%': '%'}
-# a unit in a column name: position[mm], position [mm], position (mm), time [s]
-_UNIT_IN_NAME = re.compile(r'^(time|position|setpoint)\s*[\[(]\s*([^\])]*?)\s*[\])]$')
+         'mv': 'mV', 'counts': 'counts', '%': '%', '°': 'deg'}
+# a unit in a column name: position[mm], position [mm], position (mm), time [s], duty_a[%]
+_UNIT_IN_NAME = re.compile(r'^(time|position|setpoint|duty_a|duty_b|ambient_temperature)'
+                           r'\s*[\[(]\s*([^\])]*?)\s*[\])]$')
+# a unit as a name suffix: position_mm, time_ms (only units these columns know)
+_UNIT_SUFFIX = re.compile(r'^(time|position|setpoint)_([a-zµ]+)$')
 #: time units a header may name -> seconds per unit
 TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6}
+#: duty units a header may name -> fraction per unit
+DUTY_UNITS = {'-': 1.0, '1': 1.0, 'fraction': 1.0, '%': 0.01}
+#: ambient temperature units a header may name (the model works in °C)
+AMBIENT_UNITS = ('°c', 'degc', 'c')
 # field separators tried, in order, when the header row has no comma
 OTHER_DELIMITERS = (';', '\t')
 # a unit in a comment line: '# ... Position in mm ...'
@@ -128,9 +135,10 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
         raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
                         'or an MCAP bag)')
     header, rows, lines = read_csv_table(path)
-    header, named, seconds_per_unit = _units_from_header(path, header)
+    header, named, scales = _units_from_header(path, header)
+    for column, scale in scales.items():
+        rows[:, header.index(column)] *= scale
     if 'time' in header:
-        rows[:, header.index('time')] *= seconds_per_unit
         unit = position_unit or named or comment_unit(path) or 'rad'
         return dynamic_from_table(path, header, rows, lines, parse_unit(unit, path), notes)
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
@@ -257,27 +265,48 @@ def _columns(path: PathLike, header: list, rows: np.ndarray, needed: tuple,
     return {c: rows[:, header.index(c)] for c in (*needed, *optional) if c in header}
 
 
+def _unit_in_name(name: str) -> Optional[tuple]:
+    """Return (column, unit) of a header name carrying a unit (``time [ms]``), else None."""
+    m = _UNIT_IN_NAME.match(name)
+    if m:
+        return m.group(1), m.group(2)
+    m = _UNIT_SUFFIX.match(name)
+    known = TIME_UNITS if m and m.group(1) == 'time' else UNITS
+    return (m.group(1), m.group(2)) if m and m.group(2) in known else None
+
+
+def _column_scale(path: PathLike, column: str, unit: str) -> float:
+    """Return the factor to seconds (time), to a fraction (duties) or 1 (ambient in °C)."""
+    table, what = {'time': (TIME_UNITS, 'time'), 'duty_a': (DUTY_UNITS, 'duty'),
+                   'duty_b': (DUTY_UNITS, 'duty'),
+                   'ambient_temperature': (dict.fromkeys(AMBIENT_UNITS, 1.0), 'ambient')}[column]
+    if unit not in table:
+        raise DataError(f'{path}: unknown {what} unit {unit!r}; known: {", ".join(table)} '
+                        f'(column {column!r})')
+    return table[unit]
+
+
 def _units_from_header(path: PathLike, header: list) -> tuple:
     """
-    Return (header with units stripped, the position unit or None, seconds per time unit).
+    Return (header with units stripped, the position unit or None, {column: scale}).
 
-    Units in brackets or parentheses after time, position and setpoint (``time [ms]``).
+    Units in brackets or parentheses (``time [ms]``, ``duty_a[%]``, ``position (mm)``) or as
+    a suffix of time and position (``time_ms``, ``position_mm``). Scales convert time to
+    seconds and duties to fractions.
     """
-    out, unit, seconds = [], None, 1.0
+    out, unit, scales = [], None, {}
     for h in header:
-        m = _UNIT_IN_NAME.match(h)
-        if m and m.group(1) == 'time':
-            if m.group(2) not in TIME_UNITS:
-                raise DataError(f'{path}: unknown time unit {m.group(2)!r}; known: '
-                                f'{", ".join(TIME_UNITS)}')
-            seconds = TIME_UNITS[m.group(2)]
-        elif m:
-            if unit is not None and m.group(2) != unit:
+        named = _unit_in_name(h)
+        column = named[0] if named else h
+        if named and column in ('position', 'setpoint'):
+            if unit is not None and named[1] != unit:
                 raise DataError(f'{path}: position and setpoint columns name different units '
-                                f'({unit}, {m.group(2)})')
-            unit = m.group(2)
-        out.append(m.group(1) if m else h)
-    return out, unit, seconds
+                                f'({unit}, {named[1]})')
+            unit = named[1]
+        elif named:
+            scales[column] = _column_scale(path, column, named[1])
+        out.append(column)
+    return out, unit, scales
 
 
 def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np.ndarray,
@@ -299,7 +328,7 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
         if bad.size:
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
-                            'outside [0, 1] (duty is a fraction, not a percentage)')
+                            'outside [0, 1] (duty is a fraction; name a percentage: duty_a[%])')
     cols, note = steady_columns(path, cols, lines)
     if note and notes is not None:
         notes.append(f'{path}: {note}')
