@@ -67,6 +67,17 @@ def test_extra_keys_of_newer_writers_are_accepted(fitted_file, tmp_path):
         load_model(path)
 
 
+@pytest.mark.parametrize('rig,message', [
+    ({'layout': 'single'}, 'fitted on one wire against a bias spring'),
+    ({'position_unit': 'mm'}, 'fitted on positions in mm; the controller and the simulated')])
+def test_a_fit_of_another_rig_is_refused_for_control(fitted_file, tmp_path, rig, message):
+    spec = dict(yaml.safe_load(fitted_file.read_text()), **rig)
+    path = tmp_path / 'other_rig.yaml'
+    path.write_text(yaml.safe_dump(spec))
+    with pytest.raises(ModelFileError, match=message):
+        load_model(path)
+
+
 def test_old_actuator_params_files_are_converted_with_a_clear_message(tmp_path):
     path = tmp_path / 'old.yaml'
     path.write_text(yaml.safe_dump(ActuatorParams(tau_fast_s=0.1).to_dict()))

@@ -173,9 +173,11 @@ def load_model(path: PathLike) -> ActuatorParams:
     (the `ActuatorParams` fields at the top level) is converted with a
     `ModelFormatWarning`. Raises `ModelFileError` (a ValueError) with a one-line message
     naming the file when it cannot be used for control: missing, not YAML, a static
-    (curve-only) fit, or invalid parameter values.
+    (curve-only) fit, a fit of another rig (one wire against a bias spring, or positions
+    in another unit than rad), or invalid parameter values.
     """
     spec = read_model(path)
+    _check_control_rig(path, spec)
     model = spec.get('model')
     if not model:
         top = set(spec) - {'effects'}
@@ -198,6 +200,17 @@ def load_model(path: PathLike) -> ActuatorParams:
         return ActuatorParams.from_dict({k: v for k, v in model.items() if k in _FIELDS})
     except (TypeError, ValueError, KeyError) as err:
         raise ModelFileError(f'{path}: invalid model: {err}') from None
+
+
+def _check_control_rig(path: PathLike, spec: Mapping[str, Any]) -> None:
+    """Raise `ModelFileError` unless the fit's rig is the antagonistic pair read in rad."""
+    if spec.get('layout', 'antagonistic') != 'antagonistic':
+        raise ModelFileError(f'{path}: fitted on one wire against a bias spring; the '
+                             'controller and the simulated plant drive an antagonistic pair')
+    unit = spec.get('position_unit', 'rad')
+    if unit != 'rad':
+        raise ModelFileError(f'{path}: fitted on positions in {unit}; the controller and the '
+                             'simulated plant work in rad (fit records of the shaft angle)')
 
 
 def save_model(params: ActuatorParams, path: PathLike, header: str = '',
