@@ -185,6 +185,26 @@ def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
         rows[str(warm)]['scores']['all']['rmse'], rel=1e-6)
 
 
+def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    warm = single_wire_csv(tmp_path / 'warm.csv', seed=3, start_duty=0.4, warm=True)
+    code, text, err = run(capsys, 'fit', a, b, warm, '--json')
+    assert code == 0, err
+    doc = json.loads(text)
+    assert {r['data']: r['warm_start'] for r in doc['records']} == {
+        str(a): False, str(b): False, str(warm): True}
+    assert err.count(f'note: {warm} starts with the wires warm') == 1
+    # every record, the warm one too, predicted from the other two as well as from rest
+    assert max(r['scores']['all']['nrmse'] for r in doc['records']) < 0.01
+    code, text, err = run(capsys, 'fit', warm, '--json')
+    assert code == 0 and json.loads(text)['records'][0]['warm_start'], err
+    code, text, err = run(capsys, 'diagnose', a, warm, '--candidates', 'delay', '--json')
+    assert code == 0, err
+    assert f'note: {warm} starts with the wires warm' in err
+    assert json.loads(text)['baseline']['validation_nrmse'] < 0.01
+
+
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

@@ -224,8 +224,17 @@ class DynamicData(_Data):
         return np.ones(len(self), bool) if self.scored is None else np.asarray(self.scored, bool)
 
     def default_split(self, train_fraction: float = TRAIN_FRACTION) -> Split:
-        """Return the held-out records' start, else the first `train_fraction` of time."""
-        return Split(int(self.split) if self.split else int(round(train_fraction * len(self))))
+        """
+        Return the held-out records' start, else the time split.
+
+        The time split leaves the first `train_fraction` of the measured samples (the
+        lead-in of a joined record is not counted) for training.
+        """
+        if self.split:
+            return Split(int(self.split))
+        measured = np.flatnonzero(self.scored_mask())
+        return Split(int(measured[min(int(round(train_fraction * len(measured))),
+                                      len(measured) - 1)]))
 
     def held_out(self, split: Optional[Split] = None) -> np.ndarray:
         """Return the samples from the split's start on (default: the time split)."""

@@ -165,18 +165,6 @@ def check_effect_names(names: Sequence[str], catalog: Mapping[str, Any],
                          f'{", ".join(sorted(catalog))}')
 
 
-def load_checked_data(args: argparse.Namespace) -> Any:
-    """
-    Load every DATA record, check each and join them; return the data object.
-
-    The result is static curves or a dynamic record (`workbench.data`).
-
-    One record: as it is (the time split applies). Several dynamic records: joined at
-    rest by `records.join`, the last one (or the --validate-on ones) held out.
-    """
-    return join_records(args, load_checked_records(args))
-
-
 def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
     """
     Load and check every DATA record; return [(path, data)], the --layout applied.
@@ -382,7 +370,6 @@ def model_line(effects: Sequence[str], kind: str) -> str:
 def cmd_fit(args: argparse.Namespace) -> int:
     """Run `sma-model fit`: fit the base model plus effects; print scores; write FITTED.yaml."""
     from .compare import score_line
-    from .engine import fit_model
     from ..core.model_file import check_writable, write_model
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
@@ -396,14 +383,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     loaded = load_checked_records(args)
     progress = Progress('fit')
     try:
-        if len(loaded) > 1 and not args.validate_on:
-            data, fit, records = _fit_left_out(args, loaded, tuple(effects), kind, progress)
-        else:
-            data = join_records(args, loaded)
-            for line in data_lines(data):
-                _note(args, line)
-            fit = fit_model(data, effects=tuple(effects), kind=kind, progress=progress)
-            records = per_record(fit, data)
+        data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress)
+        warm = warm_records(args, fit, loaded)
+        if warm:
+            data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress,
+                                              warm)
+        mark_warm(records, warm)
         profile = _tau_profile(args, data, fit, progress)
     finally:
         progress.close()
@@ -442,19 +427,32 @@ def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
     return {'tau_profile': profile.to_json()}
 
 
-def _fit_left_out(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
-                  kind: Optional[str], progress: Progress) -> tuple:
-    """Fit several records leaving each out in turn (`crossval`); return (data, fit, rows)."""
+def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
+                 kind: Optional[str], progress: Progress, warm: Tuple[str, ...] = ()) -> tuple:
+    """
+    Fit the records; return (data, fit, per-record rows).
+
+    Several records without --validate-on: each left out in turn (`crossval`); else one
+    split. warm: records led in warm (`records.join`); the records are described (notes)
+    only on the first fit, the one without.
+    """
     from .crossval import all_records, cross_validate, LEFT_OUT
-    notes = []
-    lines = _record_lines(all_records(loaded, notes), LEFT_OUT)
-    for line in notes + lines:
+    from .engine import fit_model
+    if len(loaded) > 1 and not args.validate_on:
+        if not warm:
+            notes = []
+            for line in notes + _record_lines(all_records(loaded, notes), LEFT_OUT):
+                _note(args, line)
+            _note(args, 'validation: each record predicted by the model fitted on the others; '
+                  f'the model written is fitted on all {len(loaded)} (--validate-on to hold '
+                  'records out)')
+        return cross_validate(loaded, effects, kind, jobs=args.jobs, progress=progress,
+                              warm=warm)
+    data = join_records(args, loaded, warm)
+    for line in [] if warm else data_lines(data):
         _note(args, line)
-    _note(args, f'validation: each record predicted by the model fitted on the others; the '
-          f'model written is fitted on all {len(loaded)} (--validate-on to hold records out)')
-    data, fit, records = cross_validate(loaded, effects, kind, jobs=args.jobs,
-                                        progress=progress)
-    return data, fit, records
+    fit = fit_model(data, effects=effects, kind=kind, progress=progress)
+    return data, fit, per_record(fit, data)
 
 
 def unit_of(data: Any) -> str:
@@ -486,7 +484,6 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, score_line, summary_lines
-    from .records import warm_starts
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -505,8 +502,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise UsageError(f'{args.model} was fitted on {fitted_on.noun} but '
                          f'{names} is {first.noun}')
     check_rig(spec, first, args.model)
-    fit = _fitted(args, spec)
-    warm = warm_starts(fit, loaded) if first.joinable else ()
+    warm = warm_records(args, _fitted(args, spec), loaded)
     data = join_records(args, loaded, warm)
     fit = _fitted(args, spec, data)
     profile = spec.get('tau_profile')
@@ -514,7 +510,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
-    _note_warm_starts(args, loaded, warm, records)
+    mark_warm(records, warm)
     _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
@@ -550,17 +546,29 @@ def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
 
 
-def _note_warm_starts(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
-                      warm: Tuple[str, ...], records: List[Dict[str, Any]]) -> None:
-    """Mark each compared record `warm_start` and note the ones simulated from warm."""
-    first_duties = {name: (d.duty_a[0], d.duty_b[0]) for name, d in loaded if name in warm}
+def warm_records(args: argparse.Namespace, fit: Any,
+                 loaded: List[Tuple[str, Any]]) -> Tuple[str, ...]:
+    """
+    Return the records `fit` sees start warm (`records.warm_starts`), a note for each.
+
+    () for curves.
+    """
+    from .records import warm_starts
+    if not loaded[0][1].joinable:
+        return ()
+    warm = warm_starts(fit, loaded)
+    for name, d in loaded:
+        if name in warm:
+            _note(args, f'note: {name} starts with the wires warm (duty_a {d.duty_a[0]:.3g}, '
+                  f'duty_b {d.duty_b[0]:.3g} on at its first sample): simulated from the '
+                  'steady state of those duties, not from rest')
+    return warm
+
+
+def mark_warm(records: List[Dict[str, Any]], warm: Tuple[str, ...]) -> None:
+    """Give each per-record row `warm_start`: whether it was simulated from warm."""
     for r in records:
         r['warm_start'] = r['data'] in warm
-        if r['warm_start']:
-            duty_a, duty_b = first_duties[r['data']]
-            _note(args, f'note: {r["data"]} starts with the wires warm (duty_a {duty_a:.3g}, '
-                  f'duty_b {duty_b:.3g} on at its first sample): simulated from the steady '
-                  'state of those duties, not from rest')
 
 
 def _note_start_offsets(args: argparse.Namespace, data: Any,
@@ -615,12 +623,18 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.candidates:
         check_effect_names(args.candidates, catalog, '--candidates')
     kind = args.kind or spec.get('kind')
-    data = load_checked_data(args)
+    loaded = load_checked_records(args)
+    data = join_records(args, loaded)
     for line in data_lines(data):
         _note(args, line)
     progress = Progress('base fit')
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
+        warm = warm_records(args, base, loaded)
+        if warm:
+            data = join_records(args, loaded, warm)
+            base = fit_model(data, effects=tuple(spec['effects']), kind=kind,
+                             progress=progress)
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)

@@ -38,10 +38,10 @@ LEFT_OUT = 'left out'
 RULE = 'leave one record out'
 
 
-def all_records(records: Sequence[Tuple[str, DynamicData]],
-                notes: Optional[list] = None) -> DynamicData:
-    """Return the (name, DynamicData) records joined at rest, every one of them training."""
-    data = join(list(records), notes=notes)
+def all_records(records: Sequence[Tuple[str, DynamicData]], notes: Optional[list] = None,
+                warm: tuple = ()) -> DynamicData:
+    """Return the (name, DynamicData) records joined (`records.join`), every one training."""
+    data = join(list(records), notes=notes, warm=warm)
     return replace(data, split=len(data))
 
 
@@ -72,7 +72,8 @@ def fit_all(tasks: list, jobs: int = 0, progress: Optional[Callable] = None,
 
 def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = (),
                    kind: Optional[str] = None, jobs: int = 0,
-                   progress: Optional[Callable] = None) -> Tuple[DynamicData, ModelFit, list]:
+                   progress: Optional[Callable] = None,
+                   warm: tuple = ()) -> Tuple[DynamicData, ModelFit, list]:
     """
     Return (the joined records, the model fitted on all of them, the per-record scores).
 
@@ -82,13 +83,14 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
     predictions of every record (NRMSE over the whole set's measured range, as any held-out
     score). Per record: {'data', 'role': 'left out', 'scores': {'all': ŷ_i's scores,
     'train': the returned model's}}. jobs: processes for the fits (0: every core; plug-in
-    effects are fitted in this process, a worker would not have them).
+    effects are fitted in this process, a worker would not have them). warm: records led
+    in warm (`records.join`).
     """
     if len(records) < 2:
         raise ValueError('leaving one record out needs two records or more')
     names = [name for name, _ in records]
-    folds = [join(list(records), held_out=(name,)) for name in names]
-    data = all_records(records)
+    folds = [join(list(records), held_out=(name,), warm=warm) for name in names]
+    data = all_records(records, warm=warm)
     effects = tuple(effects)
     fits = fit_all([(d, effects, kind, None) for d in folds + [data]], jobs, progress)
     final = fits[-1]
