@@ -255,10 +255,12 @@ def test_too_little_excitation(tmp_path):
                   np.column_stack([t, np.full_like(t, 0.3), np.zeros_like(t), pos]))
     with pytest.raises(DataError, match='too little excitation: duty_a and duty_b hardly vary'):
         check_excitation(load_data(path), path)
+    check_excitation(load_data(path), path, to_fit=False)   # a step from rest tests a model
     path = _write(tmp_path / 'still.csv', 'time,duty_a,duty_b,position',
                   np.column_stack([t, da, db, np.full_like(t, 0.1)]))
-    with pytest.raises(DataError, match='position is constant'):
-        check_excitation(load_data(path), path)
+    for to_fit in (True, False):
+        with pytest.raises(DataError, match='position is constant'):
+            check_excitation(load_data(path), path, to_fit=to_fit)
 
 
 def test_mcap_bag_loads_through_load_run(tmp_path):

@@ -185,6 +185,23 @@ def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
         rows[str(warm)]['scores']['all']['rmse'], rel=1e-6)
 
 
+def test_compare_takes_a_step_from_the_first_sample_that_fit_refuses(tmp_path, capsys):
+    out = tmp_path / 'm.yaml'
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    assert run(capsys, 'fit', a, single_wire_csv(tmp_path / 'b.csv', seed=2), '--out', out)[0] == 0
+    n = 400
+    tr = simulate(ActuatorParams(), np.full(n, 0.4), np.zeros(n), DT)
+    step = tmp_path / 'step.csv'
+    np.savetxt(step, np.column_stack([np.arange(n) * DT, np.full(n, 0.4),
+                                      8.0 * (tr.position_rad - tr.position_rad[0])]),
+               delimiter=',', header='time,duty_a,position[mm]', comments='')
+    code, text, err = run(capsys, 'compare', step, '--model', out, '--json')
+    assert code == 0, err
+    record = json.loads(text)['records'][0]
+    assert not record['warm_start'] and record['scores']['all']['nrmse'] < 0.02
+    assert_one_line_error(*run(capsys, 'fit', step)[::2], 'too little excitation')
+
+
 def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

@@ -134,8 +134,12 @@ class _Data:
         """Return why `effect` (a catalog `Effect`) cannot be fitted on this data, or None."""
         raise NotImplementedError
 
-    def excitation_problem(self) -> Optional[str]:
-        """Return why the data cannot identify a model (a constant signal), or None."""
+    def excitation_problem(self, to_fit: bool = True) -> Optional[str]:
+        """
+        Return why the data cannot identify a model (a constant signal), or None.
+
+        to_fit False: why it cannot test a fitted model (the signals it needs to vary).
+        """
         raise NotImplementedError
 
     def describe(self) -> str:
@@ -276,9 +280,14 @@ class DynamicData(_Data):
                 'rate_hz': float(1.0 / self.dt), 'layout': self.layout,
                 'position_unit': self.position_unit}
 
-    def excitation_problem(self) -> Optional[str]:
-        """Return why the record cannot identify the model: duties or position constant."""
-        if np.ptp(self.duty_a) + np.ptp(self.duty_b) < MIN_DUTY_EXCITATION:
+    def excitation_problem(self, to_fit: bool = True) -> Optional[str]:
+        """
+        Return why the record cannot identify the model: duties or position constant.
+
+        A fitted model is tested on any record that moves: a constant duty from the first
+        sample is a step from rest.
+        """
+        if to_fit and np.ptp(self.duty_a) + np.ptp(self.duty_b) < MIN_DUTY_EXCITATION:
             return (f'duty_a and duty_b hardly vary (ranges {np.ptp(self.duty_a):.3g}, '
                     f'{np.ptp(self.duty_b):.3g}), the thermal and hysteresis parameters '
                     'cannot be identified')
@@ -365,8 +374,8 @@ class StaticData(_Data):
         return {'samples': len(self), 'duration_s': None, 'rate_hz': None,
                 'layout': 'static curves', 'position_unit': None}
 
-    def excitation_problem(self) -> Optional[str]:
-        """Return why the curves cannot identify the model: output or input constant."""
+    def excitation_problem(self, to_fit: bool = True) -> Optional[str]:
+        """Return why the curves cannot identify or test the model: output or input constant."""
         return _constant((('output', self.output), ('input', self.input)))
 
     def describe(self) -> str:

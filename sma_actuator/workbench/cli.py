@@ -189,7 +189,7 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
                                         notes=notes), args.max_rate)
         for line in notes + ([f'{path}: {note}'] if note else []):
             _note(args, line)
-        check_excitation(d, path)
+        check_excitation(d, path, to_fit=getattr(args, 'command', '') != 'compare')
         loaded.append((path, d))
     first = loaded[0][1]
     other = next(((p, d) for p, d in loaded if d.kind != first.kind), None)

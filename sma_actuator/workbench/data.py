@@ -494,9 +494,13 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None) -> DynamicData:
 
 
 # ------------------------------------------------------------------------------ checks
-def check_excitation(data: Any, source: str = 'DATA') -> None:
-    """Raise `DataError` if the record cannot identify the model: constant output or input."""
-    problem = data.excitation_problem()
+def check_excitation(data: Any, source: str = 'DATA', to_fit: bool = True) -> None:
+    """
+    Raise `DataError` if the record cannot identify the model: constant output or input.
+
+    to_fit False: if it cannot test a fitted model (`excitation_problem`).
+    """
+    problem = data.excitation_problem(to_fit)
     if problem:
         raise DataError(f'{source}: too little excitation: {problem}')
 
