@@ -142,7 +142,7 @@ def _data_problem(data):
 
 @pytest.fixture
 def stub_fit(monkeypatch):
-    """Replace the model fit by a stub that keeps the data it is given."""
+    """Replace the model fit by a stub that keeps the data it is given (and predicts it)."""
     seen = []
 
     def fake_fit(data, effects=(), kind=None, progress=None, **_):
@@ -150,7 +150,7 @@ def stub_fit(monkeypatch):
         return SimpleNamespace(effects=tuple(effects), kind=kind or 'modified', n_parameters=0,
                                values={}, train=None, validation=None, signals={},
                                prediction=getattr(data, 'position', None), split=None,
-                               to_dict=lambda: {})
+                               to_dict=lambda: {}, simulate=lambda other: other.position)
     monkeypatch.setattr(engine, 'fit_model', fake_fit)
     return seen
 
