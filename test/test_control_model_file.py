@@ -78,6 +78,15 @@ def test_a_fit_of_another_rig_is_refused_for_control(fitted_file, tmp_path, rig,
         load_model(path)
 
 
+def test_a_fit_where_wire_a_turns_the_shaft_to_minus_phi_is_refused(fitted_file, tmp_path):
+    spec = yaml.safe_load(fitted_file.read_text())
+    spec['model']['stroke_rad'] = -spec['model']['stroke_rad']
+    path = tmp_path / 'mirrored.yaml'
+    path.write_text(yaml.safe_dump(spec))
+    with pytest.raises(ModelFileError, match=r'heating wire a lowers the reading .* swap duty_a'):
+        load_model(path)
+
+
 def test_old_actuator_params_files_are_converted_with_a_clear_message(tmp_path):
     path = tmp_path / 'old.yaml'
     path.write_text(yaml.safe_dump(ActuatorParams(tau_fast_s=0.1).to_dict()))

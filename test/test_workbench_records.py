@@ -222,6 +222,20 @@ def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
     assert json.loads(text)['baseline']['validation_nrmse'] < 0.01
 
 
+def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_path, capsys):
+    scores = {}
+    for sign in (1.0, -1.0):
+        a = single_wire_csv(tmp_path / f'a{sign:+.0f}.csv', seed=1, stroke=sign)
+        b = single_wire_csv(tmp_path / f'b{sign:+.0f}.csv', seed=2, stroke=sign)
+        out = tmp_path / f'm{sign:+.0f}.yaml'
+        code, text, err = run(capsys, 'fit', a, b, '--out', out, '--json')
+        assert code == 0, err
+        scores[sign] = [r['scores']['all']['nrmse'] for r in json.loads(text)['records']]
+        assert np.sign(yaml.safe_load(out.read_text())['model']['stroke_rad']) == sign
+    # as well as the records read the right way round (the search path differs a little)
+    np.testing.assert_allclose(scores[-1.0], scores[1.0], rtol=0.3)
+
+
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

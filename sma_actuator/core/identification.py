@@ -43,6 +43,7 @@ from typing import Callable, Optional
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear, nnls
+from scipy.signal import lfilter
 
 from . import actuator as act
 from . import kernels
@@ -333,6 +334,7 @@ class _Problem:
         self.amb = (data.ambient if data.ambient is not None
                     else np.full(len(data), setup.base.ambient_c))
         self.keep = None if data.scored is None else np.asarray(data.scored, bool)
+        self.direction = setup.direction
 
     def regressors(self, params: act.ActuatorParams, n: int, rows: slice = slice(None),
                    values: Optional[dict] = None,
@@ -436,6 +438,8 @@ class _Problem:
         # regress the angle before the sensor, p⁻¹(y); the residual is the forward one,
         # p(X b) − y, which the outer search minimises
         target = act.sensor_inverse(params, y)
+        if self.direction < 0:   # the weights stay >= 0 on the hysteresis columns
+            X[:, :self.grid.n_operators + 1] *= -1.0
         if any(k in self.names for k in LINEAR_PARAMS):
             # weights >= 0, each wire's fatigue drift within half the measured travel (beyond
             # that g_a − g_b with huge cancelling offsets fits start-up transients), offset free
@@ -465,6 +469,7 @@ class _Problem:
                                         0.0).output_range()
             stroke = max(y_hi - y_lo, 1e-9)
         h = PlayHysteresis(g.r, g.lo, g.hi, w / stroke, k1 / stroke, -y_lo / stroke)
+        stroke *= self.direction
         # φ = φ0 + stroke (y_a − s_b y_b): the y0 shift enters through (1 − s_b), unless the
         # (fatigue) regressors already count the states from cold
         offset = b[-1]
@@ -793,6 +798,9 @@ class Setup:
     start_tau: bool = False
     # β of `tie_loop_width` (None: the grids' widths are free), see `fit_dynamic`
     loop_ratio: Optional[float] = None
+    # sign of the stroke g: +1 when heating wire a raises the reading, −1 when the sensor
+    # reads the other way (`travel_direction`)
+    direction: float = 1.0
 
     @property
     def feedback(self) -> bool:
@@ -889,7 +897,24 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
     if start:
         values.update({k: v for k, v in start.items() if k in values})
     return Setup(data, base, free, values, n_train, burn_in, input_hook,
-                 bool(start) and 'tau_s' in start, loop_ratio)
+                 bool(start) and 'tau_s' in start, loop_ratio,
+                 travel_direction(data, n_train, base.tau_s))
+
+
+def travel_direction(data: DynamicData, n_train: int, tau_s: float) -> float:
+    """
+    Return +1 if the reading rises as wire a heats (or wire b cools), −1 if it falls.
+
+    The sign of the correlation, over the training samples, between the measured position
+    and the duty difference d_a − d_b through the first-order lag of eq. (7) at τ = tau_s:
+    a potentiometer can be mounted either way round, and the hysteresis weights are
+    non-negative, so the stroke g carries the sign.
+    """
+    alpha = data.dt / (tau_s + data.dt)
+    heat = lfilter([alpha], [1.0, alpha - 1.0], data.duty_a - data.duty_b)[:n_train]
+    keep = data.scored_mask()[:n_train]
+    x, y = heat[keep] - np.mean(heat[keep]), data.position[:n_train][keep]
+    return -1.0 if float(np.dot(x, y - np.mean(y))) < 0.0 else 1.0
 
 
 def _sensor_travel(base: act.ActuatorParams, position: np.ndarray) -> act.ActuatorParams:

@@ -173,8 +173,9 @@ def load_model(path: PathLike) -> ActuatorParams:
     (the `ActuatorParams` fields at the top level) is converted with a
     `ModelFormatWarning`. Raises `ModelFileError` (a ValueError) with a one-line message
     naming the file when it cannot be used for control: missing, not YAML, a static
-    (curve-only) fit, a fit of another rig (one wire against a bias spring, or positions
-    in another unit than rad), or invalid parameter values.
+    (curve-only) fit, a fit of another rig (one wire against a bias spring, positions in
+    another unit than rad, or a negative stroke: wire a turning the shaft towards −φ), or
+    invalid parameter values.
     """
     spec = read_model(path)
     _check_control_rig(path, spec)
@@ -197,9 +198,15 @@ def load_model(path: PathLike) -> ActuatorParams:
         warnings.warn(f'{path}: model keys not known to this version ignored: {unknown}',
                       ModelFormatWarning, stacklevel=2)
     try:
-        return ActuatorParams.from_dict({k: v for k, v in model.items() if k in _FIELDS})
+        params = ActuatorParams.from_dict({k: v for k, v in model.items() if k in _FIELDS})
     except (TypeError, ValueError, KeyError) as err:
         raise ModelFileError(f'{path}: invalid model: {err}') from None
+    if params.stroke_rad < 0:
+        raise ModelFileError(f'{path}: heating wire a lowers the reading in this fit '
+                             f'(stroke_rad {params.stroke_rad:.4g} < 0); the controller turns '
+                             'the shaft towards +φ with wire a: swap duty_a and duty_b (or the '
+                             "position's sign) in the records and fit again")
+    return params
 
 
 def _check_control_rig(path: PathLike, spec: Mapping[str, Any]) -> None:
