@@ -40,22 +40,27 @@ DT = 0.05
 
 
 def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[mm]',
-                    dt=DT, comment='', stroke=1.0, start_duty=0.0, warm=False):
+                    dt=DT, comment='', stroke=1.0, start_duty=0.0, warm=False, hold_s=4.0,
+                    tau_s=None):
     """
     Write a simulated single wire against a spring (mm); returns path.
 
     The first 2 s hold start_duty (0: resting first). warm: the wire has been held at
-    start_duty for 60 s before the record begins (a log begun mid-run).
+    start_duty for 60 s before the record begins (a log begun mid-run). Duty levels are
+    held hold_s, every other one zero; tau_s: the wire's time constant (default the
+    package's, 2.2 s).
     """
     rng = np.random.default_rng(seed)
-    hold = int(round(4.0 / dt))
+    params = ActuatorParams()
+    if tau_s is not None:
+        params = params.with_changes(heat_capacity_j_per_k=tau_s * params.conductance_w_per_k)
+    hold = int(round(hold_s / dt))
     levels = np.repeat(rng.uniform(0.2, 0.6, n // hold + 1), hold)[:n]
     levels[rng.random(levels.size) < 0.0] = 0.0
     duty = np.where((np.arange(n) // hold) % 2 == 1, levels, 0.0)
     duty[:int(2.0 / dt)] = start_duty
     lead = int(round(60.0 / dt)) if warm else 0
-    tr = simulate(ActuatorParams(), np.r_[np.full(lead, start_duty), duty],
-                  np.zeros(lead + n), dt)
+    tr = simulate(params, np.r_[np.full(lead, start_duty), duty], np.zeros(lead + n), dt)
     y = (8.0 * stroke * (tr.position_rad[lead:] - tr.position_rad[0]) + zero
          + rng.normal(0, 0.01, n))
     cols = [np.arange(n) * dt, duty, y]
@@ -234,6 +239,33 @@ def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_
         assert np.sign(yaml.safe_load(out.read_text())['model']['stroke_rad']) == sign
     # as well as the records read the right way round (the search path differs a little)
     np.testing.assert_allclose(scores[-1.0], scores[1.0], rtol=0.3)
+
+
+def test_a_slow_wire_is_fitted_with_its_time_constant(tmp_path, capsys):
+    # τ = 30 s: beyond the search's starts (0.66-6.6 s)
+    record = single_wire_csv(tmp_path / 'a.csv', n=1600, dt=0.25, hold_s=40.0, tau_s=30.0)
+    code, text, err = run(capsys, 'fit', record, '--json')
+    assert code == 0, err
+    doc = json.loads(text)
+    assert doc['parameters']['tau_s'] == pytest.approx(30.0, rel=0.05)
+    assert doc['train_nrmse'] < 0.003
+
+
+def test_the_real_wire_four_times_slower_is_joined_with_a_longer_rest(tmp_path, capsys):
+    # the measured records with time x 4: τ 27 s, so 60 s of rest leaves the wire warm
+    paths = []
+    for name in ('step_a', 'ramp_a', 'square_a'):
+        d = load_data(WIRE / f'{name}.csv')
+        paths.append(tmp_path / f'{name}.csv')
+        np.savetxt(paths[-1], np.column_stack([4 * d.time, d.duty_a, d.position]),
+                   delimiter=',', header='time,duty_a,position[mm]', comments='')
+    code, text, err = run(capsys, 'fit', *paths, '--json')
+    assert code == 0, err
+    doc = json.loads(text)
+    assert 'the records are joined with' in err and 's of rest (6 τ, not 60 s)' in err
+    assert doc['parameters']['tau_s'] == pytest.approx(4 * 6.8, rel=0.1)
+    assert doc['train_nrmse'] < 0.01
+    assert max(r['scores']['all']['nrmse'] for r in doc['records']) < 0.04
 
 
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):

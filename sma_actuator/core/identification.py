@@ -779,6 +779,12 @@ class SearchOptions:
     refine: int = 2
 
 
+# the slowest thermal time constant a fit may find [s] (a thick or sleeved wire)
+MAX_TAU_S = 60.0
+# first-order lags [s] through which `travel_direction` correlates duty and position
+DIRECTION_TAUS_S = tuple(0.25 * 2.0 ** k for k in range(9))
+
+
 @dataclass(frozen=True)
 class Setup:
     """
@@ -880,7 +886,7 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
         base = base.with_changes(ambient_c=float(np.mean(data.ambient[: max(1, len(data) // 50)])))
     if 'ambient_gain' not in free:   # the paper's model: constant ambient temperature
         base = base.with_changes(ambient_gain=0.0)
-    free.setdefault('tau_s', (0.2, 20.0, base.tau_s))
+    free.setdefault('tau_s', (0.2, MAX_TAU_S, base.tau_s))
     for k, (lo, hi, x0) in free.items():
         if not lo <= x0 <= hi:
             raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
@@ -898,23 +904,29 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
         values.update({k: v for k, v in start.items() if k in values})
     return Setup(data, base, free, values, n_train, burn_in, input_hook,
                  bool(start) and 'tau_s' in start, loop_ratio,
-                 travel_direction(data, n_train, base.tau_s))
+                 travel_direction(data, n_train))
 
 
-def travel_direction(data: DynamicData, n_train: int, tau_s: float) -> float:
+def travel_direction(data: DynamicData, n_train: int) -> float:
     """
     Return +1 if the reading rises as wire a heats (or wire b cools), −1 if it falls.
 
-    The sign of the correlation, over the training samples, between the measured position
-    and the duty difference d_a − d_b through the first-order lag of eq. (7) at τ = tau_s:
-    a potentiometer can be mounted either way round, and the hysteresis weights are
-    non-negative, so the stroke g carries the sign.
+    A potentiometer can be mounted either way round, and the hysteresis weights are
+    non-negative, so the stroke g carries the sign. It is the sign of the strongest
+    correlation, over the training samples, between the measured position and the duty
+    difference d_a − d_b through the first-order lag of eq. (7), τ over DIRECTION_TAUS_S
+    (at a τ far below the wire's, the lagging response can anticorrelate).
     """
-    alpha = data.dt / (tau_s + data.dt)
-    heat = lfilter([alpha], [1.0, alpha - 1.0], data.duty_a - data.duty_b)[:n_train]
     keep = data.scored_mask()[:n_train]
-    x, y = heat[keep] - np.mean(heat[keep]), data.position[:n_train][keep]
-    return -1.0 if float(np.dot(x, y - np.mean(y))) < 0.0 else 1.0
+    y = data.position[:n_train][keep]
+    best = 0.0
+    for tau in DIRECTION_TAUS_S:
+        alpha = data.dt / (tau + data.dt)
+        heat = lfilter([alpha], [1.0, alpha - 1.0], data.duty_a - data.duty_b)[:n_train][keep]
+        if np.ptp(heat) > 0:
+            r = float(np.corrcoef(heat, y)[0, 1])
+            best = r if abs(r) > abs(best) else best
+    return -1.0 if best < 0.0 else 1.0
 
 
 def _sensor_travel(base: act.ActuatorParams, position: np.ndarray) -> act.ActuatorParams:
@@ -944,12 +956,21 @@ def input_range(setup: Setup) -> InputRange:
                       float(np.max(amb)))
 
 
+# the coarse search starts once more this far above a time constant beyond all its starts,
+# and keeps that start's fit if its squared training error is below this share
+SLOW_START_FACTOR = 3.0
+SLOW_START_GAIN = 0.8
+
+
 def fit_coarse(setup: Setup, span: InputRange, kind: str, options: SearchOptions) -> GridFit:
     """
     Fit on a coarse grid over the whole range: the time constant and where the wire transforms.
 
     A multi-start over the time constant (`options.starts` x base.tau_s / 2), unless the
-    setup names a previous fit's, which is then the one start.
+    setup names a previous fit's, which is then the one start. A time constant found above
+    every start is searched again from SLOW_START_FACTOR times it (thick or sleeved wires
+    cool over tens of seconds) while that fits better by SLOW_START_GAIN and finds a time
+    constant above its own start.
     """
     values = dict(setup.values)
     coarse = tie_loop_width(play_grid(span.lo, span.hi, kind, *options.coarse), span.rest,
@@ -958,15 +979,21 @@ def fit_coarse(setup: Setup, span: InputRange, kind: str, options: SearchOptions
     ref = prob.grid
     if setup.feedback:   # a first reference, so the search sees the feedback at all
         ref = _settle(prob, values, ref).ref
+    lower, upper = setup.free['tau_s'][:2]
     taus = ([values['tau_s']] if setup.start_tau else
-            [float(np.clip(s * setup.base.tau_s / 2.0, *setup.free['tau_s'][:2]))
-             for s in options.starts])
-    best = None
-    for tau in taus:
-        trial = dict(values, tau_s=tau)
-        v, cost = prob.optimise({k: trial[k] for k in setup.free}, options.max_nfev, ref)
-        if best is None or cost < best[1]:
-            best = (v, cost)
+            [float(np.clip(s * setup.base.tau_s / 2.0, lower, upper)) for s in options.starts])
+    best = min((prob.optimise({k: dict(values, tau_s=t)[k] for k in setup.free},
+                              options.max_nfev, ref) for t in taus), key=lambda r: r[1])
+    top = max(taus)
+    # a slower wire than every start: once more from SLOW_START_FACTOR x beyond it, kept if
+    # it fits clearly better (a misfit can drift to a long τ for a marginal gain)
+    while not setup.start_tau and best[0]['tau_s'] > top and top < upper:
+        top = min(SLOW_START_FACTOR * best[0]['tau_s'], upper)
+        slower = prob.optimise({k: dict(values, tau_s=top)[k] for k in setup.free},
+                               options.max_nfev, ref)
+        if slower[1] >= SLOW_START_GAIN * best[1]:
+            break
+        best = slower
     values.update(best[0])
     return GridFit(prob, values, prob.solve(set_values(setup.base, values), values, ref))
 

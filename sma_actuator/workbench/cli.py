@@ -58,6 +58,9 @@ NEAR_NOISE = 1.5
 # a compared record starting at rest this far (share of the measured range) from the
 # model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
 START_OFFSET_NOTE = 0.02
+# fit and diagnose keep a refit with lead-ins (warm starts, a longer rest) only if its
+# training NRMSE is below this share of the fit from rest
+LEAD_IN_GAIN = 0.9
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
                  '(default: %(default)g)')
@@ -214,7 +217,7 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
 
 
 def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
-                 warm: Tuple[str, ...] = ()) -> Any:
+                 **lead: Any) -> Any:
     """Return the checked records joined (`records.join`), the held-out ones last."""
     from .records import join
     if not loaded[0][1].joinable:
@@ -223,7 +226,7 @@ def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
     if not held and len(loaded) > 1 and getattr(args, 'command', '') != 'compare':
         held = [loaded[-1][0]]
     notes = []
-    data = join(loaded, held_out=tuple(held), notes=notes, warm=warm)
+    data = join(loaded, held_out=tuple(held), notes=notes, **lead)
     for line in notes:
         _note(args, line)
     return data
@@ -384,11 +387,14 @@ def cmd_fit(args: argparse.Namespace) -> int:
     progress = Progress('fit')
     try:
         data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress)
-        warm = warm_records(args, fit, loaded)
-        if warm:
-            data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress,
-                                              warm)
-        mark_warm(records, warm)
+        lead = lead_in(fit, loaded, confirm=False)
+        refit = _fit_records(args, loaded, tuple(effects), kind, progress, **lead) if lead else ()
+        if refit and better_led(refit[1], refit[0], fit, data):
+            data, fit, records = refit
+            note_lead_in(args, lead, loaded)
+        else:
+            lead = {}
+        mark_warm(records, lead.get('warm', ()))
         profile = _tau_profile(args, data, fit, progress)
     finally:
         progress.close()
@@ -428,18 +434,18 @@ def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
 
 
 def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
-                 kind: Optional[str], progress: Progress, warm: Tuple[str, ...] = ()) -> tuple:
+                 kind: Optional[str], progress: Progress, **lead: Any) -> tuple:
     """
     Fit the records; return (data, fit, per-record rows).
 
     Several records without --validate-on: each left out in turn (`crossval`); else one
-    split. warm: records led in warm (`records.join`); the records are described (notes)
-    only on the first fit, the one without.
+    split. lead: `records.join`'s warm and tau_s (`lead_in`); the records are described
+    (notes) only on the first fit, the one without.
     """
     from .crossval import all_records, cross_validate, LEFT_OUT
     from .engine import fit_model
     if len(loaded) > 1 and not args.validate_on:
-        if not warm:
+        if not lead:
             notes = []
             for line in notes + _record_lines(all_records(loaded, notes), LEFT_OUT):
                 _note(args, line)
@@ -447,9 +453,9 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
                   f'the model written is fitted on all {len(loaded)} (--validate-on to hold '
                   'records out)')
         return cross_validate(loaded, effects, kind, jobs=args.jobs, progress=progress,
-                              warm=warm)
-    data = join_records(args, loaded, warm)
-    for line in [] if warm else data_lines(data):
+                              **lead)
+    data = join_records(args, loaded, **lead)
+    for line in [] if lead else data_lines(data):
         _note(args, line)
     fit = fit_model(data, effects=effects, kind=kind, progress=progress)
     return data, fit, per_record(fit, data)
@@ -502,15 +508,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise UsageError(f'{args.model} was fitted on {fitted_on.noun} but '
                          f'{names} is {first.noun}')
     check_rig(spec, first, args.model)
-    warm = warm_records(args, _fitted(args, spec), loaded)
-    data = join_records(args, loaded, warm)
+    lead = lead_in(_fitted(args, spec), loaded)
+    note_lead_in(args, lead, loaded)
+    data = join_records(args, loaded, **lead)
     fit = _fitted(args, spec, data)
     profile = spec.get('tau_profile')
     if isinstance(profile, dict) and profile.get('identified') is False:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
-    mark_warm(records, warm)
+    mark_warm(records, lead.get('warm', ()))
     _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
@@ -546,23 +553,54 @@ def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
 
 
-def warm_records(args: argparse.Namespace, fit: Any,
-                 loaded: List[Tuple[str, Any]]) -> Tuple[str, ...]:
+def lead_in(fit: Any, loaded: List[Tuple[str, Any]], confirm: bool = True) -> Dict[str, Any]:
     """
-    Return the records `fit` sees start warm (`records.warm_starts`), a note for each.
+    Return the `records.join` options `fit` asks of the records ({}: the default join).
 
-    () for curves.
+    warm: the records that start warm by `fit` (`records.warm_starts`; with `confirm`
+    False the ones it misses at their start from rest, which a fit that started them at
+    rest cannot judge further); tau_s: the fit's time constant when it is too slow for the
+    default rest between records (`rest_gap_s`). {} for curves.
     """
-    from .records import warm_starts
+    from .records import REST_GAP_S, rest_gap_s, warm_starts
     if not loaded[0][1].joinable:
-        return ()
-    warm = warm_starts(fit, loaded)
+        return {}
+    tau = fit.values.get('tau_s')
+    lead = {'tau_s': float(tau)} if tau is not None and rest_gap_s(tau) > REST_GAP_S else {}
+    warm = warm_starts(fit, loaded, lead.get('tau_s'), confirm)
+    if warm:
+        lead['warm'] = warm
+    elif len(loaded) == 1:   # one record without a lead-in is not joined: no rest to set
+        lead.pop('tau_s', None)
+    return lead
+
+
+def better_led(refit: Any, led: Any, fit: Any, data: Any) -> bool:
+    """
+    Return True if `refit` on `led` (lead-ins) predicts the records LEAD_IN_GAIN better.
+
+    RMS error over every measured sample (training and held out): the lead-ins change how
+    each record starts, which the held-out records show as much as the others.
+    """
+    def rms(f: Any, d: Any) -> float:
+        keep = d.scored_mask()
+        return float(np.sqrt(np.mean((f.prediction[keep] - d.position[keep]) ** 2)))
+    return rms(refit, led) < LEAD_IN_GAIN * rms(fit, data)
+
+
+def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
+                 loaded: List[Tuple[str, Any]]) -> None:
+    """Print a note for each record led in warm and for a rest longer than REST_GAP_S."""
+    from .records import REST_GAP_S, REST_TAUS, rest_gap_s
     for name, d in loaded:
-        if name in warm:
+        if name in lead.get('warm', ()):
             _note(args, f'note: {name} starts with the wires warm (duty_a {d.duty_a[0]:.3g}, '
                   f'duty_b {d.duty_b[0]:.3g} on at its first sample): simulated from the '
                   'steady state of those duties, not from rest')
-    return warm
+    if 'tau_s' in lead:
+        tau = lead['tau_s']
+        _note(args, f'note: τ = {tau:.3g} s: the records are joined with {rest_gap_s(tau):.0f} '
+              f's of rest ({REST_TAUS:g} τ, not {REST_GAP_S:.0f} s), so each starts cold')
 
 
 def mark_warm(records: List[Dict[str, Any]], warm: Tuple[str, ...]) -> None:
@@ -630,11 +668,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     progress = Progress('base fit')
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
-        warm = warm_records(args, base, loaded)
-        if warm:
-            data = join_records(args, loaded, warm)
-            base = fit_model(data, effects=tuple(spec['effects']), kind=kind,
-                             progress=progress)
+        lead = lead_in(base, loaded, confirm=False)
+        if lead:
+            led = join_records(args, loaded, **lead)
+            refit = fit_model(led, effects=tuple(spec['effects']), kind=kind, progress=progress)
+            if better_led(refit, led, base, data):
+                data, base = led, refit
+                note_lead_in(args, lead, loaded)
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)

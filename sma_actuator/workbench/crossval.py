@@ -22,7 +22,7 @@ score, and the model written is fitted on every record, which is the model that 
 the rig's next record best. The cost is one fit per record more.
 """
 from dataclasses import replace
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -39,9 +39,13 @@ RULE = 'leave one record out'
 
 
 def all_records(records: Sequence[Tuple[str, DynamicData]], notes: Optional[list] = None,
-                warm: tuple = ()) -> DynamicData:
-    """Return the (name, DynamicData) records joined (`records.join`), every one training."""
-    data = join(list(records), notes=notes, warm=warm)
+                **lead: Any) -> DynamicData:
+    """
+    Return the (name, DynamicData) records joined, every one of them training.
+
+    lead: `records.join`'s warm and tau_s.
+    """
+    data = join(list(records), notes=notes, **lead)
     return replace(data, split=len(data))
 
 
@@ -73,7 +77,7 @@ def fit_all(tasks: list, jobs: int = 0, progress: Optional[Callable] = None,
 def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = (),
                    kind: Optional[str] = None, jobs: int = 0,
                    progress: Optional[Callable] = None,
-                   warm: tuple = ()) -> Tuple[DynamicData, ModelFit, list]:
+                   **lead: Any) -> Tuple[DynamicData, ModelFit, list]:
     """
     Return (the joined records, the model fitted on all of them, the per-record scores).
 
@@ -83,14 +87,14 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
     predictions of every record (NRMSE over the whole set's measured range, as any held-out
     score). Per record: {'data', 'role': 'left out', 'scores': {'all': ŷ_i's scores,
     'train': the returned model's}}. jobs: processes for the fits (0: every core; plug-in
-    effects are fitted in this process, a worker would not have them). warm: records led
-    in warm (`records.join`).
+    effects are fitted in this process, a worker would not have them). lead: `records.join`'s
+    warm and tau_s.
     """
     if len(records) < 2:
         raise ValueError('leaving one record out needs two records or more')
     names = [name for name, _ in records]
-    folds = [join(list(records), held_out=(name,), warm=warm) for name in names]
-    data = all_records(records, warm=warm)
+    folds = [join(list(records), held_out=(name,), **lead) for name in names]
+    data = all_records(records, **lead)
     effects = tuple(effects)
     fits = fit_all([(d, effects, kind, None) for d in folds + [data]], jobs, progress)
     final = fits[-1]

@@ -15,8 +15,9 @@
 Join several dynamic records of one rig into one record set.
 
 Each record is simulated from its own initial state: the records are joined with a rest
-gap of `REST_GAP_S` of zero duty between them, long enough for the model's wires to cool
-to ambient, so every record starts at rest; the gaps are not scored (`DynamicData.scored`)
+gap of zero duty between them, long enough for the model's wires to cool to ambient
+(`rest_gap_s`: REST_GAP_S, or REST_TAUS time constants of a slower wire), so every record
+starts at rest; the gaps are not scored (`DynamicData.scored`)
 and not regressed. A record that starts warm (a log begun mid-run, `warm_starts`) is led
 in by its first duties held as long after the rest, so it starts in their steady state.
 Records at another sample rate are resampled to the first record's rate (duties held,
@@ -40,6 +41,8 @@ from ..core.identification import flexinol_loop_ratio
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
 REST_GAP_S = 60.0
+# ... or this many thermal time constants of a model whose τ is longer than REST_GAP_S / 6
+REST_TAUS = 6.0
 # rest at the start of a record used for its sensor zero [s] (or until the duty first rises)
 ZERO_WINDOW_S = 1.0
 # a training set whose measured position never reverses by this share of its range has not
@@ -216,15 +219,21 @@ def _lead_in(d: DynamicData, n: int, warm: bool) -> tuple:
             first(d.ambient, k), first(d.setpoint, k), np.zeros(k, bool))
 
 
+def rest_gap_s(tau_s: Optional[float] = None) -> float:
+    """Return the rest between joined records [s]: REST_GAP_S, or REST_TAUS × a longer τ."""
+    return REST_GAP_S if tau_s is None else max(REST_GAP_S, REST_TAUS * float(tau_s))
+
+
 def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
-         warm: tuple = ()) -> DynamicData:
+         warm: tuple = (), tau_s: Optional[float] = None) -> DynamicData:
     """
     Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
 
     held_out: names of the records to validate on (they go last). With one record and none
     held out, that record is returned as it is (the time split applies). notes: a list
     that receives one line per resampled record. warm: names of records led in by their
-    first duties held for REST_GAP_S after the rest (they start in that steady state).
+    first duties held as long as the rest after it (they start in that steady state).
+    tau_s: a model's thermal time constant [s], which sets the rest (`rest_gap_s`).
     """
     if len(records) == 1 and not held_out and not warm:
         name, d = records[0]
@@ -237,7 +246,7 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
     if not any(r[0] not in held_out for r in order):
         raise DataError('every record is held out for validation; keep at least one to fit on')
     parts, segments, split, at = [], [], None, 0
-    gap = int(round(REST_GAP_S / dt))
+    gap = int(round(rest_gap_s(tau_s) / dt))
     for i, (name, d) in enumerate(order):
         if abs(d.dt - dt) > SAMPLING_TOLERANCE * dt:
             if notes is not None:
@@ -260,29 +269,31 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
                        d0.position_unit, d0.layout, tuple(segments), cols[5], split)
 
 
-def warm_starts(model: Any, records: list) -> tuple:
+def warm_starts(model: Any, records: list, tau_s: Optional[float] = None,
+                confirm: bool = True) -> tuple:
     """
     Return the names of the (name, DynamicData) records that `model` sees start warm.
 
     A record whose first sample has a duty on was begun at rest as that duty came on, or
-    logged mid-run with the wires warm. Such a record is simulated both ways: from rest and
-    from the steady state of its first duties (`join(..., warm=...)`). It starts warm when
-    the mean |measured − predicted| over its first ZERO_WINDOW_S is below WARM_ADVANTAGE
-    times the start at rest's, and the start at rest misses by more than WARM_MIN_MISS of
-    the record's range.
+    logged mid-run with the wires warm. It may start warm when the model started at rest
+    misses its first ZERO_WINDOW_S by more than WARM_MIN_MISS of the record's range (mean
+    |measured − predicted|); with `confirm` it starts warm only if the model started in the
+    steady state of its first duties (`join(..., warm=...)`) misses by less than
+    WARM_ADVANTAGE times that. tau_s: the model's time constant [s] (sets the lead-in).
     """
+    def start_miss(name: str, d: DynamicData, warm: tuple) -> float:
+        n = min(len(d), max(1, int(round(ZERO_WINDOW_S / d.dt))))
+        joined = join([(name, d)], warm=warm, tau_s=tau_s)
+        a = segment_of(joined, name)[0]
+        return float(np.mean(np.abs(d.position[:n] - model.simulate(joined)[a:a + n])))
+
     out = []
     for name, d in records:
         if d.duty_a[0] <= 0 and d.duty_b[0] <= 0:
             continue
-        n = min(len(d), max(1, int(round(ZERO_WINDOW_S / d.dt))))
-        miss = []
-        for warm in ((), (name,)):
-            joined = join([(name, d)], warm=warm)
-            a = segment_of(joined, name)[0]
-            predicted = model.simulate(joined)[a:a + n]
-            miss.append(float(np.mean(np.abs(d.position[:n] - predicted))))
-        if miss[1] < WARM_ADVANTAGE * miss[0] and miss[0] > WARM_MIN_MISS * d.span():
+        at_rest = start_miss(name, d, ())
+        if at_rest > WARM_MIN_MISS * d.span() and (
+                not confirm or start_miss(name, d, (name,)) < WARM_ADVANTAGE * at_rest):
             out.append(name)
     return tuple(out)
 
