@@ -36,7 +36,7 @@ import os
 from pathlib import Path
 import sys
 import time
-from typing import Any, Dict, IO, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, IO, List, Mapping, Optional, Sequence, Tuple
 
 from .parallel import keep_freed_memory, one_blas_thread
 
@@ -58,8 +58,8 @@ NEAR_NOISE = 1.5
 # a compared record starting at rest this far (share of the measured range) from the
 # model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
 START_OFFSET_NOTE = 0.02
-# fit and diagnose keep a refit with lead-ins (warm starts, a longer rest) only if its
-# training NRMSE is below this share of the fit from rest
+# fit and diagnose keep a refit with lead-ins (warm starts, a longer rest) only if its RMS
+# error over every measured sample is below this share of the first fit's
 LEAD_IN_GAIN = 0.9
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
@@ -387,13 +387,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
     progress = Progress('fit')
     try:
         data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress)
-        lead = lead_in(fit, loaded, confirm=False)
-        refit = _fit_records(args, loaded, tuple(effects), kind, progress, **lead) if lead else ()
-        if refit and better_led(refit[1], refit[0], fit, data):
-            data, fit, records = refit
-            note_lead_in(args, lead, loaded)
-        else:
-            lead = {}
+        led, lead = try_lead_in(args, loaded, fit, data, lambda **lead: _fit_records(
+            args, loaded, tuple(effects), kind, progress, **lead))
+        if led:
+            data, fit, records = led
         mark_warm(records, lead.get('warm', ()))
         profile = _tau_profile(args, data, fit, progress)
     finally:
@@ -575,17 +572,25 @@ def lead_in(fit: Any, loaded: List[Tuple[str, Any]], confirm: bool = True) -> Di
     return lead
 
 
-def better_led(refit: Any, led: Any, fit: Any, data: Any) -> bool:
+def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: Any, data: Any,
+                refit: Callable[..., tuple]) -> Tuple[Optional[tuple], Dict[str, Any]]:
     """
-    Return True if `refit` on `led` (lead-ins) predicts the records LEAD_IN_GAIN better.
+    Return (refit(**lead), lead) if `fit` on `data` asks for lead-ins, else (None, {}).
 
-    RMS error over every measured sample (training and held out): the lead-ins change how
-    each record starts, which the held-out records show as much as the others.
+    The lead-ins are `lead_in`'s, unconfirmed; refit returns (its joined data, its fit,
+    ...) and is kept (and noted) only if its RMS error over every measured sample
+    (training and held out: the lead-ins change how each record starts) is below
+    LEAD_IN_GAIN times the first fit's.
     """
     def rms(f: Any, d: Any) -> float:
         keep = d.scored_mask()
         return float(np.sqrt(np.mean((f.prediction[keep] - d.position[keep]) ** 2)))
-    return rms(refit, led) < LEAD_IN_GAIN * rms(fit, data)
+    lead = lead_in(fit, loaded, confirm=False)
+    led = refit(**lead) if lead else None
+    if led is None or rms(led[1], led[0]) >= LEAD_IN_GAIN * rms(fit, data):
+        return None, {}
+    note_lead_in(args, lead, loaded)
+    return led, lead
 
 
 def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
@@ -668,13 +673,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     progress = Progress('base fit')
     try:
         base = fit_model(data, effects=tuple(spec['effects']), kind=kind, progress=progress)
-        lead = lead_in(base, loaded, confirm=False)
-        if lead:
+
+        def refit(**lead: Any) -> tuple:
             led = join_records(args, loaded, **lead)
-            refit = fit_model(led, effects=tuple(spec['effects']), kind=kind, progress=progress)
-            if better_led(refit, led, base, data):
-                data, base = led, refit
-                note_lead_in(args, lead, loaded)
+            return led, fit_model(led, effects=tuple(spec['effects']), kind=kind,
+                                  progress=progress)
+        data, base = try_lead_in(args, loaded, base, data, refit)[0] or (data, base)
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)
