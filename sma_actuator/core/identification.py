@@ -779,10 +779,13 @@ class SearchOptions:
     refine: int = 2
 
 
-# the slowest thermal time constant a fit may find [s] (a thick or sleeved wire)
+# upper bound of the fitted thermal time constant [s], raised for a slow wire up to
+# MAX_TAU_S (`tau_bound`)
+TAU_BOUND_S = 20.0
 MAX_TAU_S = 60.0
-# first-order lags [s] through which `travel_direction` correlates duty and position
-DIRECTION_TAUS_S = tuple(0.25 * 2.0 ** k for k in range(9))
+TAU_BOUND_LAGS = 4.0
+# first-order lags [s] through which `lag_correlations` correlates duty and position
+LAG_TAUS_S = tuple(0.25 * 2.0 ** k for k in range(9))
 
 
 @dataclass(frozen=True)
@@ -805,7 +808,7 @@ class Setup:
     # β of `tie_loop_width` (None: the grids' widths are free), see `fit_dynamic`
     loop_ratio: Optional[float] = None
     # sign of the stroke g: +1 when heating wire a raises the reading, −1 when the sensor
-    # reads the other way (`travel_direction`)
+    # reads the other way (`lag_correlations`)
     direction: float = 1.0
 
     @property
@@ -886,7 +889,9 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
         base = base.with_changes(ambient_c=float(np.mean(data.ambient[: max(1, len(data) // 50)])))
     if 'ambient_gain' not in free:   # the paper's model: constant ambient temperature
         base = base.with_changes(ambient_gain=0.0)
-    free.setdefault('tau_s', (0.2, MAX_TAU_S, base.tau_s))
+    n_train = data.default_split(train_fraction).start
+    lags = lag_correlations(data, n_train)
+    free.setdefault('tau_s', (0.2, tau_bound(lags), base.tau_s))
     for k, (lo, hi, x0) in free.items():
         if not lo <= x0 <= hi:
             raise ValueError(f'initial value of {k} ({x0}) outside its bounds [{lo}, {hi}]')
@@ -895,7 +900,6 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
                          'hysteresis parameters cannot be identified')
     if np.ptp(data.position) <= 0:
         raise ValueError('too little excitation: the measured position is constant')
-    n_train = data.default_split(train_fraction).start
     burn_in = min(int(round(1.0 / data.dt)), n_train // 10)
     if SENSOR_TERMS & free.keys():
         base = _sensor_travel(base, data.position[:n_train][data.scored_mask()[:n_train]])
@@ -904,29 +908,43 @@ def prepare(data: DynamicData, free: Optional[dict] = None,
         values.update({k: v for k, v in start.items() if k in values})
     return Setup(data, base, free, values, n_train, burn_in, input_hook,
                  bool(start) and 'tau_s' in start, loop_ratio,
-                 travel_direction(data, n_train))
+                 -1.0 if np.all(lags < 0.0) else 1.0)
 
 
-def travel_direction(data: DynamicData, n_train: int) -> float:
+def lag_correlations(data: DynamicData, n_train: int) -> np.ndarray:
     """
-    Return +1 if the reading rises as wire a heats (or wire b cools), −1 if it falls.
+    Return the correlation of position and heating at each lag of LAG_TAUS_S.
 
-    A potentiometer can be mounted either way round, and the hysteresis weights are
-    non-negative, so the stroke g carries the sign. It is the sign of the strongest
-    correlation, over the training samples, between the measured position and the duty
-    difference d_a − d_b through the first-order lag of eq. (7), τ over DIRECTION_TAUS_S
-    (at a τ far below the wire's, the lagging response can anticorrelate).
+    Heating: the duty difference d_a − d_b through the first-order lag of eq. (7) at that
+    τ; over the training samples. A potentiometer can be mounted either way round, and the
+    hysteresis weights are non-negative, so the stroke g carries the sign: −1 when the
+    correlation is negative at every lag (`prepare`). Mixed signs are not evidence: a wire
+    far slower than the lag, or a loop cycling around a delay, anticorrelates at short
+    lags.
     """
     keep = data.scored_mask()[:n_train]
     y = data.position[:n_train][keep]
-    best = 0.0
-    for tau in DIRECTION_TAUS_S:
+    out = np.zeros(len(LAG_TAUS_S))
+    for i, tau in enumerate(LAG_TAUS_S):
         alpha = data.dt / (tau + data.dt)
         heat = lfilter([alpha], [1.0, alpha - 1.0], data.duty_a - data.duty_b)[:n_train][keep]
-        if np.ptp(heat) > 0:
-            r = float(np.corrcoef(heat, y)[0, 1])
-            best = r if abs(r) > abs(best) else best
-    return -1.0 if best < 0.0 else 1.0
+        if np.ptp(heat) > 0 and np.ptp(y) > 0:
+            out[i] = np.corrcoef(heat, y)[0, 1]
+    return out
+
+
+def tau_bound(lags: np.ndarray) -> float:
+    """
+    Return the upper bound of the fitted τ [s]: TAU_BOUND_S, up to MAX_TAU_S for a slow wire.
+
+    TAU_BOUND_LAGS times the lag that correlates most strongly (`lag_correlations`): a
+    thick or sleeved wire cools over tens of seconds, and a bound below its τ holds the fit
+    off its basin. A record that heats and cools correlates best near the wire's τ; a step
+    or a ramp, whose response only rises, at a shorter lag (a quarter of τ on the
+    spring-biased wire's step).
+    """
+    peak = LAG_TAUS_S[int(np.argmax(np.abs(lags)))]
+    return float(np.clip(TAU_BOUND_LAGS * peak, TAU_BOUND_S, MAX_TAU_S))
 
 
 def _sensor_travel(base: act.ActuatorParams, position: np.ndarray) -> act.ActuatorParams:
