@@ -1000,15 +1000,17 @@ def fit_coarse(setup: Setup, span: InputRange, kind: str, options: SearchOptions
     lower, upper = setup.free['tau_s'][:2]
     taus = ([values['tau_s']] if setup.start_tau else
             [float(np.clip(s * setup.base.tau_s / 2.0, lower, upper)) for s in options.starts])
-    best = min((prob.optimise({k: dict(values, tau_s=t)[k] for k in setup.free},
-                              options.max_nfev, ref) for t in taus), key=lambda r: r[1])
+
+    def from_tau(tau: float) -> tuple:
+        trial = dict(values, tau_s=tau)
+        return prob.optimise({k: trial[k] for k in setup.free}, options.max_nfev, ref)
+    best = min((from_tau(t) for t in taus), key=lambda r: r[1])
     top = max(taus)
     # a slower wire than every start: once more from SLOW_START_FACTOR x beyond it, kept if
     # it fits clearly better (a misfit can drift to a long τ for a marginal gain)
     while not setup.start_tau and best[0]['tau_s'] > top and top < upper:
         top = min(SLOW_START_FACTOR * best[0]['tau_s'], upper)
-        slower = prob.optimise({k: dict(values, tau_s=top)[k] for k in setup.free},
-                               options.max_nfev, ref)
+        slower = from_tau(top)
         if slower[1] >= SLOW_START_GAIN * best[1]:
             break
         best = slower

@@ -436,7 +436,7 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
     Fit the records; return (data, fit, per-record rows).
 
     Several records without --validate-on: each left out in turn (`crossval`); else one
-    split. lead: `records.join`'s warm and tau_s (`lead_in`); the records are described
+    split. lead: `records.join`'s warm and tau_s (`records.lead_ins`); the records are described
     (notes) only on the first fit, the one without.
     """
     from .crossval import all_records, cross_validate, LEFT_OUT
@@ -487,6 +487,7 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, score_line, summary_lines
+    from .records import lead_ins
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -505,7 +506,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise UsageError(f'{args.model} was fitted on {fitted_on.noun} but '
                          f'{names} is {first.noun}')
     check_rig(spec, first, args.model)
-    lead = lead_in(_fitted(args, spec), loaded)
+    lead = lead_ins(_fitted(args, spec), loaded) if first.joinable else {}
     note_lead_in(args, lead, loaded)
     data = join_records(args, loaded, **lead)
     fit = _fitted(args, spec, data)
@@ -550,44 +551,24 @@ def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None)
         raise UsageError(f'{args.model}: cannot use the fitted model ({what})') from None
 
 
-def lead_in(fit: Any, loaded: List[Tuple[str, Any]], confirm: bool = True) -> Dict[str, Any]:
-    """
-    Return the `records.join` options `fit` asks of the records ({}: the default join).
-
-    warm: the records that start warm by `fit` (`records.warm_starts`; with `confirm`
-    False the ones it misses at their start from rest, which a fit that started them at
-    rest cannot judge further); tau_s: the fit's time constant when it is too slow for the
-    default rest between records (`rest_gap_s`). {} for curves.
-    """
-    from .records import REST_GAP_S, rest_gap_s, warm_starts
-    if not loaded[0][1].joinable:
-        return {}
-    tau = fit.values.get('tau_s')
-    lead = {'tau_s': float(tau)} if tau is not None and rest_gap_s(tau) > REST_GAP_S else {}
-    warm = warm_starts(fit, loaded, lead.get('tau_s'), confirm)
-    if warm:
-        lead['warm'] = warm
-    elif len(loaded) == 1:   # one record without a lead-in is not joined: no rest to set
-        lead.pop('tau_s', None)
-    return lead
-
-
 def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: Any, data: Any,
                 refit: Callable[..., tuple]) -> Tuple[Optional[tuple], Dict[str, Any]]:
     """
     Return (refit(**lead), lead) if `fit` on `data` asks for lead-ins, else (None, {}).
 
-    The lead-ins are `lead_in`'s, unconfirmed; refit returns (its joined data, its fit,
+    The lead-ins are `records.lead_ins`, unconfirmed; refit returns (its joined data, its fit,
     ...) and is kept (and noted) only if its RMS error over every measured sample
     (training and held out: the lead-ins change how each record starts) is below
     LEAD_IN_GAIN times the first fit's.
     """
-    def rms(f: Any, d: Any) -> float:
-        keep = d.scored_mask()
-        return float(np.sqrt(np.mean((f.prediction[keep] - d.position[keep]) ** 2)))
-    lead = lead_in(fit, loaded, confirm=False)
+    from .engine import part_scores
+    from .records import lead_ins
+
+    def rmse(f: Any, d: Any) -> float:
+        return part_scores(d, f.prediction, d.scored_mask())['rmse']
+    lead = lead_ins(fit, loaded, confirm=False) if loaded[0][1].joinable else {}
     led = refit(**lead) if lead else None
-    if led is None or rms(led[1], led[0]) >= LEAD_IN_GAIN * rms(fit, data):
+    if led is None or rmse(led[1], led[0]) >= LEAD_IN_GAIN * rmse(fit, data):
         return None, {}
     note_lead_in(args, lead, loaded)
     return led, lead

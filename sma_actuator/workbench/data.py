@@ -64,7 +64,11 @@ TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6}
 #: duty units a header may name -> fraction per unit
 DUTY_UNITS = {'-': 1.0, '1': 1.0, 'fraction': 1.0, '%': 0.01}
 #: ambient temperature units a header may name (the model works in °C)
-AMBIENT_UNITS = ('°c', 'degc', 'c')
+AMBIENT_UNITS = dict.fromkeys(('°c', 'degc', 'c'), 1.0)
+# the unit table and its name in messages of each column a header may give a scaled unit
+_SCALED_COLUMNS = {'time': (TIME_UNITS, 'time'), 'duty_a': (DUTY_UNITS, 'duty'),
+                   'duty_b': (DUTY_UNITS, 'duty'),
+                   'ambient_temperature': (AMBIENT_UNITS, 'ambient')}
 # field separators tried, in order, when the header row has no comma
 OTHER_DELIMITERS = (';', '\t')
 # a unit in a comment line: '# ... Position in mm ...'
@@ -277,9 +281,7 @@ def _unit_in_name(name: str) -> Optional[tuple]:
 
 def _column_scale(path: PathLike, column: str, unit: str) -> float:
     """Return the factor to seconds (time), to a fraction (duties) or 1 (ambient in °C)."""
-    table, what = {'time': (TIME_UNITS, 'time'), 'duty_a': (DUTY_UNITS, 'duty'),
-                   'duty_b': (DUTY_UNITS, 'duty'),
-                   'ambient_temperature': (dict.fromkeys(AMBIENT_UNITS, 1.0), 'ambient')}[column]
+    table, what = _SCALED_COLUMNS[column]
     if unit not in table:
         raise DataError(f'{path}: unknown {what} unit {unit!r}; known: {", ".join(table)} '
                         f'(column {column!r})')

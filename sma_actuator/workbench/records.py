@@ -298,6 +298,23 @@ def warm_starts(model: Any, records: list, tau_s: Optional[float] = None,
     return tuple(out)
 
 
+def lead_ins(model: Any, records: list, confirm: bool = True) -> dict:
+    """
+    Return the `join` options `model` asks of the (name, DynamicData) records ({}: none).
+
+    warm: the records that start warm by `model` (`warm_starts`, `confirm` passed on);
+    tau_s: the model's time constant when it is too slow for REST_GAP_S (`rest_gap_s`).
+    """
+    tau = model.values.get('tau_s')
+    lead = {'tau_s': float(tau)} if tau is not None and rest_gap_s(tau) > REST_GAP_S else {}
+    warm = warm_starts(model, records, lead.get('tau_s'), confirm)
+    if warm:
+        lead['warm'] = warm
+    elif len(records) == 1:   # one record without a lead-in is not joined: no rest to set
+        lead.pop('tau_s', None)
+    return lead
+
+
 def segment_of(data: DynamicData, name: str) -> tuple:
     """Return the (start, stop) sample range of record `name` in joined `data`."""
     for n, a, b in data.segments:
