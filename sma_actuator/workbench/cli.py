@@ -444,7 +444,8 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
     if len(loaded) > 1 and not args.validate_on:
         if not lead:
             notes = []
-            for line in notes + _record_lines(all_records(loaded, notes), LEFT_OUT):
+            lines = _record_lines(all_records(loaded, notes), LEFT_OUT)
+            for line in notes + lines:
                 _note(args, line)
             _note(args, 'validation: each record predicted by the model fitted on the others; '
                   f'the model written is fitted on all {len(loaded)} (--validate-on to hold '
