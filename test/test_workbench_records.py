@@ -41,12 +41,14 @@ DT = 0.05
 
 def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[mm]',
                     dt=DT, comment='', stroke=1.0, start_duty=0.0, warm=False, hold_s=4.0,
-                    tau_s=None):
+                    tau_s=None, cooled_s=None):
     """
     Write a simulated single wire against a spring (mm); returns path.
 
     The first 2 s hold start_duty (0: resting first). warm: the wire has been held at
-    start_duty for 60 s before the record begins (a log begun mid-run). Duty levels are
+    start_duty for 60 s before the record begins (a log begun mid-run); cooled_s: held at
+    the record's highest duty for 60 s, then cooled_s [s] at zero duty (a log begun after a
+    run). Duty levels are
     held hold_s, every other one zero; tau_s: the wire's time constant (default the
     package's, 2.2 s).
     """
@@ -59,8 +61,12 @@ def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[
     levels[rng.random(levels.size) < 0.0] = 0.0
     duty = np.where((np.arange(n) // hold) % 2 == 1, levels, 0.0)
     duty[:int(2.0 / dt)] = start_duty
-    lead = int(round(60.0 / dt)) if warm else 0
-    tr = simulate(params, np.r_[np.full(lead, start_duty), duty], np.zeros(lead + n), dt)
+    lead_duty = np.full(int(round(60.0 / dt)) if warm else 0, start_duty)
+    if cooled_s is not None:
+        lead_duty = np.r_[np.full(int(round(60.0 / dt)), np.max(duty)),
+                          np.zeros(int(round(cooled_s / dt)))]
+    lead = lead_duty.size
+    tr = simulate(params, np.r_[lead_duty, duty], np.zeros(lead + n), dt)
     y = (8.0 * stroke * (tr.position_rad[lead:] - tr.position_rad[0]) + zero
          + rng.normal(0, 0.01, n))
     cols = [np.arange(n) * dt, duty, y]
@@ -149,6 +155,17 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
         assert code == 0, err
         scored[model] = json.loads(text)['scores']['all']['nrmse']
     assert scored[out] < 0.6 * scored[held]
+    # square_a logged from 35 s on: 5 s after the duty fell, the wire still cooling
+    d = load_data(square)
+    cut = tmp_path / 'cooling.csv'
+    keep = d.time >= 35.0
+    np.savetxt(cut, np.column_stack([d.time[keep] - 35.0, d.duty_a[keep], d.position[keep]]),
+               delimiter=',', header='time,duty_a,position[mm]', comments='', fmt='%.4f')
+    code, text, err = run(capsys, 'compare', cut, '--model', out, '--json')
+    assert code == 0, err
+    row = json.loads(text)['records'][0]
+    assert row['warm_start'] and row['cooled']['duty_a'] > 0
+    assert row['scores']['all']['nrmse'] < 0.02 and 'still cooling' in err
 
 
 def test_compare_notes_a_record_that_starts_away_from_the_models_rest(tmp_path, capsys):
@@ -225,6 +242,32 @@ def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
     assert code == 0, err
     assert f'note: {warm} starts with the wires warm' in err
     assert json.loads(text)['baseline']['validation_nrmse'] < 0.01
+
+
+def test_a_record_begun_while_the_wire_still_cools_is_led_in_cooling(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    cooling = single_wire_csv(tmp_path / 'cooling.csv', seed=3, cooled_s=1.0)
+    untared = single_wire_csv(tmp_path / 'untared.csv', seed=3, zero=1.0)
+    code, text, err = run(capsys, 'fit', a, b, cooling, '--json', '--out', tmp_path / 'm.yaml')
+    assert code == 0, err
+    rows = {r['data']: r for r in json.loads(text)['records']}
+    assert [rows[str(p)]['warm_start'] for p in (a, b, cooling)] == [False, False, True]
+    assert rows[str(cooling)]['cooled']['time_s'] == pytest.approx(1.0, abs=0.3)
+    assert err.count(f'note: {cooling} starts at zero duty with a wire still cooling') == 1
+    # left out, the cooling record is led in as the model fitted on the other two sees it
+    assert max(r['scores']['all']['nrmse'] for r in rows.values()) < 0.01
+    code, text, err = run(capsys, 'compare', cooling, untared, '--model', tmp_path / 'm.yaml',
+                          '--json')
+    assert code == 0, err
+    rows = {r['data']: r for r in json.loads(text)['records']}
+    assert rows[str(cooling)]['warm_start'] and rows[str(cooling)]['scores']['all']['nrmse'] < 0.01
+    # a sensor off by 1 mm at rest does not move: it is not taken for a cooling wire
+    assert not rows[str(untared)]['warm_start'] and f'note: {untared} starts at rest +1' in err
+    record = load_data(cooling)
+    from_rest = load_fit(yaml.safe_load((tmp_path / 'm.yaml').read_text())).simulate(
+        join([('c', record)]))
+    assert np.sqrt(np.mean((from_rest - record.position) ** 2)) > 0.1 * np.ptp(record.position)
 
 
 def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_path, capsys):

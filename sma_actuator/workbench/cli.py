@@ -391,7 +391,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             args, loaded, tuple(effects), kind, progress, **lead))
         if led:
             data, fit, records = led
-        mark_warm(records, lead.get('warm', ()))
+        mark_warm(records, lead)
         profile = _tau_profile(args, data, fit, progress)
     finally:
         progress.close()
@@ -436,8 +436,8 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
     Fit the records; return (data, fit, per-record rows).
 
     Several records without --validate-on: each left out in turn (`crossval`); else one
-    split. lead: `records.join`'s warm and tau_s (`records.lead_ins`); the records are described
-    (notes) only on the first fit, the one without.
+    split. lead: `records.join`'s warm, cooled and tau_s (`leadins.lead_ins`); the records
+    are described (notes) only on the first fit, the one without.
     """
     from .crossval import all_records, cross_validate, LEFT_OUT
     from .engine import fit_model
@@ -488,7 +488,7 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, score_line, summary_lines
-    from .records import lead_ins
+    from .leadins import lead_ins
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -516,7 +516,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
-    mark_warm(records, lead.get('warm', ()))
+    mark_warm(records, lead)
     _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
@@ -557,13 +557,13 @@ def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: An
     """
     Return (refit(**lead), lead) if `fit` on `data` asks for lead-ins, else (None, {}).
 
-    The lead-ins are `records.lead_ins`, unconfirmed; refit returns (its joined data, its fit,
+    The lead-ins are `leadins.lead_ins`, unconfirmed; refit returns (its joined data, its fit,
     ...) and is kept (and noted) only if its RMS error over every measured sample
     (training and held out: the lead-ins change how each record starts) is below
     LEAD_IN_GAIN times the first fit's.
     """
     from .engine import part_scores
-    from .records import lead_ins
+    from .leadins import lead_ins
 
     def rmse(f: Any, d: Any) -> float:
         return part_scores(d, f.prediction, d.scored_mask())['rmse']
@@ -577,23 +577,37 @@ def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: An
 
 def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
                  loaded: List[Tuple[str, Any]]) -> None:
-    """Print a note for each record led in warm and for a rest longer than REST_GAP_S."""
+    """Print a note for each record led in warm or cooling, and for a longer rest."""
     from .records import REST_GAP_S, REST_TAUS, rest_gap_s
     for name, d in loaded:
         if name in lead.get('warm', ()):
             _note(args, f'note: {name} starts with the wires warm (duty_a {d.duty_a[0]:.3g}, '
                   f'duty_b {d.duty_b[0]:.3g} on at its first sample): simulated from the '
                   'steady state of those duties, not from rest')
+        if name in lead.get('cooled', {}):
+            a, b, cool_s = lead['cooled'][name]
+            _note(args, f'note: {name} starts at zero duty with a wire still cooling (it moves '
+                  f'before any duty): simulated from duty_a {a:.3g}, duty_b {b:.3g} held, '
+                  f'then {cool_s:.3g} s at zero duty, not from rest')
     if 'tau_s' in lead:
         tau = lead['tau_s']
         _note(args, f'note: τ = {tau:.3g} s: the records are joined with {rest_gap_s(tau):.0f} '
               f's of rest ({REST_TAUS:g} τ, not {REST_GAP_S:.0f} s), so each starts cold')
 
 
-def mark_warm(records: List[Dict[str, Any]], warm: Tuple[str, ...]) -> None:
-    """Give each per-record row `warm_start`: whether it was simulated from warm."""
+def mark_warm(records: List[Dict[str, Any]], lead: Dict[str, Any]) -> None:
+    """
+    Give each per-record row `warm_start`: whether it was simulated from warm.
+
+    A record led in still cooling (`leadins.cooling_starts`) also gets `cooled`: the duties
+    its lead-in held and how long it then cooled at zero duty before the record began.
+    """
+    cooled = lead.get('cooled', {})
     for r in records:
-        r['warm_start'] = r['data'] in warm
+        r['warm_start'] = r['data'] in lead.get('warm', ()) or r['data'] in cooled
+        if r['data'] in cooled:
+            a, b, cool_s = cooled[r['data']]
+            r['cooled'] = {'duty_a': a, 'duty_b': b, 'time_s': round(cool_s, 3)}
 
 
 def _note_start_offsets(args: argparse.Namespace, data: Any,
@@ -602,11 +616,12 @@ def _note_start_offsets(args: argparse.Namespace, data: Any,
     Note each compared record whose `start_offset` [position unit] is large.
 
     A record that starts at rest more than START_OFFSET_NOTE of the measured range away
-    from the model's rest was most likely read by an untared sensor.
+    from the model's rest was most likely read by an untared sensor (one led in warm or
+    cooling does not start at rest).
     """
     unit = unit_of(data)
     for r in records:
-        if abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
+        if not r.get('warm_start') and abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
             _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '
                   "the model's rest (an untared sensor? fit with --add sensor_zero to refer "
                   'each record to its own start rest; or wires still warm from an earlier '

@@ -108,6 +108,8 @@ class ModelFit:
     # rig description for the model file: layout, position_unit, records (name, sensor zero
     # [position unit], role), sensor_zero_rule
     rig: dict = field(default_factory=dict)
+    # {record name: the model fitted with that record left out} (`crossval.cross_validate`)
+    folds: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """YAML-able form: effects, kind, fitted values, model parameters, scores."""

@@ -18,8 +18,10 @@ Each record is simulated from its own initial state: the records are joined with
 gap of zero duty between them, long enough for the model's wires to cool to ambient
 (`rest_gap_s`: REST_GAP_S, or REST_TAUS time constants of a slower wire), so every record
 starts at rest; the gaps are not scored (`DynamicData.scored`)
-and not regressed. A record that starts warm (a log begun mid-run, `warm_starts`) is led
-in by its first duties held as long after the rest, so it starts in their steady state.
+and not regressed. A record that starts warm (a log begun mid-run, `leadins.warm_starts`)
+is led in by its first duties held as long after the rest, so it starts in their steady
+state; one that starts still cooling (`leadins.cooling_starts`) by a duty held and then
+as long at zero duty as its start asks.
 Records at another sample rate are resampled to the first record's rate (duties held,
 position and ambient interpolated). Held-out records go last, so the
 training window is one prefix (`DynamicData.split`).
@@ -50,11 +52,6 @@ ZERO_WINDOW_S = 1.0
 MIN_REVERSAL = 0.5
 # moving mean over the measured position before looking for reversals [s] (sensor noise)
 REVERSAL_SMOOTH_S = 0.2
-# a record that starts with a duty on starts warm when the steady state of its first duties
-# predicts its first ZERO_WINDOW_S this much closer than a start at rest (mean |error|) ...
-WARM_ADVANTAGE = 0.5
-# ... and the start at rest misses by more than this share of the record's range
-WARM_MIN_MISS = 0.02
 
 
 def start_rest(data: DynamicData) -> int:
@@ -204,19 +201,32 @@ def check_compatible(records: list) -> None:
                                 'fitted together need the same columns)')
 
 
-def _lead_in(d: DynamicData, n: int, warm: bool) -> tuple:
+def _lead_in(d: DynamicData, n: int, phases: tuple = ()) -> tuple:
     """
-    Return the unscored lead-in of record `d`: n samples at rest (then n more if warm).
+    Return the unscored lead-in of record `d`: n samples at rest, then each phase.
 
-    The n more hold the warm record's first duties: it so starts on the heating branch of
-    their steady state, whatever the record before it left.
+    phases: (duty_a, duty_b, samples) held in turn after the rest, e.g. a warm record's first
+    duties for n samples, so it starts on the heating branch of their steady state whatever
+    the record before it left.
     """
     def first(x: Optional[np.ndarray], k: int) -> Optional[np.ndarray]:
         return None if x is None else np.full(k, x[0])
-    k = 2 * n if warm else n
-    heat = np.arange(k) >= n
-    return (first(d.duty_a, k) * heat, first(d.duty_b, k) * heat, first(d.position, k),
-            first(d.ambient, k), first(d.setpoint, k), np.zeros(k, bool))
+    k = n + sum(p[2] for p in phases)
+    duty_a, duty_b = np.zeros(k), np.zeros(k)
+    at = n
+    for a, b, m in phases:
+        duty_a[at:at + m], duty_b[at:at + m] = a, b
+        at += m
+    return (duty_a, duty_b, first(d.position, k), first(d.ambient, k), first(d.setpoint, k),
+            np.zeros(k, bool))
+
+
+def _phases(d: DynamicData, n: int, warm: bool, cooled: Optional[tuple]) -> tuple:
+    """Return `_lead_in`'s phases: warm (first duties n samples) or cooled (a, b, s)."""
+    if cooled is not None:
+        a, b, cool_s = cooled
+        return ((a, b, n), (0.0, 0.0, int(round(cool_s / d.dt))))
+    return ((d.duty_a[0], d.duty_b[0], n),) if warm else ()
 
 
 def rest_gap_s(tau_s: Optional[float] = None) -> float:
@@ -225,7 +235,8 @@ def rest_gap_s(tau_s: Optional[float] = None) -> float:
 
 
 def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
-         warm: tuple = (), tau_s: Optional[float] = None) -> DynamicData:
+         warm: tuple = (), tau_s: Optional[float] = None,
+         cooled: Optional[dict] = None) -> DynamicData:
     """
     Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
 
@@ -233,9 +244,12 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
     held out, that record is returned as it is (the time split applies). notes: a list
     that receives one line per resampled record. warm: names of records led in by their
     first duties held as long as the rest after it (they start in that steady state).
-    tau_s: a model's thermal time constant [s], which sets the rest (`rest_gap_s`).
+    cooled: {name: (duty_a, duty_b, cool_s)}: records led in by those duties held as long as
+    the rest, then cool_s [s] at zero duty (they start still cooling). tau_s: a model's
+    thermal time constant [s], which sets the rest (`rest_gap_s`).
     """
-    if len(records) == 1 and not held_out and not warm:
+    cooled = cooled or {}
+    if len(records) == 1 and not held_out and not warm and not cooled:
         name, d = records[0]
         return DynamicData(d.time, d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                            d.position_unit, d.layout, ((name, 0, len(d)),), None, None)
@@ -255,8 +269,8 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
             d = _resample(d, dt)
         if split is None and name in held_out:
             split = at
-        if i or name in warm:
-            parts.append(_lead_in(d, gap, name in warm))
+        if i or name in warm or name in cooled:
+            parts.append(_lead_in(d, gap, _phases(d, gap, name in warm, cooled.get(name))))
             at += len(parts[-1][0])
         parts.append((d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                       np.ones(len(d), bool)))
@@ -267,52 +281,6 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
     d0 = records[0][1]
     return DynamicData(np.arange(at) * dt, cols[0], cols[1], cols[2], cols[3], cols[4],
                        d0.position_unit, d0.layout, tuple(segments), cols[5], split)
-
-
-def warm_starts(model: Any, records: list, tau_s: Optional[float] = None,
-                confirm: bool = True) -> tuple:
-    """
-    Return the names of the (name, DynamicData) records that `model` sees start warm.
-
-    A record whose first sample has a duty on was begun at rest as that duty came on, or
-    logged mid-run with the wires warm. It may start warm when the model started at rest
-    misses its first ZERO_WINDOW_S by more than WARM_MIN_MISS of the record's range (mean
-    |measured − predicted|); with `confirm` it starts warm only if the model started in the
-    steady state of its first duties (`join(..., warm=...)`) misses by less than
-    WARM_ADVANTAGE times that. tau_s: the model's time constant [s] (sets the lead-in).
-    """
-    def start_miss(name: str, d: DynamicData, warm: tuple) -> float:
-        n = min(len(d), max(1, int(round(ZERO_WINDOW_S / d.dt))))
-        joined = join([(name, d)], warm=warm, tau_s=tau_s)
-        a = segment_of(joined, name)[0]
-        return float(np.mean(np.abs(d.position[:n] - model.simulate(joined)[a:a + n])))
-
-    out = []
-    for name, d in records:
-        if d.duty_a[0] <= 0 and d.duty_b[0] <= 0:
-            continue
-        at_rest = start_miss(name, d, ())
-        if at_rest > WARM_MIN_MISS * d.span() and (
-                not confirm or start_miss(name, d, (name,)) < WARM_ADVANTAGE * at_rest):
-            out.append(name)
-    return tuple(out)
-
-
-def lead_ins(model: Any, records: list, confirm: bool = True) -> dict:
-    """
-    Return the `join` options `model` asks of the (name, DynamicData) records ({}: none).
-
-    warm: the records that start warm by `model` (`warm_starts`, `confirm` passed on);
-    tau_s: the model's time constant when it is too slow for REST_GAP_S (`rest_gap_s`).
-    """
-    tau = model.values.get('tau_s')
-    lead = {'tau_s': float(tau)} if tau is not None and rest_gap_s(tau) > REST_GAP_S else {}
-    warm = warm_starts(model, records, lead.get('tau_s'), confirm)
-    if warm:
-        lead['warm'] = warm
-    elif len(records) == 1:   # one record without a lead-in is not joined: no rest to set
-        lead.pop('tau_s', None)
-    return lead
 
 
 def segment_of(data: DynamicData, name: str) -> tuple:
