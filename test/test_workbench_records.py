@@ -30,7 +30,8 @@ from sma_actuator.workbench import cli
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model, load_fit,
                                            prune_effects, record_scores)
-from sma_actuator.workbench.records import at_fit_rate, join, loop_prior, segment_of
+from sma_actuator.workbench.records import (at_fit_rate, join, loop_prior, segment_of,
+                                            zeros)
 from support import richsim
 from support.richsim_excitation import open_loop_duty
 import yaml
@@ -41,12 +42,12 @@ DT = 0.05
 
 def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[mm]',
                     dt=DT, comment='', stroke=1.0, start_duty=0.0, warm=False, hold_s=4.0,
-                    tau_s=None, cooled_s=None):
+                    tau_s=None, cooled_s=None, warm_s=60.0):
     """
     Write a simulated single wire against a spring (mm); returns path.
 
     The first 2 s hold start_duty (0: resting first). warm: the wire has been held at
-    start_duty for 60 s before the record begins (a log begun mid-run); cooled_s: held at
+    start_duty for warm_s [s] before the record begins (a log begun mid-run); cooled_s: held at
     the record's highest duty for 60 s, then cooled_s [s] at zero duty (a log begun after a
     run). Duty levels are
     held hold_s, every other one zero; tau_s: the wire's time constant (default the
@@ -61,7 +62,7 @@ def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[
     levels[rng.random(levels.size) < 0.0] = 0.0
     duty = np.where((np.arange(n) // hold) % 2 == 1, levels, 0.0)
     duty[:int(2.0 / dt)] = start_duty
-    lead_duty = np.full(int(round(60.0 / dt)) if warm else 0, start_duty)
+    lead_duty = np.full(int(round(warm_s / dt)) if warm else 0, start_duty)
     if cooled_s is not None:
         lead_duty = np.r_[np.full(int(round(60.0 / dt)), np.max(duty)),
                           np.zeros(int(round(cooled_s / dt)))]
@@ -164,7 +165,7 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
     code, text, err = run(capsys, 'compare', cut, '--model', out, '--json')
     assert code == 0, err
     row = json.loads(text)['records'][0]
-    assert row['warm_start'] and row['cooled']['duty_a'] > 0
+    assert row['warm_start'] and row['lead_in']['duty_a'] > 0
     assert row['scores']['all']['nrmse'] < 0.02 and 'still cooling' in err
 
 
@@ -205,6 +206,20 @@ def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
     alone = json.loads(text)['records'][0]
     assert alone['warm_start'] and alone['scores']['all']['rmse'] == pytest.approx(
         rows[str(warm)]['scores']['all']['rmse'], rel=1e-6)
+
+
+def test_a_record_whose_duty_came_on_shortly_before_it_began_is_led_in_so(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    late = single_wire_csv(tmp_path / 'late.csv', seed=3, start_duty=0.4, warm=True, warm_s=3.0)
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, b, '--out', out)[0] == 0
+    code, text, err = run(capsys, 'compare', late, '--model', out, '--json')
+    assert code == 0, err
+    row = json.loads(text)['records'][0]
+    assert row['warm_start'] and row['lead_in']['first_duties_s'] == pytest.approx(3.0, abs=0.3)
+    assert row['scores']['all']['nrmse'] < 0.01
+    assert 'simulated with those duties on for 3' in err
 
 
 def test_compare_takes_a_step_from_the_first_sample_that_fit_refuses(tmp_path, capsys):
@@ -253,7 +268,7 @@ def test_a_record_begun_while_the_wire_still_cools_is_led_in_cooling(tmp_path, c
     assert code == 0, err
     rows = {r['data']: r for r in json.loads(text)['records']}
     assert [rows[str(p)]['warm_start'] for p in (a, b, cooling)] == [False, False, True]
-    assert rows[str(cooling)]['cooled']['time_s'] == pytest.approx(1.0, abs=0.3)
+    assert rows[str(cooling)]['lead_in']['first_duties_s'] == pytest.approx(1.0, abs=0.3)
     assert err.count(f'note: {cooling} starts at zero duty with a wire still cooling') == 1
     # left out, the cooling record is led in as the model fitted on the other two sees it
     assert max(r['scores']['all']['nrmse'] for r in rows.values()) < 0.01
@@ -268,6 +283,19 @@ def test_a_record_begun_while_the_wire_still_cools_is_led_in_cooling(tmp_path, c
     from_rest = load_fit(yaml.safe_load((tmp_path / 'm.yaml').read_text())).simulate(
         join([('c', record)]))
     assert np.sqrt(np.mean((from_rest - record.position) ** 2)) > 0.1 * np.ptp(record.position)
+
+
+def test_a_record_that_shows_no_rest_takes_the_sensor_zero_of_those_that_do(tmp_path):
+    recs = [(name, load_data(single_wire_csv(tmp_path / f'{name}.csv', **kw))) for name, kw in (
+        ('a', {'seed': 1, 'zero': -0.3}), ('b', {'seed': 2, 'zero': 0.1}),
+        ('cooling', {'seed': 3, 'zero': 0.5, 'cooled_s': 1.0}),
+        ('warm', {'seed': 4, 'zero': 0.5, 'start_duty': 0.4, 'warm': True}))]
+    data = join(recs)
+    z = {name: zeros(data)[segment_of(data, name)[0]] for name, _ in recs}
+    assert z['a'] == pytest.approx(-0.3, abs=0.02) and z['b'] == pytest.approx(0.1, abs=0.02)
+    assert z['cooling'] == z['warm'] == pytest.approx((z['a'] + z['b']) / 2, rel=1e-12)
+    alone = join(recs[2:3])
+    assert zeros(alone, 0.25)[0] == 0.25 and zeros(alone)[0] > 4.0   # its hot first reading
 
 
 def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_path, capsys):

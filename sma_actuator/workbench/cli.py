@@ -58,8 +58,9 @@ NEAR_NOISE = 1.5
 # a compared record starting at rest this far (share of the measured range) from the
 # model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
 START_OFFSET_NOTE = 0.02
-# fit and diagnose keep a refit with lead-ins (warm starts, a longer rest) only if its RMS
-# error over every measured sample is below this share of the first fit's
+# fit and diagnose keep a refit with lead-ins (records that do not start at rest, a longer
+# rest) only if its RMS error over every measured sample is below this share of the first
+# fit's
 LEAD_IN_GAIN = 0.9
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
@@ -436,7 +437,7 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
     Fit the records; return (data, fit, per-record rows).
 
     Several records without --validate-on: each left out in turn (`crossval`); else one
-    split. lead: `records.join`'s warm, cooled and tau_s (`leadins.lead_ins`); the records
+    split. lead: `records.join`'s lead_in and tau_s (`leadins.lead_ins`); the records
     are described (notes) only on the first fit, the one without.
     """
     from .crossval import all_records, cross_validate, LEFT_OUT
@@ -577,37 +578,44 @@ def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: An
 
 def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
                  loaded: List[Tuple[str, Any]]) -> None:
-    """Print a note for each record led in warm or cooling, and for a longer rest."""
+    """Print a note for each record led in (warm or cooling), and for a longer rest."""
     from .records import REST_GAP_S, REST_TAUS, rest_gap_s
     for name, d in loaded:
-        if name in lead.get('warm', ()):
-            _note(args, f'note: {name} starts with the wires warm (duty_a {d.duty_a[0]:.3g}, '
-                  f'duty_b {d.duty_b[0]:.3g} on at its first sample): simulated from the '
-                  'steady state of those duties, not from rest')
-        if name in lead.get('cooled', {}):
-            a, b, cool_s = lead['cooled'][name]
-            _note(args, f'note: {name} starts at zero duty with a wire still cooling (it moves '
-                  f'before any duty): simulated from duty_a {a:.3g}, duty_b {b:.3g} held, '
-                  f'then {cool_s:.3g} s at zero duty, not from rest')
+        if name in lead.get('lead_in', {}):
+            _note(args, f'note: {name} {_lead_in_words(d, lead["lead_in"][name], lead)}')
     if 'tau_s' in lead:
         tau = lead['tau_s']
         _note(args, f'note: τ = {tau:.3g} s: the records are joined with {rest_gap_s(tau):.0f} '
               f's of rest ({REST_TAUS:g} τ, not {REST_GAP_S:.0f} s), so each starts cold')
 
 
+def _lead_in_words(d: Any, lead_in: tuple, lead: Dict[str, Any]) -> str:
+    """Return how record `d` starts and is simulated, by its (duty_a, duty_b, first_s)."""
+    from .records import rest_gap_s
+    a, b, first_s = lead_in
+    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+        how = ('from the steady state of those duties' if first_s >= rest_gap_s(
+            lead.get('tau_s')) - d.dt else f'with those duties on for {first_s:.3g} s before it')
+        return (f'starts with the wires warm (duty_a {d.duty_a[0]:.3g}, duty_b '
+                f'{d.duty_b[0]:.3g} on at its first sample): simulated {how}, not from rest')
+    return ('starts at zero duty with a wire still cooling (it moves before any duty): '
+            f'simulated from duty_a {a:.3g}, duty_b {b:.3g} held, then {first_s:.3g} s at '
+            'zero duty, not from rest')
+
+
 def mark_warm(records: List[Dict[str, Any]], lead: Dict[str, Any]) -> None:
     """
     Give each per-record row `warm_start`: whether it was simulated from warm.
 
-    A record led in still cooling (`leadins.cooling_starts`) also gets `cooled`: the duties
-    its lead-in held and how long it then cooled at zero duty before the record began.
+    A record led in (`leadins.started`) also gets `lead_in`: the duties held before its
+    first duties and how long those had been on when it began [s].
     """
-    cooled = lead.get('cooled', {})
+    led = lead.get('lead_in', {})
     for r in records:
-        r['warm_start'] = r['data'] in lead.get('warm', ()) or r['data'] in cooled
-        if r['data'] in cooled:
-            a, b, cool_s = cooled[r['data']]
-            r['cooled'] = {'duty_a': a, 'duty_b': b, 'time_s': round(cool_s, 3)}
+        r['warm_start'] = r['data'] in led
+        if r['data'] in led:
+            a, b, first_s = led[r['data']]
+            r['lead_in'] = {'duty_a': a, 'duty_b': b, 'first_duties_s': round(first_s, 3)}
 
 
 def _note_start_offsets(args: argparse.Namespace, data: Any,

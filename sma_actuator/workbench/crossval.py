@@ -28,7 +28,7 @@ import numpy as np
 
 from .effects import is_builtin
 from .engine import fit_model, ModelFit, part_scores, record_scores
-from .leadins import predict_cooled
+from .leadins import predict_led
 from .parallel import available_cores, imap_on_cores
 from .records import join, segment_of, segment_view
 from ..core.datakinds import DynamicData
@@ -44,7 +44,7 @@ def all_records(records: Sequence[Tuple[str, DynamicData]], notes: Optional[list
     """
     Return the (name, DynamicData) records joined, every one of them training.
 
-    lead: `records.join`'s warm, cooled and tau_s.
+    lead: `records.join`'s lead_in and tau_s.
     """
     data = join(list(records), notes=notes, **lead)
     return replace(data, split=len(data))
@@ -83,14 +83,14 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
     Return (the joined records, the model fitted on all of them, the per-record scores).
 
     Record i's left-out prediction ŷ_i comes from the model fitted on every record but i
-    (each simulated from its own rest, `records.join`; one that starts still cooling, led
-    in as that model sees it, `leadins.predict_cooled`). The fit returned is the one on all
+    (each simulated from its own rest, `records.join`; one that does not start at rest,
+    led in as that model sees it, `leadins.predict_led`). The fit returned is the one on all
     records (`folds` holds the others): its `train` scores are its own, its `validation`
     scores pool the left-out predictions of every record (NRMSE over the whole set's
     measured range, as any held-out score). Per record: {'data', 'role': 'left out',
     'scores': {'all': ŷ_i's scores, 'train': the returned model's}}. jobs: processes for the
     fits (0: every core; plug-in effects are fitted in this process, a worker would not have
-    them). lead: `records.join`'s warm, cooled and tau_s.
+    them). lead: `records.join`'s lead_in and tau_s.
     """
     if len(records) < 2:
         raise ValueError('leaving one record out needs two records or more')
@@ -101,13 +101,13 @@ def cross_validate(records: Sequence[Tuple[str, DynamicData]], effects: tuple = 
     fits = fit_all([(d, effects, kind, None) for d in folds + [data]], jobs, progress)
     final = fits[-1]
     left_out = np.full(len(data), np.nan)
-    cooled = lead.get('cooled', {})
+    led = lead.get('lead_in', {})
     for name, fold, fit in zip(names, folds, fits):
         a, b = segment_of(fold, name)
         start, stop = segment_of(data, name)
-        left_out[start:stop] = (predict_cooled(fit, name, segment_view(data, start, stop),
-                                               records, lead.get('tau_s'))
-                                if name in cooled else fit.prediction[a:b])
+        left_out[start:stop] = (predict_led(fit, name, segment_view(data, start, stop),
+                                            records, lead)
+                                if name in led else fit.prediction[a:b])
     final.folds = dict(zip(names, fits[:-1]))
     final.validation = part_scores(data, left_out, data.scored_mask())
     final.rig['validation_rule'] = RULE

@@ -141,7 +141,9 @@ class ModelFit:
         da, db, amb = self.inputs(data)
         t = act.simulate(self.params, da, db, data.dt, ambient_c=amb)
         if 'sensor_zero' in self.effects:
-            t.position_rad = t.position_rad + zeros(data)
+            trained = list(self.rig.get('record_zeros', {}).values())
+            t.position_rad = t.position_rad + zeros(
+                data, float(np.median(trained)) if trained else None)
         return t
 
 
@@ -170,6 +172,8 @@ def load_fit(d: dict, data: Any = None) -> ModelFit:
     fit = ModelFit(list(d.get('effects', [])), d.get('kind', 'modified'),
                    dict(d.get('parameters', {})), sc.get('train'), sc.get('validation'),
                    None, None, 0, np.zeros(0), params)
+    if isinstance(d.get('record_zeros'), dict):
+        fit.rig['record_zeros'] = dict(d['record_zeros'])
     if data is not None:
         fit.prediction, fit.signals = data.simulate(fit)
         keep = data.scored_mask()

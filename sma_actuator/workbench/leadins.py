@@ -15,85 +15,29 @@
 How each record of a set starts: at rest, warm, or still cooling.
 
 A log is not always begun with the wires at rest. One begun mid-run starts with a duty on
-and the wires warm (`warm_starts`); one begun right after an earlier run starts at zero
-duty with a wire still cooling (`cooling_starts`). `lead_ins` gives `records.join` the
-lead-in each record asks of a model, so the model starts where the wire was.
+and the wires warm; one begun right after an earlier run starts at zero duty with a wire
+still cooling. Both are the record's first duties having been on for a while after other
+duties: zero for a warm start, a heat for a cooling one. `start_lead` finds how long, by
+the model's prediction of the record's start; `lead_ins` gives `records.join` the lead-in
+each record asks of a model, so the model starts where the wires were.
 """
 from typing import Any, Optional
 
 import numpy as np
 
-from .records import join, REST_GAP_S, rest_gap_s, segment_of, ZERO_WINDOW_S
+from .records import (join, moves_unheated, REST_GAP_S, rest_gap_s, segment_of,
+                      start_window)
 from ..core.datakinds import DynamicData
 
-# a record that starts with a duty on starts warm when the steady state of its first duties
-# predicts its first ZERO_WINDOW_S this much closer than a start at rest (mean |error|) ...
-WARM_ADVANTAGE = 0.5
-# ... and the start at rest misses by more than this share of the record's range
-WARM_MIN_MISS = 0.02
-# a record that starts at zero duty is looked at for a cooling wire over its first
-# COOL_WINDOW_S [s], or until a duty first rises ...
-COOL_WINDOW_S = 5.0
-# ... where it moves by more than WARM_MIN_MISS of its range (means over the first and the
-# last MOTION_MEAN_S [s] of that window: sensor noise)
-MOTION_MEAN_S = 0.2
+# a record is led in when the start at rest misses its start by more than this share of
+# its range (mean |measured − predicted|) ...
+LEAD_MIN_MISS = 0.02
+# ... and (`confirm`) the led-in start misses by less than this share of that
+LEAD_ADVANTAGE = 0.5
 # duties tried for a cooling record when no record of the set heats: geometric, up to full
 UNKNOWN_HEATS = np.geomspace(0.02, 1.0, 16)
-# of the heats whose lead-in matches within this factor of the best, the lowest is taken
-HEAT_TIE = 1.1
-
-
-def warm_starts(model: Any, records: list, tau_s: Optional[float] = None,
-                confirm: bool = True) -> tuple:
-    """
-    Return the names of the (name, DynamicData) records that `model` sees start warm.
-
-    A record whose first sample has a duty on was begun at rest as that duty came on, or
-    logged mid-run with the wires warm. It may start warm when the model started at rest
-    misses its first ZERO_WINDOW_S by more than WARM_MIN_MISS of the record's range (mean
-    |measured − predicted|); with `confirm` it starts warm only if the model started in the
-    steady state of its first duties (`join(..., warm=...)`) misses by less than
-    WARM_ADVANTAGE times that. tau_s: the model's time constant [s] (sets the lead-in).
-    """
-    def start_miss(name: str, d: DynamicData, warm: tuple) -> float:
-        n = min(len(d), max(1, int(round(ZERO_WINDOW_S / d.dt))))
-        joined = join([(name, d)], warm=warm, tau_s=tau_s)
-        a = segment_of(joined, name)[0]
-        return float(np.mean(np.abs(d.position[:n] - model.simulate(joined)[a:a + n])))
-
-    out = []
-    for name, d in records:
-        if d.duty_a[0] <= 0 and d.duty_b[0] <= 0:
-            continue
-        at_rest = start_miss(name, d, ())
-        if at_rest > WARM_MIN_MISS * d.span() and (
-                not confirm or start_miss(name, d, (name,)) < WARM_ADVANTAGE * at_rest):
-            out.append(name)
-    return tuple(out)
-
-
-def cooling_window(d: DynamicData) -> int:
-    """Return the samples of a record's start before any duty, at most COOL_WINDOW_S."""
-    n = min(len(d), int(round(COOL_WINDOW_S / d.dt)))
-    heated = np.flatnonzero((d.duty_a > 0) | (d.duty_b > 0))
-    return min(n, int(heated[0])) if heated.size else n
-
-
-def moves_unheated(d: DynamicData) -> bool:
-    """
-    Return whether a record starts at zero duty and moves before any duty comes on.
-
-    A wire at rest holds still at zero duty; one still cooling from an earlier run does
-    not. The move is |mean of the window's last MOTION_MEAN_S − mean of its first| over
-    `cooling_window`, against WARM_MIN_MISS of the record's range.
-    """
-    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
-        return False
-    w, k = cooling_window(d), max(1, int(round(MOTION_MEAN_S / d.dt)))
-    if w < 2 * k:
-        return False
-    y = d.position[:w]
-    return abs(float(np.mean(y[-k:]) - np.mean(y[:k]))) > WARM_MIN_MISS * d.span()
+# lead-ins whose RMS error over the start is within this factor of the best match it alike
+LEAD_TIE = 1.1
 
 
 def heat_options(d: DynamicData, records: list) -> list:
@@ -102,7 +46,7 @@ def heat_options(d: DynamicData, records: list) -> list:
 
     Each wire alone at the highest duty the record gives it, or, for a record that never
     heats, the highest the record set gives it (what the rig's runs use), or else at each
-    of UNKNOWN_HEATS (`cooled_start` takes the lowest that matches). Lowest duty first.
+    of UNKNOWN_HEATS (`start_lead` takes the lowest that matches). Lowest duty first.
     """
     def peak(column: str, source: list) -> float:
         return max(float(np.max(getattr(r, column))) for r in source)
@@ -114,71 +58,100 @@ def heat_options(d: DynamicData, records: list) -> list:
     return sorted([(p, 0.0) if w == 'duty_a' else (0.0, p) for w, p in duties], key=sum)
 
 
-def cooled_start(model: Any, name: str, d: DynamicData, heats: list,
-                 tau_s: Optional[float] = None) -> tuple:
+def befores(d: DynamicData, records: list) -> list:
     """
-    Return (miss at rest, lead-in, its miss) for a record that starts still cooling.
+    Return the (duty_a, duty_b) that may have held before a record's first duties.
 
-    The model is heated at each of `heats` for the rest gap and then cooled at zero duty
-    for as long again; the lead-in (duty_a, duty_b, cool_s [s]) is the heat and the time
-    into that cooling whose prediction matches the record's `cooling_window` best (least
-    squares over every shift: the duty is zero there, so the cooling just goes on), the
-    lowest heat within HEAT_TIE of the best (a window that shows no fall yet cannot tell
-    how hot the wire was: the lowest heat that explains it falls soonest). Misses are mean
-    |measured − predicted| over that window [position unit].
+    Rest, for a record that starts with a duty on (a log begun mid-run); a heat
+    (`heat_options`) for one that starts at zero duty and moves (a wire still cooling);
+    none for one that starts at rest.
     """
-    w = cooling_window(d)
+    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+        return [(0.0, 0.0)]
+    return heat_options(d, records) if moves_unheated(d) else []
+
+
+def start_lead(model: Any, name: str, d: DynamicData, records: list,
+               tau_s: Optional[float] = None) -> Optional[tuple]:
+    """
+    Return (miss at rest, lead-in, its miss) for record `d`, or None if it starts at rest.
+
+    The model holds each of `befores` for the rest gap, then the record's first duties for
+    as long again; the lead-in (duty_a, duty_b, first_s [s]) is the duties before and the
+    time into the first duties whose prediction matches the record's `start_window`
+    (RMS error over every shift: the duties hold there, so the prediction just goes on;
+    first_s 0 is a start at rest, the whole gap their steady state). Lead-ins within
+    LEAD_TIE of the best match alike, and a start that barely changes cannot tell them
+    apart. A warm start takes the longest time of those (the wires nearest the steady state
+    of their duties); a cooling one the lowest heat, at its best time (the lowest heat that
+    explains a start that shows no fall yet falls soonest: a longer time too would make it
+    fall sooner still). Misses are mean |measured − predicted| over the start [position
+    unit].
+    """
+    options = befores(d, records)
+    if not options:
+        return None
+    w = start_window(d)
     y = d.position[:w]
     at_rest = float(np.mean(np.abs(y - model.simulate(join([(name, d)]))[:w])))
-    cool_s = rest_gap_s(tau_s)
+    gap_s = rest_gap_s(tau_s)
     leads = []
-    for a, b in heats:
-        joined = join([(name, d)], cooled={name: (a, b, cool_s)}, tau_s=tau_s)
+    for a, b in options:
+        joined = join([(name, d)], lead_in={name: (a, b, gap_s)}, tau_s=tau_s)
         start = segment_of(joined, name)[0]
-        p = model.simulate(joined)[start - int(round(cool_s / d.dt)):start + w]
+        p = model.simulate(joined)[start - int(round(gap_s / d.dt)):start + w]
         # Σ (p[k + i] − y[i])² over i, for every shift k, without a window matrix
-        p2 = np.convolve(p * p, np.ones(w), mode='valid')
-        k = int(np.argmin(p2 - 2.0 * np.correlate(p, y, mode='valid')))
-        leads.append((float(np.mean(np.abs(p[k:k + w] - y))), (a, b, k * d.dt)))
-    best = min(miss for miss, _ in leads)
-    return (at_rest,) + next((lead, miss) for miss, lead in leads if miss <= HEAT_TIE * best)
+        sse = (np.convolve(p * p, np.ones(w), mode='valid')
+               - 2.0 * np.correlate(p, y, mode='valid') + float(np.dot(y, y)))
+        rms = np.sqrt(np.maximum(sse, 0.0) / w)
+        k = (int(np.flatnonzero(rms <= LEAD_TIE * rms.min())[-1]) if a == b == 0.0
+             else int(np.argmin(rms)))
+        leads.append((float(rms.min()), (a, b, k * d.dt), float(np.mean(np.abs(p[k:k + w] - y)))))
+    best = min(rms for rms, _, _ in leads)
+    return (at_rest,) + next((lead, miss) for rms, lead, miss in leads if rms <= LEAD_TIE * best)
 
 
-def cooling_starts(model: Any, records: list, tau_s: Optional[float] = None,
-                   confirm: bool = True) -> dict:
+def started(model: Any, records: list, tau_s: Optional[float] = None,
+            confirm: bool = True) -> dict:
     """
-    Return {name: (duty_a, duty_b, cool_s)} for the records `model` sees start still cooling.
+    Return {name: lead-in} for the (name, DynamicData) records that do not start at rest.
 
-    A record that starts at zero duty and moves before any duty (`moves_unheated`) may have
-    been begun while a wire cooled from an earlier run. It is led in so (`cooled_start`)
-    when the model started at rest misses its start by more than WARM_MIN_MISS of its
-    range; with `confirm`, only if the led-in model misses by less than WARM_ADVANTAGE
-    times that. The model that judges a record is the one fitted without it when `model`
-    has one (`ModelFit.folds`): a fit that has bent itself to the record's start at rest
-    would place its lead-in off.
+    A record is led in (`start_lead`) when the model started at rest misses its start by
+    more than LEAD_MIN_MISS of its range; with `confirm`, only if the led-in model misses
+    by less than LEAD_ADVANTAGE times that. The model that judges a record is the one
+    fitted without it when `model` has one (`ModelFit.folds`): a fit that has bent itself
+    to the record's start at rest would place its lead-in off.
     """
     out = {}
     for name, d in records:
-        heats = heat_options(d, records) if moves_unheated(d) else []
-        if not heats:
-            continue
         judge = getattr(model, 'folds', {}).get(name, model)
-        at_rest, lead, miss = cooled_start(judge, name, d, heats, tau_s)
-        if at_rest > WARM_MIN_MISS * d.span() and (not confirm or miss < WARM_ADVANTAGE * at_rest):
+        found = start_lead(judge, name, d, records, tau_s)
+        if found is None:
+            continue
+        at_rest, lead, miss = found
+        if at_rest > LEAD_MIN_MISS * d.span() and (
+                not confirm or miss < LEAD_ADVANTAGE * at_rest):
             out[name] = lead
     return out
 
 
-def predict_cooled(model: Any, name: str, d: DynamicData, records: list,
-                   tau_s: Optional[float] = None) -> np.ndarray:
+def predict_led(model: Any, name: str, d: DynamicData, records: list,
+                lead: dict) -> np.ndarray:
     """
-    Return `model`'s prediction of record `d`, led in still cooling as `model` sees it.
+    Return `model`'s prediction of record `name` held out, led in as `model` sees its start.
 
-    The time into the cooling is the model's own (`cooled_start`): a model fitted without
-    the record scores it as `compare` would, not from a lead-in chosen by another fit.
+    d: the record as joined (at the set's rate); lead: `records.join`'s options for the
+    set. The lead-in is the model's own (`start_lead`): a model fitted without the record
+    scores it as `compare` would, not from a lead-in chosen by another fit. The whole set
+    is simulated, so the record's sensor zero comes from the set (`records.zeros`).
     """
-    lead = cooled_start(model, name, d, heat_options(d, records), tau_s)[1]
-    joined = join([(name, d)], cooled={name: lead}, tau_s=tau_s)
+    tau_s = lead.get('tau_s')
+    led = dict(lead.get('lead_in', {}))
+    found = start_lead(model, name, d, records, tau_s)
+    led.pop(name, None)
+    if found:
+        led[name] = found[1]
+    joined = join(list(records), held_out=(name,), lead_in=led, tau_s=tau_s)
     a, b = segment_of(joined, name)
     return model.simulate(joined)[a:b]
 
@@ -187,18 +160,14 @@ def lead_ins(model: Any, records: list, confirm: bool = True) -> dict:
     """
     Return the `join` options `model` asks of the (name, DynamicData) records ({}: none).
 
-    warm: the records that start warm by `model` (`warm_starts`, `confirm` passed on);
-    cooled: those that start still cooling (`cooling_starts`); tau_s: the model's time
-    constant when it is too slow for REST_GAP_S (`rest_gap_s`).
+    lead_in: the records that do not start at rest (`started`, `confirm` passed on);
+    tau_s: the model's time constant when it is too slow for REST_GAP_S (`rest_gap_s`).
     """
     tau = model.values.get('tau_s')
     lead = {'tau_s': float(tau)} if tau is not None and rest_gap_s(tau) > REST_GAP_S else {}
-    warm = warm_starts(model, records, lead.get('tau_s'), confirm)
-    cooled = cooling_starts(model, records, lead.get('tau_s'), confirm)
-    if warm:
-        lead['warm'] = warm
-    if cooled:
-        lead['cooled'] = cooled
-    if not warm and not cooled and len(records) == 1:
-        lead.pop('tau_s', None)   # one record without a lead-in is not joined: no rest to set
+    led = started(model, records, lead.get('tau_s'), confirm)
+    if led:
+        lead['lead_in'] = led
+    elif len(records) == 1:   # one record without a lead-in is not joined: no rest to set
+        lead.pop('tau_s', None)
     return lead

@@ -18,10 +18,9 @@ Each record is simulated from its own initial state: the records are joined with
 gap of zero duty between them, long enough for the model's wires to cool to ambient
 (`rest_gap_s`: REST_GAP_S, or REST_TAUS time constants of a slower wire), so every record
 starts at rest; the gaps are not scored (`DynamicData.scored`)
-and not regressed. A record that starts warm (a log begun mid-run, `leadins.warm_starts`)
-is led in by its first duties held as long after the rest, so it starts in their steady
-state; one that starts still cooling (`leadins.cooling_starts`) by a duty held and then
-as long at zero duty as its start asks.
+and not regressed. A record that does not start at rest (a log begun mid-run with the wires
+warm, or right after a run with a wire still cooling: `leadins`) is led in by duties held
+after the rest, then its first duties as long as its start asks.
 Records at another sample rate are resampled to the first record's rate (duties held,
 position and ambient interpolated). Held-out records go last, so the
 training window is one prefix (`DynamicData.split`).
@@ -52,6 +51,12 @@ ZERO_WINDOW_S = 1.0
 MIN_REVERSAL = 0.5
 # moving mean over the measured position before looking for reversals [s] (sensor noise)
 REVERSAL_SMOOTH_S = 0.2
+# a record's start: while its duties hold their first values, at most this long [s]
+START_WINDOW_S = 5.0
+# a record that starts at zero duty moves (a wire still cooling) when the means of its
+# start's first and last MOTION_MEAN_S [s] differ by more than MOTION_SHARE of its range
+MOTION_MEAN_S = 0.2
+MOTION_SHARE = 0.02
 
 
 def start_rest(data: DynamicData) -> int:
@@ -66,6 +71,35 @@ def start_rest(data: DynamicData) -> int:
     if heated.size:
         n = max(1, min(n, int(heated[0])))
     return n
+
+
+def start_window(d: DynamicData) -> int:
+    """Return the samples of a record's start: while its duties hold, at most START_WINDOW_S."""
+    n = min(len(d), int(round(START_WINDOW_S / d.dt)))
+    changed = np.flatnonzero((d.duty_a != d.duty_a[0]) | (d.duty_b != d.duty_b[0]))
+    return min(n, int(changed[0])) if changed.size else n
+
+
+def moves_unheated(d: DynamicData) -> bool:
+    """
+    Return whether a record starts at zero duty and moves before any duty comes on.
+
+    A wire at rest holds still at zero duty; one still cooling from an earlier run does
+    not. The move is |mean of the start's last MOTION_MEAN_S − mean of its first| over
+    `start_window`, against MOTION_SHARE of the record's range.
+    """
+    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+        return False
+    w, k = start_window(d), max(1, int(round(MOTION_MEAN_S / d.dt)))
+    if w < 2 * k:
+        return False
+    y = d.position[:w]
+    return abs(float(np.mean(y[-k:]) - np.mean(y[:k]))) > MOTION_SHARE * d.span()
+
+
+def starts_at_rest(d: DynamicData) -> bool:
+    """Return whether a record shows a rest at its start: zero duty, not moving."""
+    return not (d.duty_a[0] > 0 or d.duty_b[0] > 0 or moves_unheated(d))
 
 
 def record_zero(data: DynamicData) -> float:
@@ -201,16 +235,20 @@ def check_compatible(records: list) -> None:
                                 'fitted together need the same columns)')
 
 
-def _lead_in(d: DynamicData, n: int, phases: tuple = ()) -> tuple:
+def _lead_in(d: DynamicData, n: int, before: Optional[tuple]) -> tuple:
     """
-    Return the unscored lead-in of record `d`: n samples at rest, then each phase.
+    Return the unscored lead-in of record `d`: n samples at rest, then as `before` says.
 
-    phases: (duty_a, duty_b, samples) held in turn after the rest, e.g. a warm record's first
-    duties for n samples, so it starts on the heating branch of their steady state whatever
-    the record before it left.
+    before: None (rest only) or (duty_a, duty_b, first_s): those duties held n samples, then
+    the record's first duties for first_s [s], so the record starts where they left the
+    wires whatever the record before it left: (0, 0, long) is the steady state of its
+    first duties (a log begun mid-run), (heat, heat, s) with zero first duties a wire
+    cooling for s after a run.
     """
     def first(x: Optional[np.ndarray], k: int) -> Optional[np.ndarray]:
         return None if x is None else np.full(k, x[0])
+    phases = () if before is None else (
+        (before[0], before[1], n), (d.duty_a[0], d.duty_b[0], int(round(before[2] / d.dt))))
     k = n + sum(p[2] for p in phases)
     duty_a, duty_b = np.zeros(k), np.zeros(k)
     at = n
@@ -221,35 +259,25 @@ def _lead_in(d: DynamicData, n: int, phases: tuple = ()) -> tuple:
             np.zeros(k, bool))
 
 
-def _phases(d: DynamicData, n: int, warm: bool, cooled: Optional[tuple]) -> tuple:
-    """Return `_lead_in`'s phases: warm (first duties n samples) or cooled (a, b, s)."""
-    if cooled is not None:
-        a, b, cool_s = cooled
-        return ((a, b, n), (0.0, 0.0, int(round(cool_s / d.dt))))
-    return ((d.duty_a[0], d.duty_b[0], n),) if warm else ()
-
-
 def rest_gap_s(tau_s: Optional[float] = None) -> float:
     """Return the rest between joined records [s]: REST_GAP_S, or REST_TAUS × a longer τ."""
     return REST_GAP_S if tau_s is None else max(REST_GAP_S, REST_TAUS * float(tau_s))
 
 
 def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
-         warm: tuple = (), tau_s: Optional[float] = None,
-         cooled: Optional[dict] = None) -> DynamicData:
+         lead_in: Optional[dict] = None, tau_s: Optional[float] = None) -> DynamicData:
     """
     Return one `DynamicData` holding the (name, DynamicData) records, joined at rest.
 
     held_out: names of the records to validate on (they go last). With one record and none
     held out, that record is returned as it is (the time split applies). notes: a list
-    that receives one line per resampled record. warm: names of records led in by their
-    first duties held as long as the rest after it (they start in that steady state).
-    cooled: {name: (duty_a, duty_b, cool_s)}: records led in by those duties held as long as
-    the rest, then cool_s [s] at zero duty (they start still cooling). tau_s: a model's
-    thermal time constant [s], which sets the rest (`rest_gap_s`).
+    that receives one line per resampled record. lead_in: {name: (duty_a, duty_b,
+    first_s)}: records that do not start at rest, led in by those duties held as long as
+    the rest, then their first duties for first_s [s] (`_lead_in`, `leadins.lead_ins`).
+    tau_s: a model's thermal time constant [s], which sets the rest (`rest_gap_s`).
     """
-    cooled = cooled or {}
-    if len(records) == 1 and not held_out and not warm and not cooled:
+    lead_in = lead_in or {}
+    if len(records) == 1 and not held_out and not lead_in:
         name, d = records[0]
         return DynamicData(d.time, d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                            d.position_unit, d.layout, ((name, 0, len(d)),), None, None)
@@ -269,8 +297,8 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
             d = _resample(d, dt)
         if split is None and name in held_out:
             split = at
-        if i or name in warm or name in cooled:
-            parts.append(_lead_in(d, gap, _phases(d, gap, name in warm, cooled.get(name))))
+        if i or name in lead_in:
+            parts.append(_lead_in(d, gap, lead_in.get(name)))
             at += len(parts[-1][0])
         parts.append((d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
                       np.ones(len(d), bool)))
@@ -291,13 +319,23 @@ def segment_of(data: DynamicData, name: str) -> tuple:
     raise KeyError(name)
 
 
-def zeros(data: DynamicData) -> np.ndarray:
-    """Return the per-sample sensor zero of joined `data` (each record's start rest)."""
+def zeros(data: DynamicData, fallback: Optional[float] = None) -> np.ndarray:
+    """
+    Return the per-sample sensor zero of joined `data` (each record's start rest).
+
+    A record that shows no rest at its start (begun with a duty on, or with a wire still
+    cooling: `starts_at_rest`) takes the median zero of the records that do, else
+    `fallback` (a model's training records' median zero), else its own first reading.
+    """
     z = np.zeros(len(data))
     segs = data.segments or (('', 0, len(data)),)
-    for i, (_, a, b) in enumerate(segs):
+    views = [segment_view(data, a, b) for _, a, b in segs]
+    rested = [record_zero(v) for v in views if starts_at_rest(v)]
+    other = float(np.median(rested)) if rested else fallback
+    for i, ((_, a, _), view) in enumerate(zip(segs, views)):
         stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
-        z[a:stop] = record_zero(segment_view(data, a, b))
+        own = other is None or starts_at_rest(view)
+        z[a:stop] = record_zero(view) if own else other
     return z
 
 
