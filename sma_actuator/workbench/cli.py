@@ -591,9 +591,9 @@ def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
 
 def _lead_in_words(d: Any, lead_in: tuple, lead: Dict[str, Any]) -> str:
     """Return how record `d` starts and is simulated, by its (duty_a, duty_b, first_s)."""
-    from .records import rest_gap_s
+    from .records import rest_gap_s, starts_heated
     a, b, first_s = lead_in
-    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+    if starts_heated(d):
         how = ('from the steady state of those duties' if first_s >= rest_gap_s(
             lead.get('tau_s')) - d.dt else f'with those duties on for {first_s:.3g} s before it')
         return (f'starts with the wires warm (duty_a {d.duty_a[0]:.3g}, duty_b '

@@ -26,7 +26,7 @@ from typing import Any, Optional
 import numpy as np
 
 from .records import (join, moves_unheated, REST_GAP_S, rest_gap_s, segment_of,
-                      start_window)
+                      start_window, starts_heated)
 from ..core.datakinds import DynamicData
 
 # a record is led in when the start at rest misses its start by more than this share of
@@ -66,7 +66,7 @@ def befores(d: DynamicData, records: list) -> list:
     (`heat_options`) for one that starts at zero duty and moves (a wire still cooling);
     none for one that starts at rest.
     """
-    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+    if starts_heated(d):
         return [(0.0, 0.0)]
     return heat_options(d, records) if moves_unheated(d) else []
 
@@ -100,15 +100,25 @@ def start_lead(model: Any, name: str, d: DynamicData, records: list,
         joined = join([(name, d)], lead_in={name: (a, b, gap_s)}, tau_s=tau_s)
         start = segment_of(joined, name)[0]
         p = model.simulate(joined)[start - int(round(gap_s / d.dt)):start + w]
-        # Σ (p[k + i] − y[i])² over i, for every shift k, without a window matrix
-        sse = (np.convolve(p * p, np.ones(w), mode='valid')
-               - 2.0 * np.correlate(p, y, mode='valid') + float(np.dot(y, y)))
-        rms = np.sqrt(np.maximum(sse, 0.0) / w)
-        k = (int(np.flatnonzero(rms <= LEAD_TIE * rms.min())[-1]) if a == b == 0.0
-             else int(np.argmin(rms)))
-        leads.append((float(rms.min()), (a, b, k * d.dt), float(np.mean(np.abs(p[k:k + w] - y)))))
+        rms, k = _best_shift(p, y, longest=starts_heated(d))
+        leads.append((rms, (a, b, k * d.dt), float(np.mean(np.abs(p[k:k + w] - y)))))
     best = min(rms for rms, _, _ in leads)
     return (at_rest,) + next((lead, miss) for rms, lead, miss in leads if rms <= LEAD_TIE * best)
+
+
+def _best_shift(p: np.ndarray, y: np.ndarray, longest: bool) -> tuple:
+    """
+    Return (least RMS error, shift k) of p[k:k + len(y)] against y over every shift k.
+
+    longest: the last shift within LEAD_TIE of the least error, else the least.
+    """
+    w = len(y)
+    # Σ (p[k + i] − y[i])² over i for every k, without a window matrix
+    sse = (np.convolve(p * p, np.ones(w), mode='valid')
+           - 2.0 * np.correlate(p, y, mode='valid') + float(np.dot(y, y)))
+    rms = np.sqrt(np.maximum(sse, 0.0) / w)
+    k = np.flatnonzero(rms <= LEAD_TIE * rms.min())[-1] if longest else np.argmin(rms)
+    return float(rms.min()), int(k)
 
 
 def started(model: Any, records: list, tau_s: Optional[float] = None,

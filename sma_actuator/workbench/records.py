@@ -80,6 +80,11 @@ def start_window(d: DynamicData) -> int:
     return min(n, int(changed[0])) if changed.size else n
 
 
+def starts_heated(d: DynamicData) -> bool:
+    """Return whether a record's first sample has a duty on."""
+    return bool(d.duty_a[0] > 0 or d.duty_b[0] > 0)
+
+
 def moves_unheated(d: DynamicData) -> bool:
     """
     Return whether a record starts at zero duty and moves before any duty comes on.
@@ -88,7 +93,7 @@ def moves_unheated(d: DynamicData) -> bool:
     not. The move is |mean of the start's last MOTION_MEAN_S − mean of its first| over
     `start_window`, against MOTION_SHARE of the record's range.
     """
-    if d.duty_a[0] > 0 or d.duty_b[0] > 0:
+    if starts_heated(d):
         return False
     w, k = start_window(d), max(1, int(round(MOTION_MEAN_S / d.dt)))
     if w < 2 * k:
@@ -99,7 +104,7 @@ def moves_unheated(d: DynamicData) -> bool:
 
 def starts_at_rest(d: DynamicData) -> bool:
     """Return whether a record shows a rest at its start: zero duty, not moving."""
-    return not (d.duty_a[0] > 0 or d.duty_b[0] > 0 or moves_unheated(d))
+    return not (starts_heated(d) or moves_unheated(d))
 
 
 def record_zero(data: DynamicData) -> float:
