@@ -214,12 +214,14 @@ def test_a_record_whose_duty_came_on_shortly_before_it_began_is_led_in_so(tmp_pa
     late = single_wire_csv(tmp_path / 'late.csv', seed=3, start_duty=0.4, warm=True, warm_s=3.0)
     out = tmp_path / 'm.yaml'
     assert run(capsys, 'fit', a, b, '--out', out)[0] == 0
-    code, text, err = run(capsys, 'compare', late, '--model', out, '--json')
+    code, text, err = run(capsys, 'compare', late, '--model', out, '--json',
+                          '--report', tmp_path / 'report')
     assert code == 0, err
     row = json.loads(text)['records'][0]
     assert row['warm_start'] and row['lead_in']['first_duties_s'] == pytest.approx(3.0, abs=0.3)
     assert row['scores']['all']['nrmse'] < 0.01
     assert 'simulated with those duties on for 3' in err
+    assert 'simulated with those duties on for 3' in (tmp_path / 'report/index.html').read_text()
 
 
 def test_compare_takes_a_step_from_the_first_sample_that_fit_refuses(tmp_path, capsys):

@@ -509,7 +509,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
                          f'{names} is {first.noun}')
     check_rig(spec, first, args.model)
     lead = lead_ins(_fitted(args, spec), loaded) if first.joinable else {}
-    note_lead_in(args, lead, loaded)
+    led_lines = note_lead_in(args, lead, loaded)
     data = join_records(args, loaded, **lead)
     fit = _fitted(args, spec, data)
     profile = spec.get('tau_profile')
@@ -525,7 +525,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data, COMPARED)
     if args.report:
-        _write_report(args, result, title, '; '.join(lines), spec, unit=unit_of(data))
+        _write_report(args, result, title, '; '.join(lines + led_lines), spec,
+                      unit=unit_of(data))
     if args.json:
         doc = {'data': str(args.data[0]) if len(all_data(args)) == 1 else all_data(args),
                'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
@@ -576,17 +577,25 @@ def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: An
     return led, lead
 
 
-def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
-                 loaded: List[Tuple[str, Any]]) -> None:
-    """Print a note for each record led in (warm or cooling), and for a longer rest."""
+def lead_in_lines(lead: Dict[str, Any], loaded: List[Tuple[str, Any]]) -> List[str]:
+    """Return a line for each record led in (warm or cooling), and for a longer rest."""
     from .records import REST_GAP_S, REST_TAUS, rest_gap_s
-    for name, d in loaded:
-        if name in lead.get('lead_in', {}):
-            _note(args, f'note: {name} {_lead_in_words(d, lead["lead_in"][name], lead)}')
+    lines = [f'{name} {_lead_in_words(d, lead["lead_in"][name], lead)}'
+             for name, d in loaded if name in lead.get('lead_in', {})]
     if 'tau_s' in lead:
         tau = lead['tau_s']
-        _note(args, f'note: τ = {tau:.3g} s: the records are joined with {rest_gap_s(tau):.0f} '
-              f's of rest ({REST_TAUS:g} τ, not {REST_GAP_S:.0f} s), so each starts cold')
+        lines.append(f'τ = {tau:.3g} s: the records are joined with {rest_gap_s(tau):.0f} s '
+                     f'of rest ({REST_TAUS:g} τ, not {REST_GAP_S:.0f} s), so each starts cold')
+    return lines
+
+
+def note_lead_in(args: argparse.Namespace, lead: Dict[str, Any],
+                 loaded: List[Tuple[str, Any]]) -> List[str]:
+    """Note each of `lead_in_lines`; return them (an HTML report's description takes them)."""
+    lines = lead_in_lines(lead, loaded)
+    for line in lines:
+        _note(args, f'note: {line}')
+    return lines
 
 
 def _lead_in_words(d: Any, lead_in: tuple, lead: Dict[str, Any]) -> str:
@@ -683,7 +692,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             led = join_records(args, loaded, **lead)
             return led, fit_model(led, effects=tuple(spec['effects']), kind=kind,
                                   progress=progress)
-        data, base = try_lead_in(args, loaded, base, data, refit)[0] or (data, base)
+        led, lead = try_lead_in(args, loaded, base, data, refit)
+        data, base = led or (data, base)
         progress.stage = 'diagnose'
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)
@@ -711,7 +721,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         alternative = (f'model + {best["effect"]}', alt) if best else None
         model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.values}
         _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
-                      '; '.join(data_lines(data)), model, doc, alternative, unit=unit_of(data))
+                      '; '.join(data_lines(data) + lead_in_lines(lead, loaded)), model,
+                      doc, alternative, unit=unit_of(data))
         if args.rounds > 1 and rounds:
             from .report import save_rounds_plot
             _note(args, f'rounds: {save_rounds_plot(args.report, doc)}')
