@@ -66,16 +66,12 @@ def start_rest(data: DynamicData) -> int:
     The first ZERO_WINDOW_S, cut where a duty first exceeds zero (at least the first
     sample).
     """
-    n = max(1, int(round(ZERO_WINDOW_S / data.dt)))
-    heated = np.flatnonzero((data.duty_a > 0) | (data.duty_b > 0))
-    if heated.size:
-        n = max(1, min(n, int(heated[0])))
-    return n
+    return 1 if starts_heated(data) else max(1, start_window(data, ZERO_WINDOW_S))
 
 
-def start_window(d: DynamicData) -> int:
-    """Return the samples of a record's start: while its duties hold, at most START_WINDOW_S."""
-    n = min(len(d), int(round(START_WINDOW_S / d.dt)))
+def start_window(d: DynamicData, window_s: float = START_WINDOW_S) -> int:
+    """Return the samples of a record's start: while its duties hold, at most window_s [s]."""
+    n = min(len(d), int(round(window_s / d.dt)))
     changed = np.flatnonzero((d.duty_a != d.duty_a[0]) | (d.duty_b != d.duty_b[0]))
     return min(n, int(changed[0])) if changed.size else n
 
