@@ -243,7 +243,7 @@ def _lead_in(d: DynamicData, n: int, before: Optional[tuple]) -> tuple:
     before: None (rest only) or (duty_a, duty_b, first_s): those duties held n samples, then
     the record's first duties for first_s [s], so the record starts where they left the
     wires whatever the record before it left: (0, 0, long) is the steady state of its
-    first duties (a log begun mid-run), (heat, heat, s) with zero first duties a wire
+    first duties (a log begun mid-run), (heat_a, heat_b, s) with zero first duties a wire
     cooling for s after a run.
     """
     def first(x: Optional[np.ndarray], k: int) -> Optional[np.ndarray]:
@@ -331,12 +331,13 @@ def zeros(data: DynamicData, fallback: Optional[float] = None) -> np.ndarray:
     z = np.zeros(len(data))
     segs = data.segments or (('', 0, len(data)),)
     views = [segment_view(data, a, b) for _, a, b in segs]
-    rested = [record_zero(v) for v in views if starts_at_rest(v)]
+    rests = [starts_at_rest(v) for v in views]
+    owns = [record_zero(v) for v in views]
+    rested = [own for own, rest in zip(owns, rests) if rest]
     other = float(np.median(rested)) if rested else fallback
-    for i, ((_, a, _), view) in enumerate(zip(segs, views)):
+    for i, ((_, a, _), own, rest) in enumerate(zip(segs, owns, rests)):
         stop = segs[i + 1][1] if i + 1 < len(segs) else len(data)
-        own = other is None or starts_at_rest(view)
-        z[a:stop] = record_zero(view) if own else other
+        z[a:stop] = own if rest or other is None else other
     return z
 
 
