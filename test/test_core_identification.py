@@ -121,6 +121,22 @@ def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_syst
     assert b[-1] < -2.9 and np.all(b[:-1] >= 0)
 
 
+@pytest.mark.parametrize('bound', [5.0, 0.5])
+def test_box_least_squares_equals_bvls_with_the_bound_idle_and_active(bound):
+    """`_box_ls` tries the sign-relaxed NNLS first; inside the box or not, BVLS's minimiser."""
+    from scipy.optimize import lsq_linear
+    rng = np.random.default_rng(4)
+    X = np.column_stack([np.abs(rng.normal(size=(400, 5))), rng.normal(size=(400, 2)),
+                         np.ones(400)])
+    y = X @ np.array([0.0, 1.5, 0.0, 0.7, 2.0, 1.0, -1.0, -3.0]) + 0.01 * rng.normal(size=400)
+    lower = np.r_[np.zeros(5), -bound, -bound, -np.inf]
+    upper = np.r_[np.full(5, np.inf), bound, bound, np.inf]
+    b = idn._box_ls(X, y, lower, upper)
+    expected = lsq_linear(X, y, bounds=(lower, upper), method='bvls').x
+    np.testing.assert_allclose(b, expected, atol=1e-6)
+    assert (np.max(np.abs(b[5:7])) == pytest.approx(bound)) == (bound < 1.0)
+
+
 def test_column_range_is_the_min_and_max_over_both_arrays():
     from sma_actuator.core.kernels import column_range
     rng = np.random.default_rng(4)
