@@ -89,6 +89,7 @@ def test_fit_says_when_the_measured_step_leaves_the_time_constant_open(tmp_path,
     assert yaml.safe_load(out.read_text())['tau_profile'] == profile
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'ramp_a.csv').is_file(), reason='shared data not found')
 def test_diagnose_blames_the_open_time_constant_not_a_missing_effect(capsys):
     """Trained on step_a alone, ramp_a held out: 14 % held out, and no effect named for it."""

@@ -128,6 +128,7 @@ def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):
     assert cmp_['scores']['all']['nrmse'] < 0.03
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(tmp_path, capsys):
     """
@@ -241,6 +242,7 @@ def test_compare_takes_a_step_from_the_first_sample_that_fit_refuses(tmp_path, c
     assert_one_line_error(*run(capsys, 'fit', step)[::2], 'too little excitation')
 
 
+@pytest.mark.slow
 def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -324,6 +326,7 @@ def test_a_slow_wire_is_fitted_with_its_time_constant(tmp_path, capsys):
     assert doc['train_nrmse'] < 0.003
 
 
+@pytest.mark.slow
 def test_the_real_wire_four_times_slower_is_joined_with_a_longer_rest(tmp_path, capsys):
     # the measured records with time x 4: τ 27 s, so 60 s of rest leaves the wire warm
     paths = []
@@ -611,6 +614,7 @@ def two_effect_record(duration_s=240.0, rate_hz=25.0, seed=5, duty_limit=0.45):
     return DynamicData(t, da, db, y)
 
 
+@pytest.mark.slow
 def test_diagnose_names_a_hidden_delay_of_one_wire_against_a_spring():
     # the independent simulator with wire b never heated: wire a alone against the tension
     d = richsim.simulate('delay', magnitude=1.375, excitation='open', duration_s=240.0,
