@@ -48,6 +48,24 @@ def _record(effect, seed):
             'position': position + rng.normal(0.0, 0.002, len(duty_a))}
 
 
+def _record_begun_warm(seed, warm_s=30.0):
+    """
+    Return a delay record (`_record`) logged from 1 s after its first duty came on.
+
+    Its first duties were on for warm_s [s] before the log began: a chunk of a longer log.
+    """
+    dt = 1.0 / RATE_HZ
+    duty_a, duty_b = multilevel(DURATION_S + 10.0, dt, seed=seed)
+    first = np.flatnonzero((duty_a > 0) | (duty_b > 0))[0] + int(round(1.0 / dt))
+    warm = int(round(warm_s / dt))
+    duty_a, duty_b = (np.r_[np.full(warm, d[first]), d[first:]] for d in (duty_a, duty_b))
+    params = ActuatorParams(delay_s=DELAY_S)
+    position = simulate(params, duty_a, duty_b, dt).position_rad[warm:]
+    rng = np.random.default_rng(seed)
+    return {'time': np.arange(len(position)) * dt, 'duty_a': duty_a[warm:],
+            'duty_b': duty_b[warm:], 'position': position + rng.normal(0.0, 0.002, len(position))}
+
+
 def _write_csv(path, rec):
     np.savetxt(path, np.column_stack([rec[c] for c in COLUMNS]), delimiter=',',
                header=','.join(COLUMNS), comments='', fmt='%.6g')
@@ -105,6 +123,28 @@ def scheduler():
                            dashboard_address=None, silence_logs=50)
     yield cluster.scheduler_address
     cluster.close()
+
+
+@pytest.mark.slow
+def test_a_record_begun_mid_run_is_led_in_as_diagnose_leads_it(scheduler, tmp_path):
+    root = tmp_path / 'records'
+    root.mkdir()
+    _write_csv(root / 'warm.csv', _record_begun_warm(7))
+    _write_csv(root / 'rest.csv', _record('delay', 8))
+    out = tmp_path / 'out'
+    argv = ['batch', str(root), '--out', str(out), '--candidates', 'delay', '--no-reports',
+            '--scheduler', scheduler]
+    assert cli.main(argv) == 0
+    rows = {_name(r['record']): r for r in pq.read_table(out / 'batch.parquet').to_pylist()}
+    warm, rest = rows['warm.csv'], rows['rest.csv']
+    # led in warm: rest (zero duties held), then its first duties on for a while
+    assert warm['lead_in_duty_a'] == warm['lead_in_duty_b'] == 0.0
+    assert warm['lead_in_first_duties_s'] > 1.0
+    assert rest['lead_in_duty_a'] is None and rest['lead_in_first_duties_s'] is None
+    # the candidate refits ran on the led-in record too
+    assert warm['named_effect'] == rest['named_effect'] == 'delay'
+    assert 0.6 < warm['param.delay_s'] < 1.0
+    assert warm['final_validation_nrmse'] < 0.05
 
 
 def _name(record):

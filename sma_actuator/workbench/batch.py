@@ -57,7 +57,8 @@ RECORD_SUFFIXES = ('.csv', '.mcap')
 # thermal and shaft parameters of the fitted base model put in the table [units in names]
 BASE_PARAMETERS = ('stroke_rad', 'offset_rad')
 RECORD_COLUMNS = ('samples', 'duration_s', 'rate_hz', 'layout', 'position_unit',
-                  'reference_nrmse')
+                  'reference_nrmse', 'lead_in_duty_a', 'lead_in_duty_b',
+                  'lead_in_first_duties_s')
 
 
 class BatchError(ValueError):
@@ -138,47 +139,56 @@ def file_fingerprint(path: Union[str, Path]) -> str:
 
 # ------------------------------------------------------------------------------ worker tasks
 @lru_cache(maxsize=4)
-def _load(path: str, rates: Tuple[Optional[float], float],
-          stamp: str) -> Union[DynamicData, StaticData]:
+def _load(path: str, rates: Tuple[Optional[float], float], stamp: str,
+          lead: tuple = ()) -> Union[DynamicData, StaticData]:
     """
     Load and check one record on a worker.
 
     Cached, since every candidate task of a record reads it; `stamp` is the file
     fingerprint, so a changed file is read again. rates: (the bags' resampling rate or None,
-    the fitting rate's limit) [Hz] (`records.at_fit_rate`).
+    the fitting rate's limit) [Hz] (`records.at_fit_rate`). lead: the record's lead-in as
+    `lead_items` gives it (() for none): the record is then joined with it.
     """
     from .data import check_excitation, load_data
-    from .records import at_fit_rate
+    from .records import at_fit_rate, join
     rate_hz, max_rate_hz = rates
     data, _ = at_fit_rate(load_data(path, rate_hz=rate_hz), max_rate_hz)
     check_excitation(data, path)
-    return data
+    return join([(path, data)], **{k: dict(v) if isinstance(v, tuple) else v
+                                   for k, v in lead}) if lead else data
+
+
+def lead_items(lead: dict) -> tuple:
+    """Return `records.join`'s lead options as a hashable tuple (the cache key of `_load`)."""
+    return tuple((k, tuple(v.items()) if isinstance(v, dict) else v)
+                 for k, v in sorted(lead.items()))
 
 
 def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -> dict:
     """
     Worker: fit the record, diagnose it in rounds, write its report.
 
-    The rounds are `engine.diagnose_rounds` (the one implementation `sma-model diagnose`
-    uses); its candidate refits go back to the cluster as tasks of their own, so one
-    record's refits spread over the workers. Returns {'rounds': [round summary, ...],
-    'parameters': the final model's parameters {name: value}, units in the names}.
+    A record that does not start at rest (a chunk of a longer log) is led in, as `sma-model
+    diagnose` does (`leadins.refit_led`). The rounds are `engine.diagnose_rounds` (the one
+    implementation `sma-model diagnose` uses); its candidate refits go back to the cluster as
+    tasks of their own, so one record's refits spread over the workers. Returns {'rounds':
+    [round summary, ...], 'parameters': the final model's parameters {name: value}, units in
+    the names}.
     """
     from dask.distributed import worker_client
     from .data import describe
-    from .engine import diagnose_rounds, fit_model
+    from .engine import diagnose_rounds
     from .report import write_diagnosis_report
     started = time.perf_counter()
     rates = (options.rate_hz, options.max_rate_hz)
-    data = _load(path, rates, stamp)
-    base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
-    record = data.columns()
+    data, base, lead = _fit_led(path, rates, stamp, options)
+    record = dict(data.columns(), **lead_columns(path, lead))
     if options.reference is not None:
         record['reference_nrmse'] = compare_reference(options.reference, data)
     base_seconds = time.perf_counter() - started
     # the worker's thread is handed back while this task waits for its refits
     with worker_client() as client:
-        mapper = partial(_judge_on_cluster, client, path, stamp, rates)
+        mapper = partial(_judge_on_cluster, client, path, stamp, rates, lead_items(lead))
         diags, _, final = diagnose_rounds(data, base, options.rounds,
                                           candidates=_candidates(options), mapper=mapper)
     rounds = [round_summary(diag, record, base_seconds if i == 0 else 0.0)
@@ -191,24 +201,46 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     return {'rounds': rounds, 'parameters': final_parameters(final)}
 
 
-def _judge_on_cluster(client: Client, path: str, stamp: str, rates: tuple,
+def _fit_led(path: str, rates: tuple, stamp: str, options: BatchOptions) -> tuple:
+    """Return (data, base fit, lead) of the record, led in if it does not start at rest."""
+    from .engine import fit_model
+    from .leadins import refit_led
+    data = _load(path, rates, stamp)
+    base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
+
+    def refit(**lead: Any) -> tuple:
+        led = _load(path, rates, stamp, lead_items(lead))
+        return led, fit_model(led, effects=tuple(options.effects), kind=options.kind)
+    led, lead = refit_led(base, data, [(path, data)], refit)
+    return led + (lead,) if led else (data, base, {})
+
+
+def lead_columns(path: str, lead: dict) -> dict:
+    """Return the record's lead-in columns: its duties [0-1] held and the time [s] led in."""
+    duty_a, duty_b, first_s = lead.get('lead_in', {}).get(path, (None,) * 3)
+    return {'lead_in_duty_a': duty_a, 'lead_in_duty_b': duty_b,
+            'lead_in_first_duties_s': first_s}
+
+
+def _judge_on_cluster(client: Client, path: str, stamp: str, rates: tuple, lead: tuple,
                       tasks: list) -> Iterator[dict]:
     """
     Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
 
-    The tasks travel without the record: each worker reads it by its path (cached).
+    The tasks travel without the record: each worker reads it by its path (cached), and
+    leads it in as `lead` (`lead_items`) says.
     """
     from dask.distributed import as_completed
-    futures = [client.submit(task_candidate, path, stamp, rates, task[1:], pure=False)
+    futures = [client.submit(task_candidate, path, stamp, rates, task[1:], lead, pure=False)
                for task in tasks]
     for fut in as_completed(futures):
         yield fut.result()
 
 
-def task_candidate(path: str, stamp: str, rates: tuple, task: tuple) -> dict:
+def task_candidate(path: str, stamp: str, rates: tuple, task: tuple, lead: tuple = ()) -> dict:
     """Run one `engine.judge_candidate` task (without its data) on the record at `path`."""
     from .engine import judge_candidate
-    return judge_candidate((_load(path, rates, stamp),) + tuple(task))
+    return judge_candidate((_load(path, rates, stamp, lead),) + tuple(task))
 
 
 def compare_reference(spec: dict, data: Any) -> float:

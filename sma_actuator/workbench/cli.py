@@ -58,10 +58,6 @@ NEAR_NOISE = 1.5
 # a compared record starting at rest this far (share of the measured range) from the
 # model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
 START_OFFSET_NOTE = 0.02
-# fit and diagnose keep a refit with lead-ins (records that do not start at rest, a longer
-# rest) only if its RMS error over every measured sample is below this share of the first
-# fit's
-LEAD_IN_GAIN = 0.9
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
                  '(default: %(default)g)')
@@ -556,23 +552,9 @@ def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None)
 
 def try_lead_in(args: argparse.Namespace, loaded: List[Tuple[str, Any]], fit: Any, data: Any,
                 refit: Callable[..., tuple]) -> Tuple[Optional[tuple], Dict[str, Any]]:
-    """
-    Return (refit(**lead), lead) if `fit` on `data` asks for lead-ins, else (None, {}).
-
-    The lead-ins are `leadins.lead_ins`, unconfirmed; refit returns (its joined data, its fit,
-    ...) and is kept (and noted) only if its RMS error over every measured sample
-    (training and held out: the lead-ins change how each record starts) is below
-    LEAD_IN_GAIN times the first fit's.
-    """
-    from .engine import part_scores
-    from .leadins import lead_ins
-
-    def rmse(f: Any, d: Any) -> float:
-        return part_scores(d, f.prediction, d.scored_mask())['rmse']
-    lead = lead_ins(fit, loaded, confirm=False) if loaded[0][1].joinable else {}
-    led = refit(**lead) if lead else None
-    if led is None or rmse(led[1], led[0]) >= LEAD_IN_GAIN * rmse(fit, data):
-        return None, {}
+    """Return `leadins.refit_led` of the first `fit`, noting the lead-ins it keeps."""
+    from .leadins import refit_led
+    led, lead = refit_led(fit, data, loaded, refit)
     note_lead_in(args, lead, loaded)
     return led, lead
 

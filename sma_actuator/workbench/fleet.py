@@ -33,7 +33,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 COLUMNS = ('record', 'layout', 'samples', 'duration_s', 'rate_hz', 'position_unit',
-           'reference_nrmse', 'base_effects', 'base_train_nrmse', 'base_validation_nrmse',
+           'reference_nrmse', 'lead_in_duty_a', 'lead_in_duty_b', 'lead_in_first_duties_s',
+           'base_effects', 'base_train_nrmse', 'base_validation_nrmse',
            'noise_floor_nrmse', 'named_effect',
            'improvement', 'effects_added', 'final_validation_nrmse', 'task_time_s',
            'wall_time_s', 'report', 'error')

@@ -21,10 +21,11 @@ duties: zero for a warm start, a heat for a cooling one. `start_lead` finds how 
 the model's prediction of the record's start; `lead_ins` gives `records.join` the lead-in
 each record asks of a model, so the model starts where the wires were.
 """
-from typing import Any, Optional
+from typing import Any, Callable, Optional, Tuple
 
 import numpy as np
 
+from .engine import part_scores
 from .records import (join, moves_unheated, REST_GAP_S, rest_gap_s, segment_of,
                       start_window, starts_heated)
 from ..core.datakinds import DynamicData
@@ -38,6 +39,9 @@ LEAD_ADVANTAGE = 0.5
 UNKNOWN_HEATS = np.geomspace(0.02, 1.0, 16)
 # lead-ins whose RMS error over the start is within this factor of the best match it alike
 LEAD_TIE = 1.1
+# a refit with lead-ins (records that do not start at rest, a longer rest) is kept only if
+# its RMS error over every measured sample is below this share of the first fit's
+LEAD_IN_GAIN = 0.9
 
 
 def heat_options(d: DynamicData, records: list) -> list:
@@ -181,3 +185,22 @@ def lead_ins(model: Any, records: list, confirm: bool = True) -> dict:
     elif len(records) == 1:   # one record without a lead-in is not joined: no rest to set
         lead.pop('tau_s', None)
     return lead
+
+
+def refit_led(fit: Any, data: DynamicData, records: list,
+              refit: Callable[..., tuple]) -> Tuple[Optional[tuple], dict]:
+    """
+    Return (refit(**lead), lead) if the first `fit` of `data` asks for lead-ins, else (None, {}).
+
+    lead: `lead_ins` of the (name, DynamicData) `records`, unconfirmed: the first fit has
+    bent itself to their starts. refit(**lead) returns (its joined data, its fit, ...) and
+    is kept only if its RMS error over every measured sample (training and held out: the
+    lead-ins change how each record starts) is below LEAD_IN_GAIN times the first fit's.
+    """
+    def rmse(f: Any, d: DynamicData) -> float:
+        return part_scores(d, f.prediction, d.scored_mask())['rmse']
+    lead = lead_ins(fit, records, confirm=False) if records[0][1].joinable else {}
+    led = refit(**lead) if lead else None
+    if led is None or rmse(led[1], led[0]) >= LEAD_IN_GAIN * rmse(fit, data):
+        return None, {}
+    return led, lead
