@@ -147,21 +147,27 @@ def _load(path: str, rates: Tuple[Optional[float], float], stamp: str,
     Cached, since every candidate task of a record reads it; `stamp` is the file
     fingerprint, so a changed file is read again. rates: (the bags' resampling rate or None,
     the fitting rate's limit) [Hz] (`records.at_fit_rate`). lead: the record's lead-in as
-    `lead_items` gives it (() for none): the record is then joined with it.
+    `lead_items` gives it (() for none): the record read (cached too) is joined with it.
     """
     from .data import check_excitation, load_data
     from .records import at_fit_rate, join
+    if lead:
+        return join([(path, _load(path, rates, stamp))], **_lead_options(lead))
     rate_hz, max_rate_hz = rates
     data, _ = at_fit_rate(load_data(path, rate_hz=rate_hz), max_rate_hz)
     check_excitation(data, path)
-    return join([(path, data)], **{k: dict(v) if isinstance(v, tuple) else v
-                                   for k, v in lead}) if lead else data
+    return data
 
 
 def lead_items(lead: dict) -> tuple:
     """Return `records.join`'s lead options as a hashable tuple (the cache key of `_load`)."""
     return tuple((k, tuple(v.items()) if isinstance(v, dict) else v)
                  for k, v in sorted(lead.items()))
+
+
+def _lead_options(items: tuple) -> dict:
+    """Return the `records.join` lead options of `lead_items`."""
+    return {k: dict(v) if isinstance(v, tuple) else v for k, v in items}
 
 
 def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -> dict:
