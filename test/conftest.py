@@ -19,7 +19,6 @@ ROS tests run in their own DDS domain (random ROS_DOMAIN_ID, localhost-only disc
 so that concurrently running test sessions on one machine never see each other's topics;
 the workers of one session (pytest-xdist) draw from disjoint sets of ids.
 """
-import collections
 import os
 from pathlib import Path
 import random
@@ -71,18 +70,10 @@ def spin_until(executor, condition, timeout_s=NOTICE_S, step_s=0.01):
 
 
 def pytest_collection_modifyitems(items):
-    """
-    Mark every test that uses the ROS fixtures `ros` (`-m "not ros"`: the ROS-free part).
-
-    Then put the files with the most `slow` tests first, each file's tests in their order:
-    pytest-xdist hands out whole files in this order (scripts/test.sh), and a long file begun
-    last would leave the other core idle while it ends.
-    """
+    """Mark every test that uses the ROS fixtures `ros` (`-m "not ros"`: the ROS-free part)."""
     for item in items:
         if 'ros_domain_id' in getattr(item, 'fixturenames', ()):
             item.add_marker(pytest.mark.ros)
-    slow = collections.Counter(item.path for item in items if item.get_closest_marker('slow'))
-    items.sort(key=lambda item: -slow[item.path])
 
 
 def domain_ids():
