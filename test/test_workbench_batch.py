@@ -32,34 +32,22 @@ COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 T0_NS = 1_700_000_000_000_000_000
 
 
-def _record(effect, seed):
+def _record(effect, seed, warm_s=None):
     """
     Return a short identification run of the package's plant model.
 
     Multilevel excitation, as the controller's model is identified from, and 2 mrad noise;
-    `effect` 'delay' is a 0.8 s transport delay.
+    `effect` 'delay' is a 0.8 s transport delay. warm_s [s]: the log begins 1 s after the
+    first duty came on, that duty having been on for warm_s before (a chunk of a longer log).
     """
     dt = 1.0 / RATE_HZ
-    duty_a, duty_b = multilevel(DURATION_S, dt, seed=seed)
+    duty_a, duty_b = multilevel(DURATION_S + (10.0 if warm_s else 0.0), dt, seed=seed)
+    warm = 0
+    if warm_s:
+        first = np.flatnonzero((duty_a > 0) | (duty_b > 0))[0] + int(round(1.0 / dt))
+        warm = int(round(warm_s / dt))
+        duty_a, duty_b = (np.r_[np.full(warm, d[first]), d[first:]] for d in (duty_a, duty_b))
     params = ActuatorParams(delay_s=DELAY_S if effect == 'delay' else 0.0)
-    position = simulate(params, duty_a, duty_b, dt).position_rad
-    rng = np.random.default_rng(seed)
-    return {'time': np.arange(len(duty_a)) * dt, 'duty_a': duty_a, 'duty_b': duty_b,
-            'position': position + rng.normal(0.0, 0.002, len(duty_a))}
-
-
-def _record_begun_warm(seed, warm_s=30.0):
-    """
-    Return a delay record (`_record`) logged from 1 s after its first duty came on.
-
-    Its first duties were on for warm_s [s] before the log began: a chunk of a longer log.
-    """
-    dt = 1.0 / RATE_HZ
-    duty_a, duty_b = multilevel(DURATION_S + 10.0, dt, seed=seed)
-    first = np.flatnonzero((duty_a > 0) | (duty_b > 0))[0] + int(round(1.0 / dt))
-    warm = int(round(warm_s / dt))
-    duty_a, duty_b = (np.r_[np.full(warm, d[first]), d[first:]] for d in (duty_a, duty_b))
-    params = ActuatorParams(delay_s=DELAY_S)
     position = simulate(params, duty_a, duty_b, dt).position_rad[warm:]
     rng = np.random.default_rng(seed)
     return {'time': np.arange(len(position)) * dt, 'duty_a': duty_a[warm:],
@@ -129,7 +117,7 @@ def scheduler():
 def test_a_record_begun_mid_run_is_led_in_as_diagnose_leads_it(scheduler, tmp_path):
     root = tmp_path / 'records'
     root.mkdir()
-    _write_csv(root / 'warm.csv', _record_begun_warm(7))
+    _write_csv(root / 'warm.csv', _record('delay', 7, warm_s=30.0))
     _write_csv(root / 'rest.csv', _record('delay', 8))
     out = tmp_path / 'out'
     argv = ['batch', str(root), '--out', str(out), '--candidates', 'delay', '--no-reports',
