@@ -90,3 +90,17 @@ def test_every_declared_effect_parameter_reaches_the_plant_and_the_catalog():
     for effect, names in act.EFFECT_PARAMETERS.items():
         assert set(BUILTIN[effect].parameters) == set(names)
         assert all(CATALOG[effect].parameters[k] == declared[k].fit for k in names)
+
+
+def test_a_position_parameter_is_named_in_the_rigs_unit():
+    # a declared unit of rad means "the rig's position unit": shown as mm on a rig in mm
+    assert act.name_in_unit('offset_rad', 'mm') == 'offset_mm'
+    assert act.name_in_unit('fatigue_offset_b_rad', '%') == 'fatigue_offset_b_pct'
+    # the sensor terms are relative to the half travel h, so they lose the suffix
+    assert act.PARAMETERS['sensor_c3_rad'].unit != 'rad'
+    assert act.name_in_unit('sensor_c3_rad', 'deg') == 'sensor_c3'
+    # a plug-in's undeclared position, and the names a rig in rad keeps
+    assert act.name_in_unit('shift_rad', 'mm') == 'shift_mm'
+    for unit in ('rad', ''):
+        assert act.name_in_unit('offset_rad', unit) == 'offset_rad'
+    assert act.name_in_unit('delay_s', 'mm') == 'delay_s'

@@ -27,6 +27,7 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
+from sma_actuator.workbench.batch import final_parameters
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model, load_fit,
                                            prune_effects, record_scores)
@@ -92,6 +93,25 @@ def assert_one_line_error(code, err, *fragments):
     assert len(lines) == 1 and lines[0].startswith('sma-model: error: '), err
     for f in fragments:
         assert f in lines[0], lines[0]
+
+
+def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys):
+    # nothing is labelled rad unless it is rad: the terminal, the JSON and the fleet table
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1, zero=0.3)
+    out = tmp_path / 'm.yaml'
+    code, text, err = run(capsys, 'fit', a, '--add', 'sensor_nonlinearity', '--out', out)
+    assert code == 0, err
+    fitted = next(line for line in text.splitlines() if line.startswith('fitted: '))
+    assert 'sensor_c2 = ' in fitted and 'rad' not in fitted, fitted
+    model = yaml.safe_load(out.read_text())
+    assert 'sensor_c2_rad' in model['parameters']   # the model file keeps its field names
+    fit = load_fit(model)
+    assert set(cli.fit_json(fit, None)['parameters']) == {
+        'sensor_c2', 'sensor_c3', 'sensor_c4', 'sensor_c5', 'tau_s'}
+    table = final_parameters(fit)
+    assert table['stroke_mm'] == model['model']['stroke_rad']
+    assert table['offset_mm'] == model['model']['offset_rad']
+    assert not [k for k in table if k.endswith('_rad')], table
 
 
 def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):

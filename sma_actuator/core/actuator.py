@@ -363,6 +363,24 @@ SLOT = KernelParams(*range(len(KERNEL_PARAMS)))
 _kernel_values = attrgetter(*KERNEL_PARAMS)
 
 
+def name_in_unit(name: str, position_unit: str) -> str:
+    """
+    Return parameter `name` as shown for a rig whose position is in `position_unit`.
+
+    A `_rad` parameter holds a position, in whatever unit the rig measures it (its
+    `ParamSpec` unit is 'rad'), so it is shown with that unit: `offset_rad` is `offset_mm`
+    on a rig read in mm (`%` spelt `pct`). A `_rad` parameter of another declared unit
+    (the sensor terms, relative to the half travel h) is shown without the suffix. Other
+    names, and every name on a rig in rad, stay as they are.
+    """
+    if position_unit in ('', 'rad') or not name.endswith('_rad'):
+        return name
+    stem, spec = name[:-len('_rad')], PARAMETERS.get(name)
+    if spec is not None and spec.unit != 'rad':
+        return stem
+    return f"{stem}_{'pct' if position_unit == '%' else position_unit}"
+
+
 def fit_table(effect: str) -> Dict[str, Tuple[float, float, float]]:
     """
     Return {parameter: (lower, upper, start)} of the parameters `effect` frees.

@@ -277,7 +277,12 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
 
 
 def final_parameters(fit: Any) -> dict:
-    """Return the fitted parameters of `fit` as {name: value}, units in the names."""
+    """
+    Return the fitted parameters of `fit` as {name: value}, units in the names.
+
+    A position is named in the record's unit (`actuator.name_in_unit`: stroke_mm).
+    """
+    from ..core.actuator import name_in_unit
     values = {k: float(v) for k, v in fit.values.items()}
     params = getattr(fit, 'params', None)
     for name in BASE_PARAMETERS:
@@ -285,7 +290,8 @@ def final_parameters(fit: Any) -> dict:
             values[name] = float(getattr(params, name))
     if hasattr(params, 'heat_capacity_j_per_k'):
         values['tau_s'] = float(params.heat_capacity_j_per_k / params.conductance_w_per_k)
-    return values
+    unit = getattr(fit, 'rig', {}).get('position_unit', '')
+    return {name_in_unit(k, unit): v for k, v in values.items()}
 
 
 # ------------------------------------------------------------------------------ client

@@ -401,7 +401,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     else:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
-            print('fitted: ' + ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()))
+            print('fitted: ' + ', '.join(f'{k} = {v:.4g}' for k, v in fit.shown_values().items()))
         unit = unit_of(data)
         for r in records if len(records) > 1 else []:
             print(score_line(f'{r["data"]} ({r["role"]})', r['scores']['all'], unit, 0,
@@ -472,7 +472,7 @@ def fit_json(fit: Any, out: Optional[str],
     val = fit.validation or {}
     doc = {'effects': list(fit.effects), 'kind': fit.kind,
            'train_nrmse': fit.train['nrmse'], 'validation_nrmse': val.get('nrmse'),
-           'parameters': dict(fit.values), 'n_parameters': fit.n_parameters,
+           'parameters': fit.shown_values(), 'n_parameters': fit.n_parameters,
            'train': fit.train, 'validation': fit.validation,
            'out': str(out) if out else None}
     if records:
@@ -701,7 +701,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         alt = None if alt_pred is None else scored(data, alt_pred, {}, None)[1]
         result = compare(view, pred0, sig, split=split)
         alternative = (f'model + {best["effect"]}', alt) if best else None
-        model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.values}
+        model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.shown_values()}
         _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
                       '; '.join(data_lines(data) + lead_in_lines(lead, loaded)), model,
                       doc, alternative, unit=unit_of(data))

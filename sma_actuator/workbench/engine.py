@@ -121,6 +121,11 @@ class ModelFit:
         d.update(self.rig)
         return d
 
+    def shown_values(self) -> dict:
+        """Return the fitted values as a person reads them, names in the rig's unit."""
+        unit = self.rig.get('position_unit', '')
+        return {act.name_in_unit(k, unit): float(v) for k, v in self.values.items()}
+
     def simulate(self, data: Any) -> np.ndarray:
         """Prediction of this fitted model at every sample of other data of its kind."""
         return data.simulate(self)[0]
@@ -174,6 +179,7 @@ def load_fit(d: dict, data: Any = None) -> ModelFit:
                    None, None, 0, np.zeros(0), params)
     if isinstance(d.get('record_zeros'), dict):
         fit.rig['record_zeros'] = dict(d['record_zeros'])
+    fit.rig.update({k: d[k] for k in ('layout', 'position_unit') if k in d})
     if data is not None:
         fit.prediction, fit.signals = data.simulate(fit)
         keep = data.scored_mask()
@@ -865,7 +871,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
         checks += ', refitted from scratch (the warm refit fitted the training window worse)'
     if unresolved:
         checks += f'; not significant: {unresolved}'
-    values = ', '.join(f'{k} = {v:.4g}' for k, v in fit.values.items()
+    unit = getattr(data, 'position_unit', '')
+    values = ', '.join(f'{act.name_in_unit(k, unit)} = {v:.4g}' for k, v in fit.values.items()
                        if k in eff.parameters) or 'modified PI (saturated plays)'
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
             'significant': significant,

@@ -107,7 +107,7 @@ def write_diagnosis_report(directory: PathLike, data: Any, diagnosis: Any, title
                 None)
     alternative = (f'model + {best["effect"]}', best['fit'].prediction) if best else None
     result = compare(data, base.prediction, base.signals, split=base.split)
-    model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.values}
+    model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.shown_values()}
     return write_report(directory, result, title, data_line=data_line, model=model,
                         diagnosis=diagnosis.to_json(), alternative=alternative, force=force)
 
