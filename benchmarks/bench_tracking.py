@@ -242,6 +242,10 @@ def main():
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
     from support.richsim import rig_from_command_line
     RICH_RIG.update(rig_from_command_line(ap, ns.param, 'richsim' in ns.source))
+    if RICH_RIG.get('cmd_dt_s', DT) != DT:
+        # RichPlant.step holds a command for one plant tick: another tick than the control
+        # period would run the plant on another clock than the controller
+        ap.error(f'--param cmd_dt_s must be the control period, {DT:g} s, here')
     models = Path(ns.models)
     models.mkdir(parents=True, exist_ok=True)
     print('0.05 Hz ±0.5 rad sine, 3 periods, RMS error after the first [rad]; models fitted on '
