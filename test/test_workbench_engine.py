@@ -166,6 +166,8 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     err = np.full(n, 0.025)
     err[50:60] = 1.0
     assert engine.typical_gain(data, base, fit(err)) == pytest.approx(0.75)
+    rmse = engine.held_out_block_rmse(data, base, fit(err))
+    np.testing.assert_allclose(rmse, [[0.1] * 5, [1.0] + [0.025] * 4])
     whole = np.sqrt(np.mean(err[50:] ** 2)) / 0.1
     assert whole > 1.0     # the whole held-out window calls it worse than the base
     assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)

@@ -602,15 +602,14 @@ def at_noise(base: ModelFit, data: DynamicData, min_improvement: float) -> bool:
     return floor is not None and bool(base.train['nrmse'] * (1.0 - min_improvement) <= floor)
 
 
-def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optional[float]:
+def held_out_block_rmse(data: DynamicData, reference: ModelFit,
+                        fit: ModelFit) -> Optional[np.ndarray]:
     """
-    Return the median over held-out time blocks of 1 − RMSE(fit) / RMSE(reference).
+    Return the RMSE [output unit] of `reference` (row 0) and `fit` (row 1) in each block.
 
     The held-out samples (of the reference's split) are cut into `HELD_OUT_BLOCKS` blocks of
-    equal count. The median says how much better `fit` is for most of the held-out time:
-    one excursion beyond the travel training saw can carry the whole window's RMSE, and
-    after it the hysteresis state of every model stays off for a while. None when there are
-    fewer held-out samples than blocks or a block's reference error is 0.
+    equal count; column j holds √(mean((ŷ − y)²)) over block j. None when there are fewer
+    held-out samples than blocks or a prediction is missing.
     """
     if reference.split is None or reference.prediction is None or fit.prediction is None:
         return None
@@ -619,14 +618,24 @@ def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optio
     if len(idx) < HELD_OUT_BLOCKS:
         return None
     y = data.output
-    gains = []
-    for block in np.array_split(idx, HELD_OUT_BLOCKS):
-        e0 = np.sqrt(np.mean((reference.prediction[block] - y[block]) ** 2))
-        e1 = np.sqrt(np.mean((fit.prediction[block] - y[block]) ** 2))
-        if e0 <= 0:
-            return None
-        gains.append(1.0 - e1 / e0)
-    return float(np.median(gains))
+    return np.array([[np.sqrt(np.mean((model.prediction[block] - y[block]) ** 2))
+                      for block in np.array_split(idx, HELD_OUT_BLOCKS)]
+                     for model in (reference, fit)])
+
+
+def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optional[float]:
+    """
+    Return the median over held-out time blocks of 1 − RMSE(fit) / RMSE(reference).
+
+    The blocks are those of `held_out_block_rmse`. The median says how much better `fit`
+    is for most of the held-out time: one excursion beyond the travel training saw can
+    carry the whole window's RMSE, and after it the hysteresis state of every model stays
+    off for a while. None when there are no blocks or a block's reference error is 0.
+    """
+    rmse = held_out_block_rmse(data, reference, fit)
+    if rmse is None or np.any(rmse[0] <= 0):
+        return None
+    return float(np.median(1.0 - rmse[1] / rmse[0]))
 
 
 def typical_pass(data: DynamicData, base: ModelFit, entries: list,
