@@ -36,7 +36,11 @@ held-out error. A candidate is significant only if
      from where the candidate's refit ended (its hysteresis grid, weights and time
      constant) with the effect off must be worse on held-out data by at least
      `min_improvement` again; otherwise the gain came from the new grid or a re-tuned
-     base (a fragile held-out window), not from the effect, and
+     base (a fragile held-out window), not from the effect; and the training window must
+     say so too: BIC against that refit must fall by more than `BIC_MARGIN` as in 2 (a
+     new grid lets the free weights absorb a static distortion, so a sensor polynomial
+     can fit training no better than the regridded base and still bend one held-out
+     transient its way), and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period).
 When no candidate is significant, every one without an own grid is also refitted from
@@ -646,7 +650,8 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
     A candidate whose refit passes the BIC check (2) and is resolved (4) is significant
     when its typical gain (`typical_gain`) over the base is at least `min_improvement`, and
     so is its typical gain over the counterfactual (3: the base refitted on its grid without
-    it). Each such entry gets 'typical_gain' and says so in its explanation.
+    it), whose training fit it beats on BIC as in 3. Each such entry gets 'typical_gain'
+    and says so in its explanation.
     """
     named = []
     for c in entries:
@@ -659,7 +664,8 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
             continue
         off = c.get('base_refit') or _regridded_base(data, base, fit, eff)
         carried = None if off is None else typical_gain(data, off, fit)
-        if off is not None and (carried is None or carried < min_improvement):
+        if off is not None and (carried is None or carried < min_improvement
+                                or bic_gain(off, fit) >= -BIC_MARGIN):
             continue
         c.update(significant=True, typical_gain=gain)
         c['explanation'] += (
@@ -870,14 +876,21 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     base_refit = _regridded_base(data, base, fit, eff) if evident else None
     v_off = None if base_refit is None else base_refit.validation['nrmse']
     # the base refitted where the candidate's refit ended, without the effect, must fall
-    # short of it by at least the improvement asked of the effect
+    # short of it by at least the improvement asked of the effect, held out and in training
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
+    bic_off = None if base_refit is None else bic_gain(base_refit, fit)
+    carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
     unresolved = eff.unresolved(fit.values, data)
     significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
-              f", {100 * v_off:.2f} % for the base refitted on the candidate's grid")
+              f", {100 * v_off:.2f} % for the base refitted on the candidate's grid "
+              f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
+              f'{bic_off:+.1f} against it)')
     if warm is not None and fit is not warm:
         checks += ', refitted from scratch (the warm refit fitted the training window worse)'
+    if evident and not carried:
+        checks += ('; not significant: the base refitted on the same grid does about as '
+                   'well, so the grid, not the effect, carries the gain')
     if unresolved:
         checks += f'; not significant: {unresolved}'
     unit = getattr(data, 'position_unit', '')
