@@ -184,6 +184,23 @@ def test_stale_command_is_dropped_and_does_not_feed_the_watchdog():
     assert rig.bridge.counters['stale_commands'] == 1
 
 
+def test_a_frame_written_after_a_freeze_becomes_zero_duty():
+    # the node runs the watchdog on the clock of every write (`_write`): a process frozen
+    # between checking a command and writing its frame must not send it on waking
+    rig = Rig()
+    rig.run(0.3, command=(0.5, 0.0))
+    frame = rig.bridge.on_duty_command([0.5, 0.0], rig.t)
+    assert frame and rig.bridge.watchdog(rig.t + 0.1) == b''   # a short stall: it stands
+    for t_ms in range(301, 1301):                  # frozen for 1 s; the MCU runs on
+        rig.mcu.poll(t_ms * 1000)
+    assert rig.mcu.faults & p.FAULT_WATCHDOG and rig.mcu.pwm_a == 0
+    sent = rig.bridge.watchdog(1.3) or frame
+    assert sent != frame and rig.bridge.duty_timed_out
+    rig.mcu.receive(sent, 1_300_000)
+    assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, 0)
+    assert any('no /sma/duty for 1.000 s' in text for _, text in rig.logs)
+
+
 def test_more_than_one_duty_publisher_zeroes_the_duty_with_an_error():
     rig = Rig()
     rig.run(0.1, command=(0.5, 0.0))

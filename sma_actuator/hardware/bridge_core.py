@@ -277,17 +277,8 @@ class BridgeCore:
     def tick(self, now_s: float) -> bytes:
         """Timers: host watchdog, duty refresh, heartbeat, Hello retry, link timeout."""
         cfg, tx = self.config, bytearray()
-        silent_s = now_s - self._last_command_s
-        tick_gap_s, self._last_tick_s = now_s - self._last_tick_s, now_s
-        if not self.duty_timed_out and silent_s > cfg.duty_timeout_s:
-            self.duty_timed_out = True
-            self.watchdog_trip = (silent_s, tick_gap_s)
-            self.counters['host_watchdog_trips'] += 1
-            self.requested = (0, 0)
-            self._apply(now_s)
-            self._log('warn', f'no /sma/duty for {silent_s:.3f} s '
-                              f'(timeout {cfg.duty_timeout_s} s): sending zero duty')
-            tx += self._send_duty(now_s)
+        tx += self.watchdog(now_s)
+        self._last_tick_s = now_s
         if self.state == LinkState.DISCONNECTED:
             return bytes(tx)
         if now_s - self._last_rx_s > cfg.link_timeout_s:
@@ -309,6 +300,27 @@ class BridgeCore:
             self._heartbeats[host_us] = now_s
             tx += self.sender.encode(p.Heartbeat(host_us))
         return bytes(tx)
+
+    def watchdog(self, now_s: float) -> bytes:
+        """
+        Host watchdog: no accepted command for duty_timeout_s -> zero duty; the frame to send.
+
+        `tick` runs it first, and the node runs it again on the clock of every write: a
+        process frozen (SIGSTOP, a stalled host) after it made a frame and before it wrote
+        it sends zero duty when it wakes, not a frame of a command that has gone stale.
+        """
+        cfg = self.config
+        silent_s = now_s - self._last_command_s
+        if self.duty_timed_out or silent_s <= cfg.duty_timeout_s:
+            return b''
+        self.duty_timed_out = True
+        self.watchdog_trip = (silent_s, now_s - self._last_tick_s)
+        self.counters['host_watchdog_trips'] += 1
+        self.requested = (0, 0)
+        self._apply(now_s)
+        self._log('warn', f'no /sma/duty for {silent_s:.3f} s '
+                          f'(timeout {cfg.duty_timeout_s} s): sending zero duty')
+        return self._send_duty(now_s)
 
     def shutdown(self) -> bytes:
         """Zero-duty frame to send before closing the port (empty if not connected)."""

@@ -35,7 +35,9 @@ Stale commands (docs/safety.md): the duty subscription has a QoS lifespan of
 duty_timeout_s, so the middleware drops samples that expired while this process could
 not take them, and each command's age (now minus its source timestamp) is checked again
 in the callback, because a sample taken after a freeze can be older than it was when the
-middleware queued it. More than one publisher on the duty topic means zero duty + ERROR.
+middleware queued it. The host watchdog runs again on the clock of every write, so a
+freeze between checking a command and writing its frame sends zero duty on waking. More
+than one publisher on the duty topic means zero duty + ERROR.
 """
 import sys
 import threading
@@ -153,11 +155,14 @@ class HardwareBridge(Node):
         """Check a duty command (value, age) and send it to the MCU at once."""
         sent_ns = info.get('source_timestamp', 0) if isinstance(info, dict) else 0
         with self._lock:
-            # the age is taken once the lock is held, next to the write: a wait for the lock
-            # (or a freeze during it) must not pass an old command as fresh
+            # the age is taken once the lock is held: a wait for the lock (or a freeze during
+            # it) must not pass an old command as fresh; both clocks are read together, so a
+            # freeze after this point leaves the receive time old and `_write` trips the
+            # watchdog instead of sending the command
             # source timestamps are the sender's system clock (same host, or synchronised)
+            now_s = time.monotonic()
             age_s = (time.time_ns() - sent_ns) * 1e-9 if sent_ns > 0 else 0.0
-            self._write(self.core.on_duty_command(msg.data, time.monotonic(), age_s))
+            self._write(self.core.on_duty_command(msg.data, now_s, age_s))
 
     def check_duty_publishers(self) -> None:
         """Count the duty publishers: more than one means zero duty + ERROR."""
@@ -213,8 +218,11 @@ class HardwareBridge(Node):
     # --- helpers ------------------------------------------------------------------------
 
     def _write(self, data: bytes) -> None:
+        # under self._lock: frames leave in seq order; the host watchdog runs again on the
+        # clock of the write, so a freeze since `data` was made sends zero duty instead
+        data = self.core.watchdog(time.monotonic()) or data
         if data:
-            self.link.write(data)   # under self._lock: frames leave in seq order
+            self.link.write(data)
 
     def _log(self, level: str, text: str) -> None:
         # one call site per severity: rclpy refuses a severity change at the same call site
