@@ -883,7 +883,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     unresolved = eff.unresolved(fit.values, data)
     significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
-              f", {100 * v_off:.2f} % for the base refitted on the candidate's grid "
+              f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
               f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
               f'{bic_off:+.1f} against it)')
     if warm is not None and fit is not warm:
