@@ -283,6 +283,21 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
     assert named.values['stress_k'] == pytest.approx(20.0, rel=0.5)
 
 
+@pytest.mark.slow
+def test_unequal_wires_are_found_from_either_side_of_the_equal_pair():
+    # wire b heats 1.4 times as fast and cools in 0.8 times the time, beside a 0.6 s fast
+    # lag: from the equal pair alone the search traded heating gain for stroke and ended
+    # at the stroke ratio's bound (2.0), 4.8 % in training
+    effects = plant_records.EFFECTS
+    changes = dict(effects['fast_dynamics'][1], **effects['asymmetric_wires'][1])
+    d = plant_records.simulate_with(changes, seed=709)
+    data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+    fit = engine.fit_model(data, ['asymmetric_wires', 'fast_dynamics'])
+    assert fit.values['gain_ratio_b'] == pytest.approx(1.4, rel=0.05)
+    assert fit.values['stroke_ratio_b'] == pytest.approx(1.0, rel=0.05)
+    assert fit.validation['nrmse'] < 0.005
+
+
 def test_strong_latent_heat_is_named_from_its_own_grid():
     # the plant's strongest latent heat (25 K per unit contraction): refitted on the base
     # grid from a small start the search stopped at 8 K (+8 % held-out, not named)

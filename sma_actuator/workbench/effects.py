@@ -376,6 +376,16 @@ class AsymmetricWires(Effect):
     signature = ('error has opposite character on the two sides: one direction too fast or '
                  'too far, the other too slow or short; residual correlates with sign of position')
 
+    def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
+        """
+        Also start with wire b heating √2 times more, and √2 times less, than wire a.
+
+        From the equal pair the search can trade the heating gain for the stroke and end
+        at a bound of the stroke ratio; a start on either side of the pair (halfway to
+        each bound of the gain ratio, in log) reaches the other basin.
+        """
+        return [{'gain_ratio_b': np.sqrt(2.0)}, {'gain_ratio_b': np.sqrt(0.5)}]
+
 
 class SensorNonlinearity(Effect):
     """
