@@ -266,15 +266,19 @@ def test_a_delay_held_out_behind_one_excursion_is_named_by_its_typical_gain():
     assert 'typical held-out gain' in named['explanation']
 
 
+def _plant_record_with(first, second, seed):
+    """Return a 480 s record of the package's plant with two effects at their middle level."""
+    effects = plant_records.EFFECTS
+    d = plant_records.simulate_with(dict(effects[first][1], **effects[second][1]), seed=seed)
+    return idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+
+
 @pytest.mark.slow
 def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
     # two effects at once in the plant (delay 0.3 s and stress coupling 20 K): the base
     # misses by 8.3 % held out, and each candidate refitted warm from it stays near there
     # (stress coupling 8.2 %, delay 7.7 %), so the first pass names nothing
-    effects = plant_records.EFFECTS
-    changes = dict(effects['delay'][1], **effects['stress_coupling'][1])
-    d = plant_records.simulate_with(changes, seed=706)
-    data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+    data = _plant_record_with('delay', 'stress_coupling', seed=706)
     diag = engine.diagnose(data, candidates=['stress_coupling', 'delay'])
     assert diag.missing_effect == 'stress_coupling'
     named = diag.candidates[0]['fit']
@@ -288,10 +292,7 @@ def test_unequal_wires_are_found_from_either_side_of_the_equal_pair():
     # wire b heats 1.4 times as fast and cools in 0.8 times the time, beside a 0.6 s fast
     # lag: from the equal pair alone the search traded heating gain for stroke and ended
     # at the stroke ratio's bound (2.0), 4.8 % in training
-    effects = plant_records.EFFECTS
-    changes = dict(effects['fast_dynamics'][1], **effects['asymmetric_wires'][1])
-    d = plant_records.simulate_with(changes, seed=709)
-    data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
+    data = _plant_record_with('fast_dynamics', 'asymmetric_wires', seed=709)
     fit = engine.fit_model(data, ['asymmetric_wires', 'fast_dynamics'])
     assert fit.values['gain_ratio_b'] == pytest.approx(1.4, rel=0.05)
     assert fit.values['stroke_ratio_b'] == pytest.approx(1.0, rel=0.05)
