@@ -289,7 +289,7 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
 
 @pytest.mark.slow
 def test_unequal_wires_are_found_from_either_side_of_the_equal_pair():
-    # wire b heats 1.4 times as fast and cools in 0.8 times the time, beside a 0.6 s fast
+    # wire b heats 1.4 times as much and has 0.8 times the time constant, beside a 0.6 s fast
     # lag: from the equal pair alone the search traded heating gain for stroke and ended
     # at the stroke ratio's bound (2.0), 4.8 % in training
     data = _plant_record_with('fast_dynamics', 'asymmetric_wires', seed=709)

@@ -382,9 +382,11 @@ class AsymmetricWires(Effect):
 
         From the equal pair the search can trade the heating gain for the stroke and end
         at a bound of the stroke ratio; a start on either side of the pair (halfway to
-        each bound of the gain ratio, in log) reaches the other basin.
+        each bound of the gain ratio [0.5, 2], in log: √(lower), √(upper)) reaches the
+        other basin.
         """
-        return [{'gain_ratio_b': np.sqrt(2.0)}, {'gain_ratio_b': np.sqrt(0.5)}]
+        lower, upper = self.parameters['gain_ratio_b'][:2]
+        return [{'gain_ratio_b': np.sqrt(upper)}, {'gain_ratio_b': np.sqrt(lower)}]
 
 
 class SensorNonlinearity(Effect):
