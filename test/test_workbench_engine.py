@@ -285,14 +285,6 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
     assert 'refitted from scratch' in diag.candidates[0]['explanation']
     assert named.validation['nrmse'] < 0.3 * diag.baseline.validation['nrmse']
     assert named.values['stress_k'] == pytest.approx(20.0, rel=0.5)
-    # the second round: the search alone drove the coupling to 35 K and the delay to 0.41 s,
-    # 4.1 % held out, so the delay was not named; the scan of the coupling between
-    # searches keeps it near 20 K
-    second = engine.diagnose(data, base=named, candidates=['delay'])
-    assert second.missing_effect == 'delay'
-    both = second.candidates[0]['fit']
-    assert both.values['stress_k'] == pytest.approx(20.0, rel=0.25)
-    assert both.validation['nrmse'] < named.validation['nrmse']
 
 
 @pytest.mark.slow

@@ -30,8 +30,7 @@ Identification of the hysteresis and thermal parameters (the paper's section 2.2
   over the whole temperature range finds the time constant and where the wire transforms,
   then a fine grid over that active range gives the final weights. Effects that feed the
   output back into the regressors (phase resistance, stress coupling) use the previous
-  round's hysteresis in the feedback path, alternating until the weights settle, and
-  scan each feedback parameter between searches (`_scan_feedback`); the
+  round's hysteresis in the feedback path, alternating until the weights settle; the
   sensor polynomial is handled by regressing on p^-1(measured position). Train on the
   first `train_fraction` of time; score the free-run simulation of the rest. The dynamic
   fit runs as explicit stages (`prepare`, `input_range`, `fit_coarse`, `refine_grid`,
@@ -738,31 +737,6 @@ def _scan_tau(prob: _Problem, values: dict, ref: PlayHysteresis,
     return best[1]
 
 
-# multiples of a feedback parameter's value tried after each search (`_scan_feedback`)
-FEEDBACK_SCAN = (0.6, 0.7, 0.8, 0.9, 1.1, 1.25, 1.4, 1.6)
-
-
-def _scan_feedback(prob: _Problem, values: dict, ref: PlayHysteresis,
-                   factors: tuple = FEEDBACK_SCAN) -> Settled:
-    """
-    Settle the feedback fixed point at `values` and at `factors` x each feedback parameter.
-
-    Return the `Settled` model whose free-run training error is lowest. The outer search
-    scores a trial value with weights regressed on the reference hysteresis of the current
-    value, so it sees a feedback gain's minimum only from inside it: with a transport
-    delay, a stress coupling 10 % off the simulated value fits five times worse (training
-    NRMSE). Each parameter in turn, from the best found so far, within its bounds.
-    """
-    best = _settle(prob, values, ref)
-    for k in [k for k in prob.setup.free if k in FEEDBACK_PARAMS and k not in LINEAR_PARAMS]:
-        lower, upper = prob.setup.free[k][:2]
-        for f in factors:
-            trial = dict(best.values, **{k: float(np.clip(f * best.values[k], lower, upper))})
-            settled = _settle(prob, trial, ref)
-            best = settled if settled.mse < best.mse else best
-    return best
-
-
 def _prune(grid: PlayHysteresis, w: np.ndarray, shape: Optional[tuple],
            centre_steps: int = 3) -> PlayHysteresis:
     """
@@ -1098,8 +1072,7 @@ def fit_final(setup: Setup, grid: PlayHysteresis, values: dict,
     Search the free parameters on `grid` from `values`; return the best model.
 
     With feedback effects the search alternates with settling the feedback fixed point
-    (`rounds` times), each search followed by a scan of the feedback parameters
-    (`_scan_feedback`), and the best settled model wins; ref: the hysteresis in the feedback
+    (`rounds` times) and the best settled model wins; ref: the hysteresis in the feedback
     path at the start (default: the grid with zero weights).
     """
     prob = _Problem(setup, grid)
@@ -1113,8 +1086,8 @@ def fit_final(setup: Setup, grid: PlayHysteresis, values: dict,
             best = settled if best is None or settled.mse < best.mse else best
         values.update(prob.optimise(values, max_nfev, ref)[0])
         if setup.feedback:
-            settled = _scan_feedback(prob, values, ref)
-            ref, values = settled.ref, dict(settled.values)
+            settled = _settle(prob, values, ref)
+            ref = settled.ref
             best = settled if settled.mse < best.mse else best
         else:
             params = set_values(setup.base, values)
