@@ -19,7 +19,9 @@ Records of the package's own plant (test/support/plant_records.py, 480 s at 40 H
 loop, noise 0.001 rad) with two catalog effects switched on at a weak or middle level; or,
 with `--source richsim`, of the independent rich simulator (test/support/richsim.py, 480 s
 at 40 Hz, open loop, noise 0.002 rad) with two of its effects, level 0/1/2 the low end,
-middle and high end of each effect's magnitude range.
+middle and high end of each effect's magnitude range. For the rich simulator, `--rate`,
+`--duration`, `--excitation closed` and `--param KEY=VALUE` (another rig, as in
+`bench_hidden_effects.py`) change the records; the seeds stay those of the 40 Hz table.
 For each pair: the effects added round by round (up to 3 rounds) and then removed as
 redundant next to the others (`- name`, `engine.prune_effects`), the held-out NRMSE
 after each (in brackets: a base refitted before a round's effect was named, see
@@ -27,7 +29,8 @@ after each (in brackets: a base refitted before a round's effect was named, see
 hidden effects.
 
     python benchmarks/bench_two_effects.py [--jobs 2] [--rounds 3] [--source richsim]
-                                           [--only K ...]
+        [--rate 40] [--duration 480] [--excitation open|closed] [--param KEY=VALUE ...]
+        [--only K ...]
 """
 import argparse
 from pathlib import Path
@@ -44,7 +47,8 @@ from sma_actuator.core.identification import DynamicData  # noqa: E402, I100
 from sma_actuator.workbench.engine import diagnose_rounds, fit_model  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
-from support.richsim import EFFECTS as RICH_EFFECTS, simulate  # noqa: E402
+from support.richsim import (  # noqa: E402
+    EFFECTS as RICH_EFFECTS, rig_from_command_line, simulate)
 
 # (effect, level, effect, level): each pair of kinds once, weak (0) and middle (1) levels
 PAIRS = [('delay', 0, 'convection', 0), ('fast_dynamics', 0, 'phase_resistance', 0),
@@ -69,11 +73,12 @@ def rich_magnitude(effect, level):
     return lo + 0.5 * level * (hi - lo)
 
 
-def record(source, e1, l1, e2, l2, seed):
-    """Return the DynamicData of a two-effect record of `source`."""
-    if source == 'richsim':
-        d = simulate(e1, rich_magnitude(e1, l1), 'open', duration_s=480.0, rate_hz=40,
-                     noise_rad=0.002, seed=seed, also=[(e2, rich_magnitude(e2, l2))])
+def record(args, e1, l1, e2, l2, seed):
+    """Return the DynamicData of a two-effect record of `args.source`."""
+    if args.source == 'richsim':
+        d = simulate(e1, rich_magnitude(e1, l1), args.excitation, duration_s=args.duration,
+                     rate_hz=args.rate, noise_rad=0.002, seed=seed, params=args.params,
+                     also=[(e2, rich_magnitude(e2, l2))])
         return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
     changes = dict(plant_records.EFFECTS[e1][l1], **plant_records.EFFECTS[e2][l2])
@@ -83,11 +88,11 @@ def record(source, e1, l1, e2, l2, seed):
 
 def run_case(case):
     """Run the rounds on one two-effect record; return (both found, its result line)."""
-    (e1, l1, e2, l2, seed), rounds, source = case
+    (e1, l1, e2, l2, seed), args = case
     started = time.perf_counter()
-    data = record(source, e1, l1, e2, l2, seed)
+    data = record(args, e1, l1, e2, l2, seed)
     base = fit_model(data)
-    _, added, _ = diagnose_rounds(data, base, rounds)
+    _, added, _ = diagnose_rounds(data, base, args.rounds)
     names = [a['added'] for a in added]
     # a round that refitted its base first shows that refit's error in brackets
     errors = [f'{100 * base.validation["nrmse"]:.2f}']
@@ -114,14 +119,25 @@ def main():
     ap.add_argument('--source', choices=('plant', 'richsim'), default='plant')
     ap.add_argument('--only', type=int, nargs='+', metavar='K',
                     help='run only these pairs (0-based, in the order of PAIRS / RICH_PAIRS)')
+    ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz] (richsim)')
+    ap.add_argument('--duration', type=float, default=480.0, help='record length [s] (richsim)')
+    ap.add_argument('--excitation', choices=('open', 'closed'), default='open',
+                    help="open-loop duty steps or the simulator's own PI (richsim)")
+    ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
+                    help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     args = ap.parse_args()
-    noise = 0.002 if args.source == 'richsim' else 0.001
-    print(f'{args.source}: 480 s at 40 Hz, open loop, noise {noise} rad; two effects per '
-          'record')
+    rich = args.source == 'richsim'
+    if not rich and (args.rate != 40.0 or args.duration != 480.0 or args.excitation != 'open'):
+        ap.error('--rate, --duration and --excitation need --source richsim')
+    args.params = rig_from_command_line(ap, args.param, rich)
+    noise = 0.002 if rich else 0.001
+    print(f'{args.source}: {args.duration:.0f} s at {args.rate:g} Hz, {args.excitation} loop, '
+          f'noise {noise} rad; two effects per record'
+          + ''.join(f', {k} = {v:g}' for k, v in args.params.items()))
     print(f'{"effect 1":22s} {"effect 2":24s} {"added, round by round":52s} '
           f'{"held-out NRMSE":30s}     s')
     pairs = RICH_PAIRS if args.source == 'richsim' else PAIRS
-    cases = [(pair + (700 + i,), args.rounds, args.source) for i, pair in enumerate(pairs)
+    cases = [(pair + (700 + i,), args) for i, pair in enumerate(pairs)
              if args.only is None or i in args.only]
     found = []
     for _, (ok, line) in imap_on_cores(run_case, cases, args.jobs):
