@@ -39,13 +39,12 @@ keep_freed_memory()
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_two_effects import rich_magnitude, RICH_PAIRS  # noqa: E402, I100
+from bench_two_effects import record, RICH_PAIRS  # noqa: E402, I100
 import numpy as np  # noqa: E402
 from sma_actuator.core.identification import DynamicData  # noqa: E402
 from sma_actuator.workbench.compare import HOLD_RATE_FRACTION, smooth, SMOOTH_S  # noqa: E402
 from sma_actuator.workbench.engine import fit_model  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
-from support.richsim import simulate  # noqa: E402
 
 # (index in RICH_PAIRS, the effects fitted before the sensor): the sensor is hidden in the
 # records of 5 and 8; in 4 and 9 diagnose names it after both true effects
@@ -82,11 +81,7 @@ def run_case(case: tuple) -> str:
     (index, effects), args = case
     started = time.perf_counter()
     e1, l1, e2, l2 = RICH_PAIRS[index]
-    d = simulate(e1, rich_magnitude(e1, l1), 'open', duration_s=args.duration,
-                 rate_hz=args.rate, noise_rad=0.002, seed=700 + index,
-                 also=[(e2, rich_magnitude(e2, l2))])
-    data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
-                       d['ambient_temperature'])
+    data = record(args, e1, l1, e2, l2, 700 + index)
     without = fit_model(data, list(effects))
     with_sensor = fit_model(data, list(effects) + ['sensor_nonlinearity'], base_fit=without)
     s0, b0 = branch_parts(data, without.prediction - data.position)
@@ -104,6 +99,8 @@ def main():
     ap.add_argument('--rate', type=float, default=40.0, help='sample rate [Hz]')
     ap.add_argument('--duration', type=float, default=480.0, help='record length [s]')
     args = ap.parse_args()
+    # the two-effect table's open-loop records of the first rig
+    args.source, args.excitation, args.params = 'richsim', 'open', None
     print(f'richsim: {args.duration:.0f} s at {args.rate:g} Hz, open loop, noise 0.002 rad')
     print(f'{"hidden effects":40s} {"fitted before the sensor":34s} {"held-out NRMSE":17s} '
           f'{"static [mrad]":15s} {"branch [mrad]":15s} static removed  s')
