@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_two_effects import record, RICH_PAIRS  # noqa: E402, I100
 import numpy as np  # noqa: E402
 from sma_actuator.core.identification import DynamicData  # noqa: E402
-from sma_actuator.workbench.compare import HOLD_RATE_FRACTION, smooth, SMOOTH_S  # noqa: E402
+from sma_actuator.workbench.compare import direction_masks, smooth, SMOOTH_S  # noqa: E402
 from sma_actuator.workbench.engine import fit_model  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 
@@ -58,14 +58,17 @@ MIN_SAMPLES = 20   # per bin and branch
 
 
 def branch_parts(data: DynamicData, residual: np.ndarray) -> tuple:
-    """Return the RMS over position bins of (static part, branch part) of `residual` [rad]."""
+    """
+    Return (static part, branch part) of `residual` [rad], each an RMS over position bins.
+
+    The static part is taken about its mean: a constant offset is no sensor error.
+    """
     y = data.position
-    rate = np.gradient(smooth(y, round(SMOOTH_S / data.dt)), data.dt)
-    hold = HOLD_RATE_FRACTION * np.ptp(y)
+    moving = direction_masks(smooth(y, round(SMOOTH_S / data.dt)), np.ptp(y), data.dt)
     edges = np.quantile(y, np.linspace(0.0, 1.0, BINS + 1))
     cell = np.clip(np.searchsorted(edges, y) - 1, 0, BINS - 1)
     curves = []
-    for branch in (rate > hold, rate < -hold):
+    for branch in (moving['rising'], moving['falling']):
         curves.append([residual[(cell == b) & branch].mean()
                        if np.sum((cell == b) & branch) >= MIN_SAMPLES else np.nan
                        for b in range(BINS)])

@@ -183,6 +183,18 @@ def smooth(x: np.ndarray, n: float) -> np.ndarray:
     return uniform_filter1d(np.asarray(x, float), max(1, int(n)), mode='nearest')
 
 
+def direction_masks(smoothed: np.ndarray, span: float, dt: float) -> dict:
+    """
+    Return {rising, falling, holding: boolean mask} of a smoothed output.
+
+    Holding: its rate within ±`HOLD_RATE_FRACTION` · span per second (span: the measured
+    range, in the output's unit); rising and falling beyond it.
+    """
+    rate = np.gradient(smoothed, dt)
+    hold = HOLD_RATE_FRACTION * span
+    return {'rising': rate > hold, 'falling': rate < -hold, 'holding': np.abs(rate) <= hold}
+
+
 def dynamic_regimes(data: DynamicData, temps: dict) -> dict:
     """Group -> {label: boolean mask} for a dynamic record (see module doc)."""
     y, dt = data.position, data.dt
@@ -193,8 +205,6 @@ def dynamic_regimes(data: DynamicData, temps: dict) -> dict:
     heat_a = (ra > STEADY_RATE_K_PER_S) & (ra >= rb)
     heat_b = (rb > STEADY_RATE_K_PER_S) & ~heat_a
     cooling = ~heat_a & ~heat_b & ((ra < -STEADY_RATE_K_PER_S) | (rb < -STEADY_RATE_K_PER_S))
-    rate = np.gradient(ys, dt)
-    hold = HOLD_RATE_FRACTION * span
     speed = input_rate(data)
     fast = speed > np.median(speed)
     n = len(y)
@@ -202,8 +212,7 @@ def dynamic_regimes(data: DynamicData, temps: dict) -> dict:
     return {
         'thermal': {'heating wire a': heat_a, 'heating wire b': heat_b, 'cooling': cooling,
                     'steady': ~(heat_a | heat_b | cooling)},
-        'direction': {'rising': rate > hold, 'falling': rate < -hold,
-                      'holding': np.abs(rate) <= hold},
+        'direction': direction_masks(ys, span, dt),
         'loops': loop_masks(ys, span),
         'travel': travel_masks(y),
         'input_rate': {'slow': ~fast, 'fast': fast},
