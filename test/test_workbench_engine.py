@@ -232,14 +232,16 @@ def test_the_named_effect_says_which_unresolved_candidate_fits_better():
                 'bic_change': -50.0, 'explanation': name + '.', 'unresolved': unresolved}
 
     # at 10 Hz a 72 ms delay (below one sample) fits better than the lag that is named
-    why = 'the fitted delay 72 ms is below one sample period (100 ms)'
+    why = ('the fitted delay 72 ms is below one sample period (100 ms)',
+           'at this sample rate the two are not told apart; record faster')
     diag = engine.rank_candidates(None, [entry('delay', 0.60, False, why),
                                          entry('fast_dynamics', 0.46, True),
                                          entry('convection', 0.05, False)])
     named = diag.candidates[0]
     assert diag.missing_effect == 'fast_dynamics' and named['effect'] == 'fast_dynamics'
     assert 'delay fits the held-out window better (+60 % against +46 %)' in named['explanation']
-    assert why in named['explanation']
+    assert f'({why[0]}): {why[1]} to separate them.' in named['explanation']
+    assert diag.to_json()['candidates'][1]['not_resolved'] == why[0]
     # ranked again (a later pass): said once
     engine.rank_candidates(None, diag.candidates)
     assert named['explanation'].count('fits the held-out window better') == 1

@@ -389,11 +389,13 @@ def cmd_fit(args: argparse.Namespace) -> int:
         if led:
             data, fit, records = led
         mark_warm(records, lead)
-        profile = _tau_profile(args, data, fit, progress)
+        profile = _tau_profile(args, data, fit, progress) | _duty_levels(data, fit)
     finally:
         progress.close()
-    if profile and not profile['tau_profile']['identified']:
+    if profile.get('tau_profile', {}).get('identified') is False:
         _note(args, f'note: {profile["tau_profile"]["note"]}')
+    if profile.get('duty_levels', {}).get('one_level'):
+        _note(args, f'note: {profile["duty_levels"]["note"]}')
     if args.out:
         write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
     if args.json:
@@ -425,6 +427,13 @@ def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
         return {}
     profile = tau_profile(data, fit, jobs=args.jobs, progress=progress)
     return {'tau_profile': profile.to_json()}
+
+
+def _duty_levels(data: Any, fit: Any) -> Dict[str, Any]:
+    """Return {'duty_levels': ...} of a dynamic fit's training samples ({} for curves)."""
+    from .levels import duty_levels
+    levels = duty_levels(data, fit.split) if getattr(data, 'kind', None) == 'dynamic' else None
+    return {'duty_levels': levels.to_json()} if levels else {}
 
 
 def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effects: tuple,
@@ -511,6 +520,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     profile = spec.get('tau_profile')
     if isinstance(profile, dict) and profile.get('identified') is False:
         _note(args, f'note: {args.model}: {profile.get("note") or "τ was not identified"}')
+    _note_other_levels(args, spec.get('duty_levels'), data)
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
     mark_warm(records, lead)
@@ -538,6 +548,22 @@ def cmd_compare(args: argparse.Namespace) -> int:
         result.unit = unit
         print('\n'.join(summary_lines(result)))
     return 0
+
+
+def _note_other_levels(args: argparse.Namespace, fitted: Any, data: Any) -> None:
+    """Note a compared record that heats at other duty levels than the one-level fit."""
+    from .levels import heated_duties, ONE_LEVEL_SHARE, share_at
+    if not (isinstance(fitted, dict) and fitted.get('one_level') and data.kind == 'dynamic'):
+        return
+    try:
+        level, tol = float(fitted['level']), float(fitted['tolerance'])
+    except (KeyError, TypeError, ValueError):
+        return
+    share = share_at(heated_duties(data), level, tol)
+    if share < ONE_LEVEL_SHARE:
+        _note(args, f'note: {args.model} was fitted at one duty level ({level:.3g} ± {tol:.2g}); '
+              f'{100 * (1 - share):.0f} % of the heated time here is at other duty levels, '
+              "where the model's heating law is not identified")
 
 
 def _fitted(args: argparse.Namespace, spec: Mapping[str, Any], data: Any = None) -> Any:
@@ -680,6 +706,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         diags, rounds, base = diagnose_rounds(data, base, args.rounds, candidates=args.candidates,
                                               progress=progress, jobs=args.jobs)
         profile = _tau_profile(args, data, diags[0].baseline, progress)
+        profile |= _duty_levels(data, diags[0].baseline)
     finally:
         progress.close()
     first = diags[0]
@@ -717,9 +744,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
                   'measured range, too little to rank effects reliably (hold out another '
                   'record: give two or more records, or --validate-on)')
-        if profile and not profile['tau_profile']['identified']:
+        if profile.get('tau_profile', {}).get('identified') is False:
             print(f'note: {profile["tau_profile"]["note"]}; a held-out error from a wrong τ '
                   'is not a missing effect')
+        if profile.get('duty_levels', {}).get('one_level'):
+            laws = ', '.join(n for n, e in catalog.items() if e.heating_law)
+            print(f'note: {profile["duty_levels"]["note"]}; so no effect on the heating law '
+                  f'({laws}) is named here')
         if args.rounds > 1:
             print('\n'.join(rounds_lines(doc, args.rounds)))
     return 0
@@ -769,8 +800,12 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
         lines.append(f'{c["effect"]:<20} {_pct(c["validation_nrmse"]):>10} {imp:>11}  '
                      f'{"yes" if c["significant"] else "no"}')
     missing = doc['missing_effect']
-    lines.append(f'missing effect: {missing}' if missing else
-                 'missing effect: none (no candidate cuts the held-out error clearly)')
+    unresolved = [] if missing else [c for c in doc['candidates'] if c.get('not_resolved')]
+    why = ('the candidates that cut the held-out error are not resolved by these records'
+           if unresolved else 'no candidate cuts the held-out error clearly')
+    lines.append(f'missing effect: {missing}' if missing else f'missing effect: none ({why})')
+    lines += [f'  {c["effect"]} cuts it by {100 * c["improvement"]:.0f} %, not resolved: '
+              f'{c["not_resolved"]}' for c in unresolved]
     if not missing and floor and base['validation_nrmse'] is not None:
         lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
                                             base['train_nrmse'] / floor))

@@ -62,6 +62,9 @@ class Effect:
     own_grid = False
     # acts between the two wires: not applicable to a single wire against a bias spring
     needs_two_wires = False
+    # changes how the duty becomes temperature: not identified by records that heat at one
+    # duty level, so diagnose does not name it there (`engine.unresolved_by`)
+    heating_law = False
     # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (its fit is used)
     declares = {}
 
@@ -168,6 +171,7 @@ class FastDynamics(Effect):
     """
 
     name = 'fast_dynamics'
+    heating_law = True
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
     own_grid = True
 
@@ -252,6 +256,7 @@ class Convection(Effect):
     """
 
     name = 'convection'
+    heating_law = True
     signature = ('error depends on temperature level: model too hot (over-contracted) at '
                  'high duty, cooling faster than modelled; residual correlates with temperature')
 
@@ -291,6 +296,7 @@ class PhaseResistance(Effect):
     """
 
     name = 'phase_resistance'
+    heating_law = True
 
     def bounds(self, params: ActuatorParams) -> Dict[str, Bounds]:
         """
@@ -334,6 +340,7 @@ class LatentHeat(Effect):
     """
 
     name = 'latent_heat'
+    heating_law = True
     signature = ('transformations run slower and more evenly in time than modelled: the '
                  'model heats and cools through the loop too fast at first and too slowly at '
                  'the end (an S that is too steep at its start)')
@@ -433,6 +440,7 @@ class CurrentLimit(Effect):
     """
 
     name = 'current_limit'
+    heating_law = True
     signature = ('model over-heats only at the highest duties: error at full contraction '
                  'after large duty steps, none at small duties')
 

@@ -42,7 +42,9 @@ held-out error. A candidate is significant only if
      can fit training no better than the regridded base and still bend one held-out
      transient its way), and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
-     delay must exceed one sample period).
+     delay must exceed one sample period), and an effect on the heating law
+     (`Effect.heating_law`) is not judged on training records that heat at one duty level
+     (`levels.duty_levels`): there it fits about as well as any other heating law.
 When no candidate is significant, every one without an own grid is also refitted from
 scratch (the better training fit of the two is judged again): with two effects missing,
 the base can sit so far from the data that a warm refit stays in its basin. A base that
@@ -71,6 +73,7 @@ from typing import Any, Callable, Iterator, Optional
 import numpy as np
 
 from .effects import CATALOG, Effect, get_effect, is_builtin
+from .levels import duty_levels
 from .parallel import available_cores, imap_on_cores
 from .records import loop_prior, record_strokes, stroke_scale, zeros
 from ..core import actuator as act
@@ -499,9 +502,16 @@ class Diagnosis:
         if self.refitted:
             base['refitted'] = self.refitted
         return {'baseline': base,
-                'candidates': [{k: v for k, v in c.items() if k not in INTERNAL_KEYS}
-                               for c in self.candidates],
+                'candidates': [candidate_json(c) for c in self.candidates],
                 'missing_effect': self.missing_effect}
+
+
+def candidate_json(entry: dict) -> dict:
+    """Return a candidate entry's JSON form: 'not_resolved' says why check 4 refused it."""
+    out = {k: v for k, v in entry.items() if k not in INTERNAL_KEYS}
+    if entry.get('unresolved'):
+        out['not_resolved'] = entry['unresolved'][0]
+    return out
 
 
 def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[list] = None,
@@ -660,7 +670,7 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
             continue
         eff = get_effect(c['effect'])
         gain = typical_gain(data, base, fit)
-        if gain is None or gain < min_improvement or eff.unresolved(fit.values, data):
+        if gain is None or gain < min_improvement or unresolved_by(eff, fit.values, data):
             continue
         off = c.get('base_refit') or _regridded_base(data, base, fit, eff)
         carried = None if off is None else typical_gain(data, off, fit)
@@ -748,10 +758,11 @@ def _note_unresolved_rivals(named: dict, ranked: list) -> None:
     """
     Say in the named entry's explanation which unresolved candidates fit better.
 
-    A candidate that passed every check but resolution (`Effect.unresolved`: a delay below
-    one sample, a lag below half a sample) and gains more held out than the named effect is
-    another explanation of the same data that this sample rate cannot confirm: at 10 Hz a
-    50 ms delay and a 0.1 s lag shift the sampled response alike.
+    A candidate that passed every check but resolution (`unresolved_by`: a delay below one
+    sample, a lag below half a sample, a heating law on records at one duty level) and
+    gains more held out than the named effect is another explanation of the same data that
+    these records cannot confirm: at 10 Hz a 50 ms delay and a 0.1 s lag shift the sampled
+    response alike.
     """
     # both gains are set: the named entry is significant, a rival passed check 1
     rivals = [c for c in ranked if c.get('unresolved') and c is not named
@@ -759,11 +770,11 @@ def _note_unresolved_rivals(named: dict, ranked: list) -> None:
     for c in rivals:
         if f" {c['effect']} fits the held-out window better" in named['explanation']:
             continue   # ranked again after a later pass
+        reason, remedy = c['unresolved']
         named['explanation'] += (
             f" {c['effect']} fits the held-out window better ({100 * c['improvement']:+.0f} % "
             f"against {100 * named['improvement']:+.0f} %) but is not resolved "
-            f"({c['unresolved']}): at this sample rate the two are not told apart; record "
-            'faster to separate them.')
+            f'({reason}): {remedy} to separate them.')
 
 
 def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
@@ -880,7 +891,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     bic_off = None if base_refit is None else bic_gain(base_refit, fit)
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
-    unresolved = eff.unresolved(fit.values, data)
+    unresolved = unresolved_by(eff, fit.values, data)
     significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
@@ -892,7 +903,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
     if unresolved:
-        checks += f'; not significant: {unresolved}'
+        checks += f'; not significant: {unresolved[0]}'
     unit = getattr(data, 'position_unit', '')
     values = ', '.join(f'{act.name_in_unit(k, unit)} = {v:.4g}' for k, v in fit.values.items()
                        if k in eff.parameters) or 'modified PI (saturated plays)'
@@ -907,6 +918,28 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
                             f'BIC change {bic_change:+.1f}{checks}; '
                             f'fitted {values}. Signature: {eff.signature}.'),
             'fit': fit, 'bic_change': float(bic_change), 'base_refit': base_refit}
+
+
+def unresolved_by(eff: Effect, values: dict, data: Any) -> Optional[tuple]:
+    """
+    Return (why `data` cannot resolve the fitted effect, what would tell it apart), or None.
+
+    Check 4: the effect's own resolution at the fitted `values` (`Effect.unresolved`: a
+    delay or lag shorter than the sample period allows), and for an effect on the heating
+    law (`Effect.heating_law`) training records that heat at one duty level
+    (`levels.duty_levels`, on the fit's training window), where any heating law fits.
+    """
+    reason = eff.unresolved(values, data)
+    if reason:
+        return reason, 'at this sample rate the two are not told apart; record faster'
+    if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
+        return None
+    levels = duty_levels(data, data.default_split())
+    if levels is None or not levels.one_level:
+        return None
+    return (f'the training records heat at one duty level ({100 * levels.share:.0f} % of the '
+            f'heated time at duty {levels.level:.3g}), where a heating law is not identified',
+            'records at one duty level do not tell the two apart; record other duty levels')
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,

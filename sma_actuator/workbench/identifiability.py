@@ -21,6 +21,7 @@ unchanged: one step, or one ramp, is fitted equally well at any τ, and the fitt
 where the search happened to stop. Records at two duty levels, or one that cools, tie the
 branch to temperature and so τ to time. `tau_profile` refits with τ held at a factor below
 and above the fitted one: where the training error does not rise, τ is not identified.
+Whether they identify the heating law: `levels`.
 """
 from dataclasses import dataclass
 from typing import Any, Callable, Optional, Tuple
