@@ -432,7 +432,8 @@ def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
 def _duty_levels(data: Any, fit: Any) -> Dict[str, Any]:
     """Return {'duty_levels': ...} of a dynamic fit's training samples ({} for curves)."""
     from .levels import duty_levels
-    levels = duty_levels(data, fit.split) if getattr(data, 'kind', None) == 'dynamic' else None
+    dynamic = getattr(data, 'kind', None) == DynamicData.kind
+    levels = duty_levels(data, fit.split) if dynamic else None
     return {'duty_levels': levels.to_json()} if levels else {}
 
 
@@ -553,7 +554,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def _note_other_levels(args: argparse.Namespace, fitted: Any, data: Any) -> None:
     """Note a compared record that heats at other duty levels than the one-level fit."""
     from .levels import heated_duties, ONE_LEVEL_SHARE, share_at
-    if not (isinstance(fitted, dict) and fitted.get('one_level') and data.kind == 'dynamic'):
+    if not (isinstance(fitted, dict) and fitted.get('one_level')
+            and data.kind == DynamicData.kind):
         return
     try:
         level, tol = float(fitted['level']), float(fitted['tolerance'])
