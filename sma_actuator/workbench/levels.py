@@ -72,12 +72,10 @@ def heated_duties(data: DynamicData, split: Optional[Split] = None) -> np.ndarra
     """
     Return the duties of both wires on the training samples where they heat.
 
-    Training: measured samples before `split` (None: every measured sample); heated: a duty
-    above HEATED_SHARE of the largest duty on those samples.
+    Training: the training samples of `split` (`split_masks`; None: every measured sample);
+    heated: a duty above HEATED_SHARE of the largest duty on those samples.
     """
-    train = data.scored_mask()
-    if split is not None and split.start is not None:
-        train = train & ~data.held_out(split)
+    train, _ = data.split_masks(split or Split(len(data)))
     duties = np.concatenate([data.duty_a[train], data.duty_b[train]])
     top = duties.max(initial=0.0)
     return duties[duties > HEATED_SHARE * top] if top > 0 else duties[:0]
