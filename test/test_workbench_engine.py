@@ -241,7 +241,7 @@ def test_the_named_effect_says_which_unresolved_candidate_fits_better():
     assert diag.missing_effect == 'fast_dynamics' and named['effect'] == 'fast_dynamics'
     assert 'delay fits the held-out window better (+60 % against +46 %)' in named['explanation']
     assert f'({why[0]}): {why[1]} to separate them.' in named['explanation']
-    assert diag.to_json()['candidates'][1]['not_resolved'] == why[0]
+    assert engine.candidate_json(diag.candidates[1])['not_resolved'] == why[0]
     # ranked again (a later pass): said once
     engine.rank_candidates(None, diag.candidates)
     assert named['explanation'].count('fits the held-out window better') == 1
