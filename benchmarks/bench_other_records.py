@@ -20,7 +20,7 @@ A stand-in for the measured spring-biased wire: the independent rich simulator
 driven with the duty profiles of the three shared records (`square_a`: full duty D from
 10 s to 30 s, then off, 70 s; `step_a`: D from 10 s, 50 s; `ramp_a`: 0 -> D from 5 s to
 25 s, then held, 50 s), D = --duty. The model fitted on them (`fit_model` on the joined
-records, as `sma-model fit A B C` writes it) predicts seven other records of the same rig,
+records, as `sma-model fit A B C` writes it) predicts six other records of the same rig,
 each from its own rest: steps to 0.6 D and 0.7 D, a staircase up and down in fifths of D,
 a triangle, a ramp down, a 0.05 Hz sine and a pulse train. Per rig effect (--effects
 NAME:MAGNITUDE, `none` for the plain rig): the RMSE of each other record as a share of the

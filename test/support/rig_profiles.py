@@ -17,7 +17,7 @@ Duty profiles of a rig's few short records, played on the rich simulator as a st
 
 The three shared spring-biased wire records (`square_a`: full duty D from 10 s to 30 s,
 then off, 70 s; `step_a`: D from 10 s, 50 s; `ramp_a`: 0 -> D from 5 s to 25 s, then
-held, 50 s), a staircase up and down in fifths of D, and seven other records of the same
+held, 50 s), a staircase up and down in fifths of D, and six other records of the same
 rig: steps to 0.6 D and 0.7 D, a triangle, a ramp down, a 0.05 Hz sine and a pulse train.
 `benchmarks/bench_other_records.py` and the duty-level tests use them.
 """
