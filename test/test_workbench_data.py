@@ -19,7 +19,8 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import check_excitation, DataError, describe, load_data
+from sma_actuator.workbench.data import (check_excitation, DataError, describe, load_data,
+                                         stated_unit)
 
 REAL = real_data_path()
 
@@ -141,6 +142,31 @@ def test_units_of_time_duty_and_position_come_from_the_header(tmp_path, header, 
     np.testing.assert_allclose(data.time, t, atol=1e-9)
     np.testing.assert_allclose(data.duty_a, da, atol=1e-6)
     assert data.position_unit == unit
+
+
+def test_a_one_wire_record_may_call_its_duty_column_duty(tmp_path):
+    t, da, _, pos = _dynamic_rows()
+    path = _write(tmp_path / 'w.csv', 'time,duty[%],position[mm]',
+                  np.column_stack([t, 100 * da, pos]))
+    data = load_data(path)
+    np.testing.assert_allclose(data.duty_a, da, atol=1e-6)
+    assert data.layout == 'single' and not data.duty_b.any()
+    # beside duty_b, a column named duty is not wire a's: it is an extra column
+    path = _write(tmp_path / 'ab.csv', 'time,duty,duty_b,position',
+                  np.column_stack([t, da, da, pos]))
+    with pytest.raises(DataError, match=r'missing column\(s\) duty_a .*time,duty,position'):
+        load_data(path)
+
+
+def test_the_unit_a_record_names_is_told_from_the_default(tmp_path):
+    t, da, db, pos = _dynamic_rows()
+    rows = np.column_stack([t, da, db, pos])
+    header = _write(tmp_path / 'h.csv', 'time,duty_a,duty_b,position[mm]', rows)
+    comment = _write(tmp_path / 'c.csv', 'time,duty_a,duty_b,position', rows,
+                     comments=['# position in deg, 100 Hz'])
+    bare = _write(tmp_path / 'b.csv', 'time,duty_a,duty_b,position', rows)
+    assert [stated_unit(p) for p in (header, comment, bare)] == ['mm', 'deg', None]
+    assert load_data(bare).position_unit == 'rad'   # read in the default unit
 
 
 def test_an_unknown_duty_unit_and_a_percentage_without_its_unit_are_data_errors(tmp_path):

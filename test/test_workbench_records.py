@@ -95,6 +95,28 @@ def assert_one_line_error(code, err, *fragments):
         assert f in lines[0], lines[0]
 
 
+def test_a_record_without_a_unit_takes_the_unit_of_the_model_or_of_the_other_records(
+        tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    bare = single_wire_csv(tmp_path / 'bare.csv', seed=2, header='time,duty,position')
+    out = tmp_path / 'm.yaml'
+    code, text, err = run(capsys, 'fit', a, bare, '--out', out)
+    assert code == 0, err
+    assert f'note: {bare} names no position unit; read in mm, the unit of the other ' \
+        'records' in text
+    assert yaml.safe_load(out.read_text())['position_unit'] == 'mm'
+    code, text, err = run(capsys, 'compare', '--model', out, bare, '--json')
+    assert code == 0, err
+    assert f'{bare} names no position unit; read in mm, the unit of {out}' in err
+    assert json.loads(text)['position_unit'] == 'mm'
+    # the user's --position-unit is taken as given, and two named units leave no default
+    code, _, err = run(capsys, 'compare', '--model', out, bare, '--position-unit', 'rad')
+    assert_one_line_error(code, err, 'fitted with position_unit mm, but the data has rad')
+    deg = single_wire_csv(tmp_path / 'deg.csv', seed=3, header='time,duty_a,position[deg]')
+    code, _, err = run(capsys, 'fit', a, deg, bare, '--out', tmp_path / 'n.yaml')
+    assert_one_line_error(code, err, 'records fitted together need one unit')
+
+
 def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys):
     # nothing is labelled rad unless it is rad: the terminal, the JSON and the fleet table
     a = single_wire_csv(tmp_path / 'a.csv', seed=1, zero=0.3)

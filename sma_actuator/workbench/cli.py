@@ -165,12 +165,15 @@ def check_effect_names(names: Sequence[str], catalog: Mapping[str, Any],
                          f'{", ".join(sorted(catalog))}')
 
 
-def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
+def load_checked_records(args: argparse.Namespace,
+                         spec: Optional[Mapping[str, Any]] = None) -> List[Tuple[str, Any]]:
     """
     Load and check every DATA record; return [(path, data)], the --layout applied.
 
     Mixed static and dynamic records, several static files, and records that cannot be
-    fitted together are bad input.
+    fitted together are bad input. A record that names no position unit takes the unit of
+    the model file `spec` (--model) or the one unit the other records name
+    (`adopt_stated_unit`).
     """
     from .data import check_excitation, load_data
     from .records import at_fit_rate
@@ -210,7 +213,31 @@ def load_checked_records(args: argparse.Namespace) -> List[Tuple[str, Any]]:
                              f'{np.max(d.duty_b):.3g})')
         if layout:
             d.layout = layout
+    if not unit:
+        adopt_stated_unit(args, loaded, (spec or {}).get('position_unit'))
     return loaded
+
+
+def adopt_stated_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
+                      model_unit: Optional[str] = None) -> None:
+    """
+    Give the records that name no position unit the unit of the model or of the others.
+
+    A record read without a unit is in rad by default; beside a model fitted in mm, or
+    beside records that all name mm, it is a record of the same rig whose logger left the
+    unit out. Each record so read gets a note; with no model and the others naming more
+    than one unit, nothing changes (the mixed units are then an error).
+    """
+    from .data import stated_unit
+    named = {path: stated_unit(path) for path, _ in loaded}
+    others = set(filter(None, named.values()))
+    unit = model_unit or (others.pop() if len(others) == 1 else None)
+    source = args.model if model_unit else 'the other records'
+    for path, d in loaded:
+        if named[path] is None and unit and d.position_unit != unit:
+            d.position_unit = unit
+            _note(args, f'note: {path} names no position unit; read in {unit}, the unit of '
+                        f'{source} (give --position-unit if that is wrong)')
 
 
 def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
@@ -380,7 +407,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     check_effect_names(add, catalog)
     effects = list(dict.fromkeys(spec['effects'] + add))
     kind = args.kind or spec.get('kind')
-    loaded = load_checked_records(args)
+    loaded = load_checked_records(args, spec)
     progress = Progress('fit')
     try:
         data, fit, records = _fit_records(args, loaded, tuple(effects), kind, progress)
@@ -506,7 +533,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if not is_fitted(spec):
         raise UsageError(f'{args.model}: holds no fitted model (no "model" section); run '
                          f'{PROG} fit DATA --out FITTED.yaml first')
-    loaded = load_checked_records(args)
+    loaded = load_checked_records(args, spec)
     names = ' '.join(all_data(args))
     first = loaded[0][1]
     fitted_on = StaticData if is_static_model(spec) else DynamicData
@@ -690,7 +717,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.candidates:
         check_effect_names(args.candidates, catalog, '--candidates')
     kind = args.kind or spec.get('kind')
-    loaded = load_checked_records(args)
+    loaded = load_checked_records(args, spec)
     data = join_records(args, loaded)
     for line in data_lines(data):
         _note(args, line)

@@ -20,6 +20,7 @@ names are case-insensitive, column order is free, extra columns are ignored; fie
 separated by commas, or by semicolons or tabs when the header row has no comma):
 
 * dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
+  (one wire: ``duty`` for ``duty_a`` when the header has neither duty_a nor duty_b);
   time strictly increasing, in s (or the unit of a ``time[ms]`` header); a record whose
   steps vary by more than 1 % (clock jitter, rounded stamps, one dropped sample) is
   resampled to its mean step (`steady_columns`); a longer gap is an error;
@@ -55,7 +56,7 @@ UNITS = {'rad': 'rad', 'mrad': 'mrad', 'deg': 'deg', 'degree': 'deg', 'degrees':
          'm': 'm', 'cm': 'cm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'in': 'in', 'v': 'V',
          'mv': 'mV', 'counts': 'counts', '%': '%', '°': 'deg'}
 # a unit in a column name: position[mm], position [mm], position (mm), time [s], duty_a[%]
-_UNIT_IN_NAME = re.compile(r'^(time|position|setpoint|duty_a|duty_b|ambient_temperature)'
+_UNIT_IN_NAME = re.compile(r'^(time|position|setpoint|duty_a|duty_b|duty|ambient_temperature)'
                            r'\s*[\[(]\s*([^\])]*?)\s*[\])]$')
 # a unit as a name suffix: position_mm, time_ms (only units these columns know)
 _UNIT_SUFFIX = re.compile(r'^(time|position|setpoint)_([a-zµ]+)$')
@@ -67,7 +68,7 @@ DUTY_UNITS = {'-': 1.0, '1': 1.0, 'fraction': 1.0, '%': 0.01}
 AMBIENT_UNITS = dict.fromkeys(('°c', 'degc', 'c'), 1.0)
 # the unit table and its name in messages of each column a header may give a scaled unit
 _SCALED_COLUMNS = {'time': (TIME_UNITS, 'time'), 'duty_a': (DUTY_UNITS, 'duty'),
-                   'duty_b': (DUTY_UNITS, 'duty'),
+                   'duty_b': (DUTY_UNITS, 'duty'), 'duty': (DUTY_UNITS, 'duty'),
                    'ambient_temperature': (AMBIENT_UNITS, 'ambient')}
 # field separators tried, in order, when the header row has no comma
 OTHER_DELIMITERS = (';', '\t')
@@ -77,8 +78,11 @@ _UNIT_IN_COMMENT = re.compile(r'\bposition\s+in\s+([^\s,;.()]+)', re.IGNORECASE)
 STATIC_LAYOUTS = ({'input': 'input', 'output': 'output'},
                   {'voltage': 'input', 'deflection': 'output'})
 FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
-                '[,ambient_temperature][,setpoint]; a static CSV input,output[,curve] or '
+                '[,ambient_temperature][,setpoint] (one wire: time,duty_a,position or '
+                'time,duty,position); a static CSV input,output[,curve] or '
                 'curve,voltage,deflection')
+# a one-wire record may name its duty column plainly
+SINGLE_DUTY = 'duty'
 # a curve id is a label of a loop: far beyond any real count, and still an int64 when cast
 MAX_CURVE_ID = 10**9
 MIN_SAMPLES = 10
@@ -193,10 +197,7 @@ def read_csv_table(path: PathLike) -> tuple:
         raise DataError(f'{path}: {len(numbered) - 1} data rows is over the limit of '
                         f'{limits.MAX_ROWS} rows (split or decimate the record)')
     header_line, header_text = numbered[0]
-    delimiter = ',' if ',' in header_text else next(
-        (d for d in OTHER_DELIMITERS if d in header_text), ',')
-    header = [h.strip().lower()
-              for h in _csv_fields(path, header_line, header_text, delimiter)]
+    header, delimiter = _header_fields(path, header_line, header_text)
     _check_header(path, header_line, header)
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
@@ -208,6 +209,30 @@ def read_csv_table(path: PathLike) -> tuple:
     if not rows:
         raise DataError(f'{path}: no data rows after the header (line {header_line})')
     return header, np.array(rows, float), np.array(lines)
+
+
+def _header_fields(path: PathLike, line_no: int, text: str) -> Tuple[list, str]:
+    """Return (the lower-cased column names of header row `text`, its field separator)."""
+    delimiter = ',' if ',' in text else next((d for d in OTHER_DELIMITERS if d in text), ',')
+    return [h.strip().lower() for h in _csv_fields(path, line_no, text, delimiter)], delimiter
+
+
+def stated_unit(path: PathLike) -> Optional[str]:
+    """
+    Return the position unit record `path` names itself, or None when it names none.
+
+    A bag's position is in rad; a CSV names its unit in the header (``position[mm]``) or a
+    comment (``# ... position in mm``). Call it on a record `load_data` has read.
+    """
+    if is_bag(path):
+        return 'rad'
+    with open(path, encoding='utf-8-sig', errors='replace') as fh:
+        for line_no, line in enumerate(fh, 1):
+            if line.strip() and not line.lstrip().startswith('#'):
+                header = _header_fields(path, line_no, line.rstrip('\r\n'))[0]
+                named = _units_from_header(path, header)[1] or comment_unit(path)
+                return parse_unit(named, path) if named else None
+    return None
 
 
 def _csv_fields(path: PathLike, line_no: int, text: str, delimiter: str = ',') -> list:
@@ -294,7 +319,8 @@ def _units_from_header(path: PathLike, header: list) -> tuple:
 
     Units in brackets or parentheses (``time [ms]``, ``duty_a[%]``, ``position (mm)``) or as
     a suffix of time and position (``time_ms``, ``position_mm``). Scales convert time to
-    seconds and duties to fractions.
+    seconds and duties to fractions. A plain ``duty`` column is duty_a when the header has
+    no duty_a and no duty_b (one wire).
     """
     out, unit, scales = [], None, {}
     for h in header:
@@ -308,6 +334,10 @@ def _units_from_header(path: PathLike, header: list) -> tuple:
         elif named:
             scales[column] = _column_scale(path, column, named[1])
         out.append(column)
+    if SINGLE_DUTY in out and not {'duty_a', 'duty_b'} & set(out):
+        out[out.index(SINGLE_DUTY)] = 'duty_a'
+        if SINGLE_DUTY in scales:
+            scales['duty_a'] = scales.pop(SINGLE_DUTY)
     return out, unit, scales
 
 
