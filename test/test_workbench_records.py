@@ -212,19 +212,29 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
     assert row['scores']['all']['nrmse'] < 0.02 and 'still cooling' in err
 
 
-def test_compare_notes_a_record_that_starts_away_from_the_models_rest(tmp_path, capsys):
+def test_compare_predicts_an_untared_record_from_its_own_start_rest(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    same = single_wire_csv(tmp_path / 'same.csv', seed=3)
     moved = single_wire_csv(tmp_path / 'moved.csv', seed=3, zero=1.0)   # untared by 1 mm
     out = tmp_path / 'm.yaml'
     assert run(capsys, 'fit', a, b, '--out', out)[0] == 0
     code, text, err = run(capsys, 'compare', b, moved, '--model', out, '--json')
     assert code == 0, err
-    offsets = {r['data']: r['start_offset'] for r in json.loads(text)['records']}
-    assert offsets[str(moved)] == pytest.approx(1.0, abs=0.05)
-    assert abs(offsets[str(b)]) < 0.05
+    rows = {r['data']: r for r in json.loads(text)['records']}
+    assert rows[str(moved)]['start_offset'] == pytest.approx(1.0, abs=0.05)
+    assert rows[str(moved)]['untared'] and 'untared' not in rows[str(b)]
+    assert abs(rows[str(b)]['start_offset']) < 0.05
     assert f'note: {moved} starts at rest +1' in err and f'note: {b}' not in err
-    assert '--add sensor_zero' in err
+    assert 'predicted from its own start rest' in err and '--add sensor_zero' in err
+    # scored as the same run read by a tared sensor: the offset is gone, the error is not
+    scores = {}
+    for path in (same, moved):
+        code, text, err = run(capsys, 'compare', path, '--model', out, '--json')
+        assert code == 0, err
+        scores[path] = json.loads(text)['scores']['all']
+    assert scores[moved]['rmse'] == pytest.approx(scores[same]['rmse'], rel=0.05)
+    assert scores[moved]['rmse'] < 0.1
 
 
 def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):

@@ -55,9 +55,6 @@ PROG = 'sma-model'
 COMPARED = 'compared'
 # a held-out error within this factor of the measurement noise's leaves nothing to find
 NEAR_NOISE = 1.5
-# a compared record starting at rest this far (share of the measured range) from the
-# model's rest is noted as read by an untared sensor (2 %: 0.34 mm on the spring-biased wire)
-START_OFFSET_NOTE = 0.02
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
                  '(default: %(default)g)')
@@ -552,6 +549,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     kind = _KINDS[data.kind]
     records = kind.records(data, fit.prediction, role=COMPARED)
     mark_warm(records, lead)
+    mark_untared(records, fit.untared)
     _note_start_offsets(args, data, records)
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
@@ -664,22 +662,33 @@ def mark_warm(records: List[Dict[str, Any]], lead: Dict[str, Any]) -> None:
             r['lead_in'] = {'duty_a': a, 'duty_b': b, 'first_duties_s': round(first_s, 3)}
 
 
+def mark_untared(records: List[Dict[str, Any]], untared: Mapping[str, float]) -> None:
+    """
+    Mark the compared records `engine.load_fit` predicted from their own start rest.
+
+    Their `start_offset` stays the offset from the model's rest, and `untared` is True.
+    """
+    for r in records:
+        if r['data'] in untared:
+            r['start_offset'] = float(untared[r['data']])
+            r['untared'] = True
+
+
 def _note_start_offsets(args: argparse.Namespace, data: Any,
                         records: List[Dict[str, Any]]) -> None:
     """
-    Note each compared record whose `start_offset` [position unit] is large.
+    Note each compared record predicted from its own start rest (`mark_untared`).
 
-    A record that starts at rest more than START_OFFSET_NOTE of the measured range away
-    from the model's rest was most likely read by an untared sensor (one led in warm or
-    cooling does not start at rest).
+    A record that starts at rest more than `records.UNTARED_SHARE` of the measured range
+    away from the model's rest was most likely read by an untared sensor (one led in warm
+    or cooling does not start at rest).
     """
     unit = unit_of(data)
     for r in records:
-        if not r.get('warm_start') and abs(r['start_offset']) > START_OFFSET_NOTE * data.span():
+        if r.get('untared'):
             _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '
-                  "the model's rest (an untared sensor? fit with --add sensor_zero to refer "
-                  'each record to its own start rest; or wires still warm from an earlier '
-                  'run? start the record at rest)')
+                  "the model's rest (an untared sensor?): predicted from its own start rest "
+                  '(fit with --add sensor_zero to refer every record to its own start rest)')
 
 
 def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:

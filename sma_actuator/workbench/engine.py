@@ -75,7 +75,8 @@ import numpy as np
 from .effects import CATALOG, Effect, get_effect, is_builtin
 from .levels import duty_levels
 from .parallel import available_cores, imap_on_cores
-from .records import loop_prior, record_strokes, stroke_scale, zeros
+from .records import (loop_prior, record_strokes, referred_to_rest, stroke_scale,
+                      untared_offsets, zeros)
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
@@ -117,6 +118,9 @@ class ModelFit:
     rig: dict = field(default_factory=dict)
     # {record name: the model fitted with that record left out} (`crossval.cross_validate`)
     folds: dict = field(default_factory=dict)
+    # {record name: start offset [position unit]} of the records `load_fit` predicted from
+    # their own start rest (an untared sensor)
+    untared: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """YAML-able form: effects, kind, fitted values, model parameters, scores."""
@@ -174,7 +178,14 @@ def _hooked_inputs(effects: list, duty_a: np.ndarray, duty_b: np.ndarray,
 
 
 def load_fit(d: dict, data: Any = None) -> ModelFit:
-    """Return a ModelFit from `to_dict` output; scores and predictions are recomputed on `data`."""
+    """
+    Return a ModelFit from `to_dict` output; scores and predictions are recomputed on `data`.
+
+    A model without `sensor_zero` predicts a record read by an untared sensor (one that
+    starts at rest off the model's rest by more than `records.UNTARED_SHARE` of the range)
+    from that record's own start rest: ŷ + z_k − z over its samples (`untared` holds the
+    offsets z_k − z).
+    """
     model = d.get('model', {})
     if set(model) == {'hysteresis'}:
         params = PlayHysteresis.from_dict(model['hysteresis'])
@@ -189,6 +200,9 @@ def load_fit(d: dict, data: Any = None) -> ModelFit:
     fit.rig.update({k: d[k] for k in ('layout', 'position_unit') if k in d})
     if data is not None:
         fit.prediction, fit.signals = data.simulate(fit)
+        if data.kind == DynamicData.kind and 'sensor_zero' not in fit.effects:
+            fit.untared = untared_offsets(data, fit.prediction)
+            fit.prediction = referred_to_rest(data, fit.prediction, fit.untared)
         keep = data.scored_mask()
         fit.validation = scores(data.output[keep], fit.prediction[keep], data.span())
     return fit

@@ -57,6 +57,10 @@ START_WINDOW_S = 5.0
 # start's first and last MOTION_MEAN_S [s] differ by more than MOTION_SHARE of its range
 MOTION_MEAN_S = 0.2
 MOTION_SHARE = 0.02
+# a record that starts at rest further than this share of the measured range from a model's
+# rest was read by an untared sensor: the rests of one rig's runs scatter by about 1 % (the
+# slider's friction; the three shared records: 0.16 mm of 17 mm), a sensor zero by any amount
+UNTARED_SHARE = 0.02
 
 
 def start_rest(data: DynamicData) -> int:
@@ -119,6 +123,27 @@ def start_offsets(data: DynamicData, prediction: np.ndarray) -> dict:
     for name, a, b in data.segments or (('DATA', 0, len(data)),):
         n = start_rest(segment_view(data, a, b))
         out[name] = float(np.mean(data.position[a:a + n] - prediction[a:a + n]))
+    return out
+
+
+def untared_offsets(data: DynamicData, prediction: np.ndarray,
+                    share: float = UNTARED_SHARE) -> dict:
+    """
+    Return {record: start offset} of the records read by an untared sensor [position unit].
+
+    Those that start at rest (`starts_at_rest`) with a `start_offsets` entry larger than
+    `share` of the measured range (`DynamicData.span`).
+    """
+    offsets, limit = start_offsets(data, prediction), share * data.span()
+    return {name: offsets[name] for name, a, b in data.segments or (('DATA', 0, len(data)),)
+            if abs(offsets[name]) > limit and starts_at_rest(segment_view(data, a, b))}
+
+
+def referred_to_rest(data: DynamicData, prediction: np.ndarray, offsets: dict) -> np.ndarray:
+    """Return `prediction` with each record of `offsets` moved by its offset: ŷ + z_k − z."""
+    out = np.array(prediction, float)
+    for name, a, b in data.segments or (('DATA', 0, len(data)),):
+        out[a:b] += offsets.get(name, 0.0)
     return out
 
 
