@@ -237,6 +237,21 @@ def test_compare_predicts_an_untared_record_from_its_own_start_rest(tmp_path, ca
     assert scores[moved]['rmse'] < 0.1
 
 
+def test_fit_notes_records_whose_start_rests_lie_apart(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    moved = single_wire_csv(tmp_path / 'moved.csv', seed=3, zero=1.0)   # untared by 1 mm
+    code, text, err = run(capsys, 'fit', a, moved)
+    assert code == 0, err
+    note = next(line for line in text.splitlines() if line.startswith('note: the records'))
+    assert f'{moved} at 1' in note and f'{a} at ' in note and '--add sensor_zero' in note
+    assert float(note.split('start at rests ')[1].split(' mm apart')[0]) == pytest.approx(
+        1.0, abs=0.05)
+    for records in ((a, b), (a, moved, '--add', 'sensor_zero')):
+        code, text, err = run(capsys, 'fit', *records)
+        assert code == 0 and 'note: the records start at rests' not in text, text
+
+
 def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

@@ -420,6 +420,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
         _note(args, f'note: {profile["tau_profile"]["note"]}')
     if profile.get('duty_levels', {}).get('one_level'):
         _note(args, f'note: {profile["duty_levels"]["note"]}')
+    if 'sensor_zero' not in fit.effects and data.kind == DynamicData.kind:
+        _note_apart_rests(args, loaded, unit_of(data))
     if args.out:
         write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
     if args.json:
@@ -660,6 +662,28 @@ def mark_warm(records: List[Dict[str, Any]], lead: Dict[str, Any]) -> None:
         if r['data'] in led:
             a, b, first_s = led[r['data']]
             r['lead_in'] = {'duty_a': a, 'duty_b': b, 'first_duties_s': round(first_s, 3)}
+
+
+def _note_apart_rests(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
+                      unit: str) -> None:
+    """
+    Note records of a fit whose start rests lie further apart than a rest scatters.
+
+    Apart by more than `records.UNTARED_SHARE` of the measured range, the sensor was most
+    likely not tared between them, which `sensor_zero` takes up.
+    """
+    from .records import start_rests, UNTARED_SHARE
+    rests = start_rests(loaded)
+    if len(rests) < 2:
+        return
+    span = float(np.ptp(np.concatenate([d.position for _, d in loaded])))
+    low, high = min(rests, key=rests.get), max(rests, key=rests.get)
+    if rests[high] - rests[low] > UNTARED_SHARE * span:
+        _note(args, f'note: the records start at rests {rests[high] - rests[low]:.4g} {unit} '
+              f'apart ({high} at {rests[high]:.4g} {unit}, {low} at {rests[low]:.4g} {unit}; '
+              f'{100 * UNTARED_SHARE:.0f} % of the range is {UNTARED_SHARE * span:.3g} {unit}): '
+              'an untared sensor? fit with --add sensor_zero to refer each record to its own '
+              'start rest, or see what diagnose names')
 
 
 def mark_untared(records: List[Dict[str, Any]], untared: Mapping[str, float]) -> None:

@@ -126,6 +126,11 @@ def start_offsets(data: DynamicData, prediction: np.ndarray) -> dict:
     return out
 
 
+def start_rests(records: list) -> dict:
+    """Return {name: sensor zero} of the (name, DynamicData) records that start at rest."""
+    return {name: record_zero(d) for name, d in records if starts_at_rest(d)}
+
+
 def untared_offsets(data: DynamicData, prediction: np.ndarray,
                     share: float = UNTARED_SHARE) -> dict:
     """
