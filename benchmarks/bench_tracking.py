@@ -47,7 +47,7 @@ import warnings
 
 import numpy as np
 
-from sma_actuator.control import ControllerCore, ControllerSettings, load_model
+from sma_actuator.control import ControllerCore, ControllerSettings, law, load_model
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams
@@ -238,7 +238,13 @@ def main():
                     help='also run each case with the PI gains scaled by these factors')
     ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
+    ap.add_argument('--antagonist-lag-share', type=float, default=law.ANTAGONIST_LAG_SHARE,
+                    metavar='SHARE', help='control.law.ANTAGONIST_LAG_SHARE for this run '
+                    '(inf: the one-sided PI never lets the antagonist pull)')
     ns = ap.parse_args()
+    if not ns.antagonist_lag_share > 0:
+        ap.error('--antagonist-lag-share must be positive (inf to switch the release off)')
+    law.ANTAGONIST_LAG_SHARE = ns.antagonist_lag_share
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
     from support.richsim import rig_from_command_line
     RICH_RIG.update(rig_from_command_line(ap, ns.param, 'richsim' in ns.source))

@@ -13,10 +13,12 @@
 # limitations under the License.
 
 """pi_inverse's handover at zero crossings: interlock kept, incoming wire heated early."""
+import math
+
 import numpy as np
 import pytest
 
-from sma_actuator.control import ControllerCore, ControllerSettings
+from sma_actuator.control import ControllerCore, ControllerSettings, law
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.estimator import DriftEstimator
 from sma_actuator.control.feedforward import InverseFeedforward
@@ -79,15 +81,45 @@ def test_a_moving_reference_far_on_one_side_does_not_heat_the_antagonist():
     assert ff.target_side(0.4) == 1 and ff.target_side(-0.4) == -1 and ff.target_side(0.0) == 0
     moving = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
     held = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
-    # the shaft reads above the setpoint: on a reference rising at 0.05 rad/s, away from
-    # any crossing, wire b, far below its transformation start, would only heat; on a
-    # held setpoint the same overshoot is pulled back by b
+    # the shaft reads a little above the setpoint (under 5 % of the stroke): on a reference
+    # rising at 0.05 rad/s, away from any crossing, wire b, far below its transformation
+    # start, would only heat; on a held setpoint an overshoot is pulled back by b
     duties_b = [], []
     for k in range(40):
-        duties_b[0].append(moving.step(0.4 + 0.05 * k * DT, 0.6, DT, 22.0).duty_b)
+        duties_b[0].append(moving.step(0.4 + 0.05 * k * DT, 0.44 + 0.05 * k * DT, DT,
+                                       22.0).duty_b)
         duties_b[1].append(held.step(0.4, 0.6, DT, 22.0).duty_b)
     assert max(duties_b[0]) == 0.0
     assert max(duties_b[1]) > 0.0
+
+
+def test_the_antagonist_pulls_a_shaft_that_trails_a_falling_target():
+    model = ActuatorParams()
+    # the reference falls at 0.1 rad/s on wire a's side, away from any crossing; the shaft
+    # hangs above it by more than 5 % of the stroke (wire a cools too slowly): b pulls;
+    # by less, b stays cold and a's cooling takes the shaft down
+    duties_b = {}
+    for above in (0.15, 0.03):
+        ctrl = ControllerCore(model, ControllerSettings(mode='pi_inverse'))
+        duties_b[above] = max(ctrl.step(0.6 - 0.1 * k * DT, 0.6 - 0.1 * k * DT + above, DT,
+                                        22.0).duty_b for k in range(40))
+    assert duties_b[0.15] > 0.0 and duties_b[0.03] == 0.0
+
+
+def test_a_slow_wire_tracks_better_when_the_antagonist_may_pull(monkeypatch):
+    # cooling three times slower than the package's wire (τ 6.6 s, the spring-biased rig's
+    # order), the exact model, a 0.1 Hz sine: the falling half outruns wire a's cooling
+    model = ActuatorParams()
+    slow = model.with_changes(heat_capacity_j_per_k=3 * model.heat_capacity_j_per_k)
+    sine = Profile('sine', 0.5, period_s=10.0, delay_s=1.0)
+
+    def rms():
+        ctrl = ControllerCore(slow, ControllerSettings(mode='pi_inverse'))
+        return run_tracking(ctrl, CorePlant(slow, DT), sine, 31.0, DT).summary(11.0)[
+            'rms_error']
+    with_pull = rms()
+    monkeypatch.setattr(law, 'ANTAGONIST_LAG_SHARE', math.inf)
+    assert with_pull < 0.9 * rms()
 
 
 def test_drift_correction_leaves_a_matched_model_alone():

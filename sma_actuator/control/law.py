@@ -87,6 +87,10 @@ ACCEL_TIME_S = 0.2
 # this much of the reference's height [rad], so a fast sine turns early but not short
 REVERSAL_LEAD_S = 0.9
 REVERSAL_SHORTFALL_RAD = 0.02
+# the one-sided PI lets the antagonist pull once the shaft is this share of the stroke off
+# its target on the antagonist's side: the active wire cools more slowly than the target
+# moves away, or the shaft overshot, and only the antagonist takes it back
+ANTAGONIST_LAG_SHARE = 0.05
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
 # step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
 TAU_C_INVERSE_S = 0.25
@@ -382,9 +386,12 @@ class ControllerCore:
         self.crossing = self._crossing(r)
         if self.crossing[1] > FREE_LEAD_S and abs(self.reference.rate) >= MIN_RATE_RAD_S:
             # a moving reference far from a crossing and far on one side: the antagonist,
-            # cold, would only heat (a held setpoint keeps it, to pull back an overshoot)
+            # cold, would only heat (a held setpoint keeps it, to pull back an overshoot),
+            # unless the shaft is off the target on its side by more than a small error
             side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
-            lo, hi = (0.0 if side > 0 else lo), (0.0 if side < 0 else hi)
+            off = ANTAGONIST_LAG_SHARE * abs(p.stroke_rad)
+            lo = 0.0 if side > 0 and target - angle > -off else lo
+            hi = 0.0 if side < 0 and target - angle < off else hi
         return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
 
     def _crossing(self, r: float) -> Tuple[Optional[int], float]:
