@@ -237,6 +237,26 @@ def test_compare_predicts_an_untared_record_from_its_own_start_rest(tmp_path, ca
     assert scores[moved]['rmse'] < 0.1
 
 
+def test_compare_notes_records_that_move_little_of_the_models_travel(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    b = single_wire_csv(tmp_path / 'b.csv', seed=2)
+    quiet = tmp_path / 'quiet.csv'   # a duty too low to reach the loop: noise only
+    t = np.arange(500) * DT
+    noise = np.random.default_rng(4).normal(0.0, 0.01, t.size)
+    np.savetxt(quiet, np.column_stack([t, np.where(t > 2, 0.02, 0.0), noise]), delimiter=',',
+               header='time,duty_a,position[mm]', comments='', fmt='%.6f')
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, '--out', out)[0] == 0
+    stroke = yaml.safe_load(out.read_text())['model']['stroke_rad']
+    code, text, err = run(capsys, 'compare', quiet, '--model', out, '--json')
+    assert code == 0, err
+    doc = json.loads(text)
+    assert doc['model_travel'] == pytest.approx(abs(stroke))
+    assert 'note: the compared records move 0.0' in err and "of the model's travel" in err
+    code, text, err = run(capsys, 'compare', b, '--model', out, '--json')
+    assert code == 0 and 'the compared records move' not in err, err
+
+
 def test_fit_notes_records_whose_start_rests_lie_apart(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

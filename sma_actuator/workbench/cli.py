@@ -556,6 +556,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
+    travel = model_travel(fit.params, data)
+    if travel:
+        _note_quiet_records(args, data, travel)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data, COMPARED)
     if args.report:
@@ -566,6 +569,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
                'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
         doc |= result.to_json()
         doc |= kind.json(data, records)
+        if travel:
+            doc['model_travel'] = travel
         print_json(doc)
     else:
         print('\n'.join(lines))
@@ -684,6 +689,35 @@ def _note_apart_rests(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
               f'{100 * UNTARED_SHARE:.0f} % of the range is {UNTARED_SHARE * span:.3g} {unit}): '
               'an untared sensor? fit with --add sensor_zero to refer each record to its own '
               'start rest, or see what diagnose names')
+
+
+def model_travel(params: Any, data: Any) -> Optional[float]:
+    """
+    Return the shaft travel of a dynamic model [position unit], None for curves.
+
+    From all cold to one wire fully contracted, |g| (eq. step 4: φ = φ0 + g (y_a − s_b y_b),
+    y in [0, 1]); from one end to the other on a pair, |g| (1 + s_b).
+    """
+    if data.kind != DynamicData.kind or not hasattr(params, 'stroke_rad'):
+        return None
+    pair = 0.0 if data.layout == 'single' else params.stroke_ratio_b
+    return float(abs(params.stroke_rad) * (1.0 + pair))
+
+
+def _note_quiet_records(args: argparse.Namespace, data: Any, travel: float) -> None:
+    """
+    Note compared records that move less than `engine.MIN_COVERAGE` of the model's travel.
+
+    Their NRMSE is over their own small range: an error that is small against the stroke
+    can read as hundreds of percent there, so the RMSE is the figure to read.
+    """
+    from .engine import MIN_COVERAGE
+    moved = data.span()
+    if moved < MIN_COVERAGE * travel:
+        unit = unit_of(data)
+        _note(args, f'note: the compared records move {moved:.4g} {unit}, '
+                    f"{100 * moved / travel:.0f} % of the model's travel ({travel:.4g} {unit}): "
+                    'their NRMSE, over that range, says little; read the RMSE')
 
 
 def mark_untared(records: List[Dict[str, Any]], untared: Mapping[str, float]) -> None:
