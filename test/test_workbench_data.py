@@ -19,8 +19,7 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import (check_excitation, DataError, describe, load_data,
-                                         stated_unit)
+from sma_actuator.workbench.data import check_excitation, DataError, describe, load_data
 
 REAL = real_data_path()
 
@@ -165,7 +164,8 @@ def test_the_unit_a_record_names_is_told_from_the_default(tmp_path):
     comment = _write(tmp_path / 'c.csv', 'time,duty_a,duty_b,position', rows,
                      comments=['# position in deg, 100 Hz'])
     bare = _write(tmp_path / 'b.csv', 'time,duty_a,duty_b,position', rows)
-    assert [stated_unit(p) for p in (header, comment, bare)] == ['mm', 'deg', None]
+    assert [load_data(p, default_unit='').position_unit for p in (header, comment, bare)] \
+        == ['mm', 'deg', '']
     assert load_data(bare).position_unit == 'rad'   # read in the default unit
 
 

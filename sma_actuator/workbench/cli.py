@@ -186,7 +186,7 @@ def load_checked_records(args: argparse.Namespace,
     for path in paths:
         notes = []
         d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
-                                        notes=notes), args.max_rate)
+                                        notes=notes, default_unit=''), args.max_rate)
         for line in notes + ([f'{path}: {note}'] if note else []):
             _note(args, line)
         check_excitation(d, path, to_fit=getattr(args, 'command', '') != 'compare')
@@ -210,8 +210,7 @@ def load_checked_records(args: argparse.Namespace,
                              f'{np.max(d.duty_b):.3g})')
         if layout:
             d.layout = layout
-    if not unit:
-        adopt_stated_unit(args, loaded, (spec or {}).get('position_unit'))
+    adopt_stated_unit(args, loaded, (spec or {}).get('position_unit'))
     return loaded
 
 
@@ -220,21 +219,21 @@ def adopt_stated_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
     """
     Give the records that name no position unit the unit of the model or of the others.
 
-    A record read without a unit is in rad by default; beside a model fitted in mm, or
-    beside records that all name mm, it is a record of the same rig whose logger left the
-    unit out. Each record so read gets a note; with no model and the others naming more
-    than one unit, nothing changes (the mixed units are then an error).
+    Records are read with '' for a unit they do not name (`load_data` default_unit).
+    Beside a model fitted in mm, or beside records that all name mm, such a record is one
+    of the same rig whose logger left the unit out: it is read in mm, with a note. With no
+    model and the others naming no unit or more than one, it is in rad, the default (mixed
+    units are then an error).
     """
-    from .data import stated_unit
-    named = {path: stated_unit(path) for path, _ in loaded}
-    others = set(filter(None, named.values()))
+    others = {d.position_unit for _, d in loaded if d.position_unit}
     unit = model_unit or (others.pop() if len(others) == 1 else None)
     source = args.model if model_unit else 'the other records'
     for path, d in loaded:
-        if named[path] is None and unit and d.position_unit != unit:
-            d.position_unit = unit
-            _note(args, f'note: {path} names no position unit; read in {unit}, the unit of '
-                        f'{source} (give --position-unit if that is wrong)')
+        if not d.position_unit:
+            d.position_unit = unit or 'rad'
+            if unit and unit != 'rad':
+                _note(args, f'note: {path} names no position unit; read in {unit}, the unit of '
+                            f'{source} (give --position-unit if that is wrong)')
 
 
 def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],

@@ -122,14 +122,16 @@ def comment_unit(path: PathLike) -> Optional[str]:
 
 
 def load_data(path: PathLike, rate_hz: Optional[float] = None,
-              position_unit: Optional[str] = None, notes: Optional[list] = None) -> Any:
+              position_unit: Optional[str] = None, notes: Optional[list] = None,
+              default_unit: str = 'rad') -> Any:
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
     rate_hz: resampling rate [Hz] for bags (default: the joint-state rate); ignored for CSV.
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
-    ``# ... position in mm``; default rad). notes: a list that receives a line when an
-    unsteady record is resampled. Raises `DataError` with a clear message on any problem.
+    ``# ... position in mm``); default_unit: a CSV's unit when it names none ('' leaves
+    that to the caller). notes: a list that receives a line when an unsteady record is
+    resampled. Raises `DataError` with a clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
@@ -147,8 +149,9 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     for column, scale in scales.items():
         rows[:, header.index(column)] *= scale
     if 'time' in header:
-        unit = position_unit or named or comment_unit(path) or 'rad'
-        return dynamic_from_table(path, header, rows, lines, parse_unit(unit, path), notes)
+        unit = position_unit or named or comment_unit(path)
+        return dynamic_from_table(path, header, rows, lines,
+                                  parse_unit(unit, path) if unit else default_unit, notes)
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
         return static_from_table(path, header, rows, lines)
     raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
@@ -197,7 +200,10 @@ def read_csv_table(path: PathLike) -> tuple:
         raise DataError(f'{path}: {len(numbered) - 1} data rows is over the limit of '
                         f'{limits.MAX_ROWS} rows (split or decimate the record)')
     header_line, header_text = numbered[0]
-    header, delimiter = _header_fields(path, header_line, header_text)
+    delimiter = ',' if ',' in header_text else next(
+        (d for d in OTHER_DELIMITERS if d in header_text), ',')
+    header = [h.strip().lower()
+              for h in _csv_fields(path, header_line, header_text, delimiter)]
     _check_header(path, header_line, header)
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
@@ -209,30 +215,6 @@ def read_csv_table(path: PathLike) -> tuple:
     if not rows:
         raise DataError(f'{path}: no data rows after the header (line {header_line})')
     return header, np.array(rows, float), np.array(lines)
-
-
-def _header_fields(path: PathLike, line_no: int, text: str) -> Tuple[list, str]:
-    """Return (the lower-cased column names of header row `text`, its field separator)."""
-    delimiter = ',' if ',' in text else next((d for d in OTHER_DELIMITERS if d in text), ',')
-    return [h.strip().lower() for h in _csv_fields(path, line_no, text, delimiter)], delimiter
-
-
-def stated_unit(path: PathLike) -> Optional[str]:
-    """
-    Return the position unit record `path` names itself, or None when it names none.
-
-    A bag's position is in rad; a CSV names its unit in the header (``position[mm]``) or a
-    comment (``# ... position in mm``). Call it on a record `load_data` has read.
-    """
-    if is_bag(path):
-        return 'rad'
-    with open(path, encoding='utf-8-sig', errors='replace') as fh:
-        for line_no, line in enumerate(fh, 1):
-            if line.strip() and not line.lstrip().startswith('#'):
-                header = _header_fields(path, line_no, line.rstrip('\r\n'))[0]
-                named = _units_from_header(path, header)[1] or comment_unit(path)
-                return parse_unit(named, path) if named else None
-    return None
 
 
 def _csv_fields(path: PathLike, line_no: int, text: str, delimiter: str = ',') -> list:
