@@ -420,7 +420,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if profile.get('duty_levels', {}).get('one_level'):
         _note(args, f'note: {profile["duty_levels"]["note"]}')
     if 'sensor_zero' not in fit.effects and data.kind == DynamicData.kind:
-        _note_apart_rests(args, loaded, unit_of(data))
+        _note_apart_rests(args, loaded, data)
     if args.out:
         write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
     if args.json:
@@ -669,18 +669,18 @@ def mark_warm(records: List[Dict[str, Any]], lead: Dict[str, Any]) -> None:
 
 
 def _note_apart_rests(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
-                      unit: str) -> None:
+                      data: DynamicData) -> None:
     """
     Note records of a fit whose start rests lie further apart than a rest scatters.
 
-    Apart by more than `records.UNTARED_SHARE` of the measured range, the sensor was most
-    likely not tared between them, which `sensor_zero` takes up.
+    Apart by more than `records.UNTARED_SHARE` of the measured range of the joined `data`,
+    the sensor was most likely not tared between them, which `sensor_zero` takes up.
     """
     from .records import start_rests, UNTARED_SHARE
     rests = start_rests(loaded)
     if len(rests) < 2:
         return
-    span = float(np.ptp(np.concatenate([d.position for _, d in loaded])))
+    span, unit = data.span(), unit_of(data)
     low, high = min(rests, key=rests.get), max(rests, key=rests.get)
     if rests[high] - rests[low] > UNTARED_SHARE * span:
         _note(args, f'note: the records start at rests {rests[high] - rests[low]:.4g} {unit} '
