@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from sma_actuator.control import ControllerCore, ControllerSettings, law
+from sma_actuator.control import ControllerCore, ControllerSettings, handover, law
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.estimator import DriftEstimator
 from sma_actuator.control.feedforward import InverseFeedforward
@@ -106,11 +106,15 @@ def test_the_antagonist_pulls_a_shaft_that_trails_a_falling_target():
     assert duties_b[0.15] > 0.0 and duties_b[0.03] == 0.0
 
 
-def test_a_slow_wire_tracks_better_when_the_antagonist_may_pull(monkeypatch):
-    # cooling three times slower than the package's wire (τ 6.6 s, the spring-biased rig's
-    # order), the exact model, a 0.1 Hz sine: the falling half outruns wire a's cooling
+def slow_wires(**changes):
+    """Return the package's wires with three times the heat capacity (τ 6.6 s)."""
     model = ActuatorParams()
-    slow = model.with_changes(heat_capacity_j_per_k=3 * model.heat_capacity_j_per_k)
+    return model.with_changes(heat_capacity_j_per_k=3 * model.heat_capacity_j_per_k, **changes)
+
+
+def test_a_slow_wire_tracks_better_when_the_antagonist_may_pull(monkeypatch):
+    # the exact model, a 0.1 Hz sine: the falling half outruns wire a's cooling
+    slow = slow_wires()
     sine = Profile('sine', 0.5, period_s=10.0, delay_s=1.0)
 
     def rms():
@@ -120,6 +124,36 @@ def test_a_slow_wire_tracks_better_when_the_antagonist_may_pull(monkeypatch):
     with_pull = rms()
     monkeypatch.setattr(law, 'ANTAGONIST_LAG_SHARE', math.inf)
     assert with_pull < 0.9 * rms()
+
+
+def test_the_free_preheat_window_is_counted_in_the_incoming_wires_heating_time():
+    def window_and_heating_s(params):
+        pre = ControllerCore(params, ControllerSettings(mode='pi_inverse')).handover
+        return pre.free_lead_s, [pre.time_needed_s(j, params.ambient_c, params.ambient_c)
+                                 for j in (0, 1)]
+    window, heating_s = window_and_heating_s(ActuatorParams())
+    assert heating_s[0] == pytest.approx(0.79, abs=0.02)
+    assert window == (handover.FREE_LEAD_S, handover.FREE_LEAD_S)
+    window, heating_s = window_and_heating_s(slow_wires())
+    assert heating_s[0] == pytest.approx(3 * 0.79, abs=0.05)
+    assert window == pytest.approx([handover.FREE_LEAD_HEATS * t for t in heating_s])
+    # wire b heats 0.6 times as strongly: it needs longer, and gets the longer window
+    window, heating_s = window_and_heating_s(slow_wires(gain_ratio_b=0.6))
+    assert heating_s[1] > 1.5 * heating_s[0] and window[1] > 1.5 * window[0]
+
+
+def test_a_slow_wire_tracks_better_with_the_preheat_window_in_its_own_time():
+    # the exact model, the 0.05 Hz sine: after each peak the antagonist is preheated while
+    # the active wire cools through its loop, as on the package's wire within 3 s
+    slow = slow_wires()
+
+    def rms(window_s=None):
+        ctrl = ControllerCore(slow, ControllerSettings(mode='pi_inverse'))
+        if window_s is not None:
+            ctrl.handover.free_lead_s = (window_s, window_s)
+        return run_tracking(ctrl, CorePlant(slow, DT), SINE, 61.0, DT).summary(21.0)[
+            'rms_error']
+    assert rms() < 0.85 * rms(handover.FREE_LEAD_S)
 
 
 def test_drift_correction_leaves_a_matched_model_alone():

@@ -24,11 +24,12 @@ controller gates its own output with it).
 
 With t_c = (φ0 − p⁻¹(r)) / ṙ the predicted time to the crossing (`ControllerCore`):
 
-* free preheat (t_c <= `FREE_LEAD_S`, while the loop gives the outgoing wire zero duty, as
-  after a reversal, when it cools through its loop): the incoming wire gets the duty that
-  takes its estimate θ̂ towards θpre = θa + f (θs − θa), f = `PREHEAT_FRACTION`, in one
-  sample. Below θs it does not move. If the loop already heats it more (it pulls the
-  shaft), the loop's command stands;
+* free preheat (t_c within `free_lead_s`: 3 s, or 3.75 times a slower incoming wire's
+  heating time to θs; while the loop gives the outgoing wire zero duty, as after a
+  reversal, when it cools through its loop): the incoming wire gets the duty that takes
+  its estimate θ̂ towards θpre = θa + f (θs − θa), f = `PREHEAT_FRACTION`, in one sample.
+  Below θs it does not move. If the loop already heats it more (it pulls the shaft), the
+  loop's command stands;
 * early handover, once t_c <= LEAD t_need (`LEAD`), t_need = T ln((G − (θ̂ − θa)) / (G −
   (θs − θa))) + the dead time, the time at full duty to θs:
   1. the outgoing wire is heated to θburst = θa + (θ* − θa) e^{HOLD t_c / T} (`HOLD`, at
@@ -57,9 +58,13 @@ MAX_LEAD_S = 2.0
 LEAD = 0.9
 HOLD = 0.3
 MAX_BURST_K = 8.0
-# free preheat (`Preheat._free_preheat`): fraction of the way from ambient to θs, window [s]
+# free preheat (`Preheat._free_preheat`): fraction of the way from ambient to θs, and its
+# window before the crossing [s]: FREE_LEAD_S, or FREE_LEAD_HEATS times the incoming wire's
+# heating time from ambient to θs at full duty when that is longer (3 s is 3.75 times
+# Flexinol's 0.8 s; a slower wire gets the same window in its own time)
 PREHEAT_FRACTION = 0.85
 FREE_LEAD_S = 3.0
+FREE_LEAD_HEATS = 3.75
 # model trust: RMS of measurement − model reading over `TRUST_TIME_S` below `TRUST_RAD`
 # (a gross misfit: the base model on the asymmetric plant misses by 0.49 rad, a 20 % stroke
 # error by 0.1 rad, plant_sim's fitted plain model by 0.025 rad)
@@ -73,11 +78,12 @@ class Preheat:
     """Early handover planner (module docstring), one call per sample."""
 
     def __init__(self, feedforward: InverseFeedforward, theta_start_c: float,
-                 dead_time_s: float = 0.05):
+                 dead_time_s: float = 0.05, ambient_c: Optional[float] = None):
         self.feedforward = feedforward
         self.theta_start_c = float(theta_start_c)
         self.dead_time_s = float(dead_time_s)
         self.lead, self.hold = LEAD, HOLD
+        self.free_lead_s = tuple(self._free_window_s(j, ambient_c) for j in (0, 1))
         self.mismatch_ms = 0.0
         self.reset()
 
@@ -105,6 +111,16 @@ class Preheat:
         """Return n_g = ceil(dead_time / dt), the interlock's dead time in samples."""
         return max(1, int(math.ceil(self.dead_time_s / dt - 1e-6))) if self.dead_time_s > 0 else 0
 
+    def _free_window_s(self, j: int, ambient: Optional[float]) -> float:
+        """
+        Return wire j's free preheat window [s]: max(FREE_LEAD_S, FREE_LEAD_HEATS t_cold).
+
+        t_cold: `time_needed_s` from ambient (the model's, `ambient`) to θs; a wire that
+        cannot reach θs, or no ambient given, keeps FREE_LEAD_S.
+        """
+        cold = math.inf if ambient is None else self.time_needed_s(j, ambient, ambient)
+        return max(FREE_LEAD_S, FREE_LEAD_HEATS * cold) if math.isfinite(cold) else FREE_LEAD_S
+
     def _free_preheat(self, incoming: int, t_cross_s: float, theta_est: Sequence[float],
                       ambient: float, dt: float, u: float) -> Optional[Tuple[float, float]]:
         """
@@ -112,10 +128,11 @@ class Preheat:
 
         After a reversal the outgoing wire cools through its loop at zero duty; that time
         costs it nothing, so the incoming wire takes it, up to θpre = θa + f (θs − θa)
-        (f = `PREHEAT_FRACTION`), within `FREE_LEAD_S` of the crossing.
+        (f = `PREHEAT_FRACTION`), within the incoming wire's window (`free_lead_s`) of the
+        crossing.
         """
         outgoing_duty = u if incoming == 1 else -u
-        if outgoing_duty > 0.0 or not t_cross_s <= FREE_LEAD_S:
+        if outgoing_duty > 0.0 or not t_cross_s <= self.free_lead_s[incoming]:
             return None
         out = [0.0, 0.0]
         out[incoming] = self.feedforward.thermal_duty(

@@ -65,7 +65,7 @@ import numpy as np
 from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
-from .handover import FREE_LEAD_S, MIN_RATE_RAD_S, Preheat
+from .handover import MIN_RATE_RAD_S, Preheat
 from .interlock import DeadTimeInterlock
 from .on_off import OnOffRelay
 from .pi import DiscretePI
@@ -256,7 +256,8 @@ class ControllerCore:
         self.reference = ReferencePredictor()
         self.pi = DiscretePI(0.0, 0.0)
         self.feedforward = InverseFeedforward(self.model)
-        self.handover = Preheat(self.feedforward, transformation_start_c(self.model))
+        self.handover = Preheat(self.feedforward, transformation_start_c(self.model),
+                                ambient_c=self.model.ambient_c)
         self._apply(self.settings)
         self.reset()
 
@@ -384,7 +385,9 @@ class ControllerCore:
         u_ff = ff_a - ff_b
         lo, hi = -lim_b, lim_a
         self.crossing = self._crossing(r)
-        if self.crossing[1] > FREE_LEAD_S and abs(self.reference.rate) >= MIN_RATE_RAD_S:
+        incoming, t_cross = self.crossing
+        far = incoming is None or t_cross > self.handover.free_lead_s[incoming]
+        if far and abs(self.reference.rate) >= MIN_RATE_RAD_S:
             # a moving reference far from a crossing and far on one side: the antagonist,
             # cold, would only heat (a held setpoint keeps it, to pull back an overshoot),
             # unless the shaft is off the target on its side by more than a small error
