@@ -257,6 +257,30 @@ def test_compare_notes_records_that_move_little_of_the_models_travel(tmp_path, c
     assert code == 0 and 'the compared records move' not in err, err
 
 
+@pytest.mark.parametrize('seed', [5, 6, 7])
+def test_a_record_that_barely_moves_is_not_cooling_untared_or_at_other_levels(
+        tmp_path, capsys, seed):
+    # 5 s at zero duty: potentiometer noise only (0.0206 mm steps), resting 0.05 mm off the
+    # model's rest, within the scatter of one rig's rests, though its own range is 0.06 mm
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', single_wire_csv(tmp_path / 'a.csv', seed=1), '--out', out)[0] == 0
+    spec = yaml.safe_load(out.read_text())
+    spec['duty_levels'] = {'one_level': True, 'level': 0.5, 'tolerance': 0.05}
+    out.write_text(yaml.safe_dump(spec))
+    quiet = tmp_path / 'quiet.csv'
+    t = np.arange(100) * DT
+    rest = np.round(np.random.default_rng(seed).normal(0.0, 0.007, t.size) / 0.0206) * 0.0206
+    rest += spec['model']['offset_rad'] + 0.05
+    np.savetxt(quiet, np.column_stack([t, 0 * t, rest]), delimiter=',',
+               header='time,duty_a,position[mm]', comments='', fmt='%.6f')
+    code, text, err = run(capsys, 'compare', quiet, '--model', out, '--json')
+    assert code == 0, err
+    assert 'still cooling' not in err and 'starts at rest' not in err, err
+    assert 'duty level' not in err, err
+    row = json.loads(text)['records'][0]
+    assert 'untared' not in row and row['warm_start'] is False
+
+
 def test_fit_notes_records_whose_start_rests_lie_apart(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)

@@ -555,6 +555,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
+    from .engine import model_travel
     travel = model_travel(fit.params, data)
     if travel:
         _note_quiet_records(args, data, travel)
@@ -592,8 +593,9 @@ def _note_other_levels(args: argparse.Namespace, fitted: Any, data: Any) -> None
         level, tol = float(fitted['level']), float(fitted['tolerance'])
     except (KeyError, TypeError, ValueError):
         return
-    share = share_at(heated_duties(data), level, tol)
-    if share < ONE_LEVEL_SHARE:
+    heated = heated_duties(data)
+    share = share_at(heated, level, tol)
+    if heated.size and share < ONE_LEVEL_SHARE:
         _note(args, f'note: {args.model} was fitted at one duty level ({level:.3g} ± {tol:.2g}); '
               f'{100 * (1 - share):.0f} % of the heated time here is at other duty levels, '
               "where the model's heating law is not identified")
@@ -688,19 +690,6 @@ def _note_apart_rests(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
               f'{100 * UNTARED_SHARE:.0f} % of the range is {UNTARED_SHARE * span:.3g} {unit}): '
               'an untared sensor? fit with --add sensor_zero to refer each record to its own '
               'start rest, or see what diagnose names')
-
-
-def model_travel(params: Any, data: Any) -> Optional[float]:
-    """
-    Return the shaft travel of a dynamic model [position unit], None for curves.
-
-    From all cold to one wire fully contracted, |g| (eq. step 4: φ = φ0 + g (y_a − s_b y_b),
-    y in [0, 1]); from one end to the other on a pair, |g| (1 + s_b).
-    """
-    if data.kind != DynamicData.kind or not hasattr(params, 'stroke_rad'):
-        return None
-    pair = 0.0 if data.layout == 'single' else params.stroke_ratio_b
-    return float(abs(params.stroke_rad) * (1.0 + pair))
 
 
 def _note_quiet_records(args: argparse.Namespace, data: Any, travel: float) -> None:

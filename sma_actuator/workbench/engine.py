@@ -177,13 +177,27 @@ def _hooked_inputs(effects: list, duty_a: np.ndarray, duty_b: np.ndarray,
     return np.clip(duty_a, 0.0, 1.0), np.clip(duty_b, 0.0, 1.0), ambient
 
 
+def model_travel(params: Any, data: Any) -> Optional[float]:
+    """
+    Return the shaft travel of a dynamic model [position unit], None for curves.
+
+    From all cold to one wire fully contracted, |g| (eq. step 4: φ = φ0 + g (y_a − s_b y_b),
+    y in [0, 1]); from one end to the other on a pair, |g| (1 + s_b).
+    """
+    if data.kind != DynamicData.kind or not hasattr(params, 'stroke_rad'):
+        return None
+    pair = 0.0 if data.layout == 'single' else params.stroke_ratio_b
+    return float(abs(params.stroke_rad) * (1.0 + pair))
+
+
 def load_fit(d: dict, data: Any = None) -> ModelFit:
     """
     Return a ModelFit from `to_dict` output; scores and predictions are recomputed on `data`.
 
     A model without `sensor_zero` predicts a record read by an untared sensor (one that
-    starts at rest off the model's rest by more than `records.UNTARED_SHARE` of the range)
-    from that record's own start rest: ŷ + z_k − z over its samples (`untared` holds the
+    starts at rest off the model's rest by more than `records.UNTARED_SHARE` of the
+    measured range, or of the model's travel when the records move less) from that
+    record's own start rest: ŷ + z_k − z over its samples (`untared` holds the
     offsets z_k − z).
     """
     model = d.get('model', {})
@@ -201,7 +215,8 @@ def load_fit(d: dict, data: Any = None) -> ModelFit:
     if data is not None:
         fit.prediction, fit.signals = data.simulate(fit)
         if data.kind == DynamicData.kind and 'sensor_zero' not in fit.effects:
-            fit.untared = untared_offsets(data, fit.prediction)
+            fit.untared = untared_offsets(data, fit.prediction,
+                                          travel=model_travel(params, data) or 0.0)
             fit.prediction = referred_to_rest(data, fit.prediction, fit.untared)
         keep = data.scored_mask()
         fit.validation = scores(data.output[keep], fit.prediction[keep], data.span())

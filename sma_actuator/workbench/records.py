@@ -37,7 +37,7 @@ from scipy.ndimage import uniform_filter1d
 from .data import DataError, MIN_SAMPLES, resample_columns
 from .limits import MAX_FIT_RATE_HZ
 from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
-from ..core.identification import flexinol_loop_ratio
+from ..core.identification import flexinol_loop_ratio, noise_rms
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
@@ -55,8 +55,11 @@ REVERSAL_SMOOTH_S = 0.2
 START_WINDOW_S = 5.0
 # a record that starts at zero duty moves (a wire still cooling) when the means of its
 # start's first and last MOTION_MEAN_S [s] differ by more than MOTION_SHARE of its range
+# and by more than MOTION_NOISE standard errors of that difference (a record that barely
+# moves has a range of a few noise steps)
 MOTION_MEAN_S = 0.2
 MOTION_SHARE = 0.02
+MOTION_NOISE = 4.0
 # a record that starts at rest further than this share of the measured range from a model's
 # rest was read by an untared sensor: the rests of one rig's runs scatter by about 1 % (the
 # slider's friction; the three shared records: 0.16 mm of 17 mm), a sensor zero by any amount
@@ -91,7 +94,8 @@ def moves_unheated(d: DynamicData) -> bool:
 
     A wire at rest holds still at zero duty; one still cooling from an earlier run does
     not. The move is |mean of the start's last MOTION_MEAN_S − mean of its first| over
-    `start_window`, against MOTION_SHARE of the record's range.
+    `start_window` (k samples each), against MOTION_SHARE of the record's range and
+    MOTION_NOISE σ √(2 / k), σ the record's measurement noise (`noise_rms`).
     """
     if starts_heated(d):
         return False
@@ -99,7 +103,8 @@ def moves_unheated(d: DynamicData) -> bool:
     if w < 2 * k:
         return False
     y = d.position[:w]
-    return abs(float(np.mean(y[-k:]) - np.mean(y[:k]))) > MOTION_SHARE * d.span()
+    least = max(MOTION_SHARE * d.span(), MOTION_NOISE * noise_rms(d.position) * np.sqrt(2 / k))
+    return abs(float(np.mean(y[-k:]) - np.mean(y[:k]))) > least
 
 
 def starts_at_rest(d: DynamicData) -> bool:
@@ -132,14 +137,17 @@ def start_rests(records: list) -> dict:
 
 
 def untared_offsets(data: DynamicData, prediction: np.ndarray,
-                    share: float = UNTARED_SHARE) -> dict:
+                    share: float = UNTARED_SHARE, travel: float = 0.0) -> dict:
     """
     Return {record: start offset} of the records read by an untared sensor [position unit].
 
     Those that start at rest (`starts_at_rest`) with a `start_offsets` entry larger than
-    `share` of the measured range (`DynamicData.span`).
+    `share` of the measured range (`DynamicData.span`), or of the model's `travel` [position
+    unit] when that is larger (records that barely move: a rest scatters with the rig's
+    stroke, not with theirs).
     """
-    offsets, limit = start_offsets(data, prediction), share * data.span()
+    offsets = start_offsets(data, prediction)
+    limit = share * max(data.span(), travel)
     return {name: offsets[name] for name, a, b in data.segments or (('DATA', 0, len(data)),)
             if abs(offsets[name]) > limit and starts_at_rest(segment_view(data, a, b))}
 
