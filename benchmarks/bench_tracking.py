@@ -28,10 +28,11 @@ For each plant (an effect switched on) the benchmark
 Plants: `plant` is plant_sim's model (`control.closed_loop.CorePlant`: the core actuator
 with plant_sim's potentiometer, 1 mrad noise, 12-bit ADC); `richsim` is the independent
 simulator of test/support (Preisach hysteresis, RK4, its own formulation of every effect).
-On the plain plant it also runs steps (±0.4 rad) and a 0.2 Hz sine: rise time (10-90 %),
-overshoot and RMS error, pi against pi_inverse. Drift: plant_sim's plain model fitted once,
-the plant's offset or stroke then moved (runs on other days), pi_inverse with the drift
-estimator off and on; and pi_inverse without the early handover (`control.handover`).
+On the plain plant it also runs steps (±0.4 rad), a 0.2 Hz sine and 0.05 Hz squares (±0.2,
+±0.4 rad): rise time (10-90 %), overshoot and RMS error, pi against pi_inverse. Drift:
+plant_sim's plain model fitted once, the plant's offset or stroke then moved (runs on other
+days), pi_inverse with the drift estimator off and on; and pi_inverse without the early
+handover (`control.handover`).
 
 Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
      [--models DIR] (fitted models are cached in DIR; delete it to refit)
@@ -288,8 +289,8 @@ def main():
         drift_table(models, ns.excitation_s, ns.seed)
     if ns.no_steps:
         return
-    print('\nplain plant, base model: steps from 0 (rise 10-90 % [s], overshoot [%], RMS [rad]) '
-          'and a 0.2 Hz ±0.5 rad sine (RMS after the first period [rad])')
+    print('\nplain plant, base model: steps from 0 (rise 10-90 % [s], overshoot [%], RMS [rad]), '
+          'a 0.2 Hz ±0.5 rad sine and 0.05 Hz squares (RMS after the first period [rad])')
     print(f'{"plant":8s} {"reference":16s} {"pi":>26s} {"pi_inverse":>26s}')
     for source in ns.source:
         model, _, _ = fitted_model(models, source, 'plain', [], ns.excitation_s, ns.seed)
@@ -304,6 +305,12 @@ def main():
         cells = [f'{sine_rms(model, m, source, "plain", profile=fast, periods=4):.4f}'
                  for m in ('pi', 'pi_inverse')]
         print(f'{source:8s} {"sine 0.2 Hz":16s} {cells[0]:>26s} {cells[1]:>26s}', flush=True)
+        for amplitude in (0.2, 0.4):
+            square = Profile('square', amplitude, period_s=20.0, delay_s=1.0)
+            cells = [f'{sine_rms(model, m, source, "plain", profile=square):.4f}'
+                     for m in ('pi', 'pi_inverse')]
+            print(f'{source:8s} {f"square ±{amplitude:.1f} rad":16s} {cells[0]:>26s} '
+                  f'{cells[1]:>26s}', flush=True)
 
 
 if __name__ == '__main__':

@@ -89,7 +89,8 @@ REVERSAL_LEAD_S = 0.9
 REVERSAL_SHORTFALL_RAD = 0.02
 # the one-sided PI lets the antagonist pull once the shaft is this share of the stroke off
 # its target on the antagonist's side: the active wire cools more slowly than the target
-# moves away, or the shaft overshot, and only the antagonist takes it back
+# moves away, or the shaft overshot a moving or held target, and only the antagonist takes
+# it back
 ANTAGONIST_LAG_SHARE = 0.05
 # τc bound of pi_inverse [s] (`tuning`): with the feed-forward in the loop a faster PI makes a
 # step overshoot, the wire reverse onto its cooling branch and the shaft cycle around it
@@ -386,11 +387,11 @@ class ControllerCore:
         lo, hi = -lim_b, lim_a
         self.crossing = self._crossing(r)
         incoming, t_cross = self.crossing
-        far = incoming is None or t_cross > self.handover.free_lead_s[incoming]
-        if far and abs(self.reference.rate) >= MIN_RATE_RAD_S:
-            # a moving reference far from a crossing and far on one side: the antagonist,
-            # cold, would only heat (a held setpoint keeps it, to pull back an overshoot),
-            # unless the shaft is off the target on its side by more than a small error
+        if incoming is None or t_cross > self.handover.free_lead_s[incoming]:
+            # a reference far from a crossing (or held) and far on one side: the antagonist,
+            # cold, would only heat, or pull a small overshoot back too far once it reaches
+            # its transformation, unless the shaft is off the target on its side by more
+            # than a small error
             side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
             off = ANTAGONIST_LAG_SHARE * abs(p.stroke_rad)
             lo = 0.0 if side > 0 and target - angle > -off else lo
