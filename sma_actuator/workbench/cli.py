@@ -520,6 +520,7 @@ def fit_json(fit: Any, out: Optional[str],
 def cmd_compare(args: argparse.Namespace) -> int:
     """Run `sma-model compare`: score a fitted model on DATA, break the error down, test it."""
     from .compare import compare, score_line, summary_lines
+    from .engine import model_travel
     from .leadins import lead_ins
     from ..core.model_file import is_fitted, is_static_model
     from .report import check_report_dir
@@ -555,7 +556,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
     view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
                                          Split(0) if len(records) > 1 else None)
     result = compare(view, pred, sig, split=split)
-    from .engine import model_travel
     travel = model_travel(fit.params, data)
     if travel:
         _note_quiet_records(args, data, travel)
