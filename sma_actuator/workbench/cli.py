@@ -725,9 +725,8 @@ def _note_start_offsets(args: argparse.Namespace, data: Any,
     """
     Note each compared record predicted from its own start rest (`mark_untared`).
 
-    A record that starts at rest more than `records.UNTARED_SHARE` of the measured range
-    away from the model's rest was most likely read by an untared sensor (one led in warm
-    or cooling does not start at rest).
+    Those are the records `records.untared_offsets` finds read by an untared sensor (one
+    led in warm or cooling does not start at rest).
     """
     unit = unit_of(data)
     for r in records:
