@@ -40,7 +40,10 @@ held-out error. A candidate is significant only if
      say so too: BIC against that refit must fall by more than `BIC_MARGIN` as in 2 (a
      new grid lets the free weights absorb a static distortion, so a sensor polynomial
      can fit training no better than the regridded base and still bend one held-out
-     transient its way), and
+     transient its way); and the gain must not come from a minority of the held-out time
+     only: the median over `HELD_OUT_BLOCKS` blocks of held-out time (`typical_gain`)
+     must not be worse than the base (a refit that moves the base's own parameters along
+     a flat training valley can win a few blocks and lose the rest), and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period), and an effect on the heating law
      (`Effect.heating_law`) is not judged on training records that heat at one duty level
@@ -920,6 +923,9 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     bic_off = None if base_refit is None else bic_gain(base_refit, fit)
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
+    typical = typical_gain(data, base, fit) if evident and carried else None
+    spread = typical is None or typical >= 0.0
+    carried = carried and spread
     unresolved = unresolved_by(eff, fit.values, data)
     significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
@@ -928,9 +934,12 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
               f'{bic_off:+.1f} against it)')
     if warm is not None and fit is not warm:
         checks += ', refitted from scratch (the warm refit fitted the training window worse)'
-    if evident and not carried:
+    if evident and not carried and spread:
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
+    if not spread:
+        checks += (f'; not significant: the gain comes from a few stretches of the held-out '
+                   f'time, the median over {HELD_OUT_BLOCKS} blocks is {100 * typical:+.0f} %')
     if unresolved:
         checks += f'; not significant: {unresolved[0]}'
     unit = getattr(data, 'position_unit', '')
