@@ -29,10 +29,10 @@ Plants: `plant` is plant_sim's model (`control.closed_loop.CorePlant`: the core 
 with plant_sim's potentiometer, 1 mrad noise, 12-bit ADC); `richsim` is the independent
 simulator of test/support (Preisach hysteresis, RK4, its own formulation of every effect).
 On the plain plant it also runs steps (±0.4 rad), a 0.2 Hz sine and 0.05 Hz squares (±0.2,
-±0.4 rad): rise time (10-90 %), overshoot and RMS error, pi against pi_inverse. Drift:
-plant_sim's plain model fitted once, the plant's offset or stroke then moved (runs on other
-days), pi_inverse with the drift estimator off and on; and pi_inverse without the early
-handover (`control.handover`).
+±0.4 rad, and between 0.1 and 0.5 rad on either side): rise time (10-90 %), overshoot and
+RMS error, pi against pi_inverse. Drift: plant_sim's plain model fitted once, the plant's
+offset or stroke then moved (runs on other days), pi_inverse with the drift estimator off
+and on; and pi_inverse without the early handover (`control.handover`).
 
 Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain delay ...]
      [--models DIR] (fitted models are cached in DIR; delete it to refit)
@@ -305,11 +305,13 @@ def main():
         cells = [f'{sine_rms(model, m, source, "plain", profile=fast, periods=4):.4f}'
                  for m in ('pi', 'pi_inverse')]
         print(f'{source:8s} {"sine 0.2 Hz":16s} {cells[0]:>26s} {cells[1]:>26s}', flush=True)
-        for amplitude in (0.2, 0.4):
-            square = Profile('square', amplitude, period_s=20.0, delay_s=1.0)
+        # about 0, and between two levels on one side (0.1 and 0.5 rad, -0.1 and -0.5 rad)
+        for low, high in ((-0.2, 0.2), (-0.4, 0.4), (0.1, 0.5), (-0.5, -0.1)):
+            square = Profile('square', (high - low) / 2, offset=(high + low) / 2,
+                             period_s=20.0, delay_s=1.0)
             cells = [f'{sine_rms(model, m, source, "plain", profile=square):.4f}'
                      for m in ('pi', 'pi_inverse')]
-            print(f'{source:8s} {f"square ±{amplitude:.1f} rad":16s} {cells[0]:>26s} '
+            print(f'{source:8s} {f"square {low:+.1f}/{high:+.1f}":16s} {cells[0]:>26s} '
                   f'{cells[1]:>26s}', flush=True)
 
 
