@@ -925,16 +925,15 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
     typical = typical_gain(data, base, fit) if evident and carried else None
     spread = typical is None or typical >= 0.0
-    carried = carried and spread
     unresolved = unresolved_by(eff, fit.values, data)
-    significant = bool(evident and carried and unresolved is None)
+    significant = bool(evident and carried and spread and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
               f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
               f'{bic_off:+.1f} against it)')
     if warm is not None and fit is not warm:
         checks += ', refitted from scratch (the warm refit fitted the training window worse)'
-    if evident and not carried and spread:
+    if evident and not carried:
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
     if not spread:
@@ -948,7 +947,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
             'significant': significant,
             # the only check it failed: a rival to whatever is named instead
-            'unresolved': unresolved if evident and carried else None,
+            'unresolved': unresolved if evident and carried and spread else None,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> '
