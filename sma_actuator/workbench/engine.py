@@ -40,10 +40,7 @@ held-out error. A candidate is significant only if
      say so too: BIC against that refit must fall by more than `BIC_MARGIN` as in 2 (a
      new grid lets the free weights absorb a static distortion, so a sensor polynomial
      can fit training no better than the regridded base and still bend one held-out
-     transient its way); and the gain must not come from a minority of the held-out time
-     only: the median over `HELD_OUT_BLOCKS` blocks of held-out time (`typical_gain`)
-     must not be worse than the base (a refit that moves the base's own parameters along
-     a flat training valley can win a few blocks and lose the rest), and
+     transient its way), and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period), and an effect on the heating law
      (`Effect.heating_law`) is not judged on training records that heat at one duty level
@@ -923,10 +920,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     bic_off = None if base_refit is None else bic_gain(base_refit, fit)
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
-    typical = typical_gain(data, base, fit) if evident and carried else None
-    spread = typical is None or typical >= 0.0
     unresolved = unresolved_by(eff, fit.values, data)
-    significant = bool(evident and carried and spread and unresolved is None)
+    significant = bool(evident and carried and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
               f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
@@ -936,9 +931,6 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     if evident and not carried:
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
-    if not spread:
-        checks += (f'; not significant: the gain comes from a few stretches of the held-out '
-                   f'time, the median over {HELD_OUT_BLOCKS} blocks is {100 * typical:+.0f} %')
     if unresolved:
         checks += f'; not significant: {unresolved[0]}'
     unit = getattr(data, 'position_unit', '')
@@ -947,7 +939,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
             'significant': significant,
             # the only check it failed: a rival to whatever is named instead
-            'unresolved': unresolved if evident and carried and spread else None,
+            'unresolved': unresolved if evident and carried else None,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> '
