@@ -311,7 +311,7 @@ def main():
                              period_s=20.0, delay_s=1.0)
             cells = [f'{sine_rms(model, m, source, "plain", profile=square):.4f}'
                      for m in ('pi', 'pi_inverse')]
-            print(f'{source:8s} {f"square {low:+.1f}/{high:+.1f}":16s} {cells[0]:>26s} '
+            print(f'{source:8s} {f"square {low:+.1f}/{high:+.1f} rad":20s} {cells[0]:>22s} '
                   f'{cells[1]:>26s}', flush=True)
 
 
