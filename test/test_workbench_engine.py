@@ -29,7 +29,7 @@ from sma_actuator.workbench import engine
 from sma_actuator.workbench.batch import round_summary
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
 from support import plant_records
-from support.richsim import simulate
+from support.richsim import parse_rig, simulate
 from test_core_identification import multilevel_duty
 
 DT = 1.0 / 40.0
@@ -365,6 +365,35 @@ def test_a_gain_the_regridded_base_fits_as_well_in_training_is_not_the_effects()
     assert engine.bic_gain(entry['base_refit'], entry['fit']) > -engine.BIC_MARGIN
     assert diag.missing_effect is None
     assert 'the grid, not the effect, carries the gain' in entry['explanation']
+
+
+def test_a_gain_from_a_few_moving_held_out_stretches_is_not_an_effect():
+    # a null record of another rig (125 um, 0.2 m, 1 s cooling, loop at 55 C, 26 C, 30 Hz):
+    # the convection refit leaves the exponent at about 0, gains 20 % over the whole
+    # held-out window and passes BIC and the regridded base, but of the five held-out
+    # blocks, all of which move, two carry the gain and three get worse
+    rig = parse_rig(['wire_diameter_m=125e-6', 'resistance_ohm_per_m=80', 'wire_length_m=0.2',
+                     'cooling_tau_s=1.0', 'hyst_centre_c=55', 'hyst_width_k=22',
+                     'hyst_centre_sd_k=2.0', 'hyst_width_sd_k=3.5', 'i_max_a=0.25',
+                     'supply_v=6', 'pulley_r_m=0.0045', 'strain_max=0.038',
+                     'duty_max=0.55', 'ambient_c=26', 'stress_self_weight=0.5'])
+    d = simulate('none', magnitude=0.0, excitation='open', duration_s=480.0, rate_hz=30.0,
+                 noise_rad=0.002, seed=100, params=rig)
+    data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
+                           d['ambient_temperature'])
+    base = engine.fit_model(data)
+    task, = engine.candidate_tasks(data, base, ['convection'])
+    entry = engine.judge_candidate(task)
+    assert abs(entry['fit'].values['convection_exponent']) < 0.01
+    assert entry['improvement'] >= engine.MIN_IMPROVEMENT
+    assert entry['bic_change'] < -engine.BIC_MARGIN
+    assert engine.bic_gain(entry['base_refit'], entry['fit']) < -engine.BIC_MARGIN
+    gains = engine.moving_block_gains(data, base, entry['fit'])
+    assert len(gains) == engine.HELD_OUT_BLOCKS
+    assert np.sum(gains < 0) >= 3
+    assert not entry['significant']
+    assert 'so a few stretches, not the effect, carry the gain' in entry['explanation']
+    assert engine.diagnose(data, base, candidates=['convection'], jobs=1).missing_effect is None
 
 
 def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base():

@@ -40,7 +40,12 @@ held-out error. A candidate is significant only if
      say so too: BIC against that refit must fall by more than `BIC_MARGIN` as in 2 (a
      new grid lets the free weights absorb a static distortion, so a sensor polynomial
      can fit training no better than the regridded base and still bend one held-out
-     transient its way), and
+     transient its way); and the gain must not come from a minority of the held-out
+     motion only: where at least `MIN_MOVING_BLOCKS` of the `HELD_OUT_BLOCKS` blocks of
+     held-out time each move over `MIN_COVERAGE` of the measured range, the median gain
+     over those blocks (`moving_block_gains`) must not be below zero (a refit that moves
+     the base's own parameters along a flat training valley can win a few blocks and lose
+     the rest; a block that hardly moves is at the noise in both, its sign chance), and
   4. the fitted effect is large enough for the data to resolve (`Effect.unresolved`; a
      delay must exceed one sample period), and an effect on the heating law
      (`Effect.heating_law`) is not judged on training records that heat at one duty level
@@ -93,6 +98,9 @@ INTERNAL_KEYS = ('fit', 'bic_change', 'seconds', 'base_refit', 'unresolved')
 NEAR_TIE = 0.10
 # blocks of equal time the held-out window is cut into for the typical gain (`typical_gain`)
 HELD_OUT_BLOCKS = 5
+# fewest moving held-out blocks whose median gain must not be negative (check 3): a
+# majority of the blocks
+MIN_MOVING_BLOCKS = 3
 # a pinned parameter's search interval, relative to its value (the optimiser needs one)
 PIN_TOLERANCE = 1e-6
 
@@ -656,14 +664,19 @@ def held_out_block_rmse(data: DynamicData, reference: ModelFit,
     """
     if reference.split is None or reference.prediction is None or fit.prediction is None:
         return None
-    _, val = data.split_masks(reference.split)
-    idx = np.flatnonzero(val)
-    if len(idx) < HELD_OUT_BLOCKS:
+    blocks = held_out_blocks(data, reference.split)
+    if len(blocks[-1]) == 0:
         return None
     y = data.output
     return np.array([[np.sqrt(np.mean((model.prediction[block] - y[block]) ** 2))
-                      for block in np.array_split(idx, HELD_OUT_BLOCKS)]
+                      for block in blocks]
                      for model in (reference, fit)])
+
+
+def held_out_blocks(data: DynamicData, split: Split) -> list:
+    """Return the sample indices of `split`'s held-out window in `HELD_OUT_BLOCKS` blocks."""
+    _, val = data.split_masks(split)
+    return np.array_split(np.flatnonzero(val), HELD_OUT_BLOCKS)
 
 
 def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optional[float]:
@@ -679,6 +692,26 @@ def typical_gain(data: DynamicData, reference: ModelFit, fit: ModelFit) -> Optio
     if rmse is None or np.any(rmse[0] <= 0):
         return None
     return float(np.median(1.0 - rmse[1] / rmse[0]))
+
+
+def moving_block_gains(data: DynamicData, reference: ModelFit,
+                       fit: ModelFit) -> Optional[np.ndarray]:
+    """
+    Return 1 − RMSE(fit) / RMSE(reference) in each held-out block that moves.
+
+    The blocks are those of `held_out_block_rmse`; a block moves when the measured output
+    in it covers at least `MIN_COVERAGE` of the range measured over the whole set
+    (`data.span()`, the NRMSE's scale), as a validation window must to be informative.
+    None when there are no blocks or a moving block's reference error is 0.
+    """
+    rmse = held_out_block_rmse(data, reference, fit)
+    if rmse is None:
+        return None
+    moving = np.array([np.ptp(data.output[b]) >= MIN_COVERAGE * data.span()
+                       for b in held_out_blocks(data, reference.split)])
+    if np.any(rmse[0][moving] <= 0):
+        return None
+    return 1.0 - rmse[1][moving] / rmse[0][moving]
 
 
 def typical_pass(data: DynamicData, base: ModelFit, entries: list,
@@ -920,8 +953,11 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     bic_off = None if base_refit is None else bic_gain(base_refit, fit)
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
+    moving = (moving_block_gains(data, base, fit)
+              if evident and carried and isinstance(data, DynamicData) else None)
+    spread = moving is None or len(moving) < MIN_MOVING_BLOCKS or np.median(moving) >= 0.0
     unresolved = unresolved_by(eff, fit.values, data)
-    significant = bool(evident and carried and unresolved is None)
+    significant = bool(evident and carried and spread and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
               f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
@@ -931,6 +967,10 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     if evident and not carried:
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
+    if not spread:
+        checks += (f'; not significant: {np.sum(moving < 0)} of the {len(moving)} held-out '
+                   f'blocks that move get worse (median {100 * np.median(moving):+.1f} %), '
+                   'so a few stretches, not the effect, carry the gain')
     if unresolved:
         checks += f'; not significant: {unresolved[0]}'
     unit = getattr(data, 'position_unit', '')
@@ -939,7 +979,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
             'significant': significant,
             # the only check it failed: a rival to whatever is named instead
-            'unresolved': unresolved if evident and carried else None,
+            'unresolved': unresolved if evident and carried and spread else None,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '
                             f'({100 * gain:+.0f} % better), training NRMSE '
                             f'{100 * base.train["nrmse"]:.2f} % -> '
