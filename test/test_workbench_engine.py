@@ -173,6 +173,42 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
 
 
+def test_the_typical_pass_leaves_a_gain_that_quiet_blocks_carry():
+    # five held-out blocks of 10 samples; the candidate gains 50 % in the first moving block
+    # and in the last two, and loses 10 % in the other two moving ones
+    n = 100
+    rng = np.random.default_rng(5)
+    ramp = np.linspace(-1.0, 1.0, 10)
+
+    def judged(y):
+        data = idn.DynamicData(np.arange(n) * 0.1, np.zeros(n), np.zeros(n), y)
+        error = np.full(n, 0.1)
+        error[50:60], error[80:] = 0.05, 0.05
+        error[60:80] = 0.11
+
+        def fit(err, sd, effects=()):
+            return engine.ModelFit(list(effects), 'modified', {}, None, None, y + err,
+                                   idn.Split(50), 0, sd * rng.standard_normal(50))
+
+        base = fit(np.full(n, 0.1), 0.1)
+        entry = {'effect': 'sensor_nonlinearity', 'significant': False, 'bic_change': -50.0,
+                 'fit': fit(error, 0.05, ['sensor_nonlinearity']), 'improvement': 0.1,
+                 'base_refit': fit(np.full(n, 0.1), 0.1), 'explanation': ''}
+        assert engine.typical_gain(data, base, entry['fit']) == pytest.approx(0.5)
+        return engine.typical_pass(data, base, [entry], engine.MIN_IMPROVEMENT), data, entry
+
+    quiet = np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 3), np.zeros(20)])
+    named, data, entry = judged(quiet)
+    # three blocks move, and two of them get worse: the quiet ones carry the median
+    gains = engine.moving_block_gains(data, engine.ModelFit(
+        [], 'modified', {}, None, None, quiet + 0.1, idn.Split(50), 0, None), entry['fit'])
+    np.testing.assert_allclose(gains, [0.5, -0.1, -0.1])
+    assert named == [] and not entry['significant']
+    # the same errors where every block moves: the candidate is better in most of them
+    named, _, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 5)]))
+    assert named == ['sensor_nonlinearity'] and entry['typical_gain'] == pytest.approx(0.5)
+
+
 def test_bic_counts_independent_samples_on_the_whiter_residual():
     rng = np.random.default_rng(3)
     n = 16000

@@ -62,7 +62,7 @@ When still nothing is named and the base is short of the noise, check 1 is taken
 on the typical held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS` blocks
 of held-out time, against the base and against the counterfactual. One excursion beyond the
 trained travel can carry the whole window's RMSE while the candidate is better everywhere
-else; checks 2 and 4 stay as they are.
+else; checks 2 and 4 stay as they are, and so does the moving blocks' median of check 3.
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
@@ -714,6 +714,21 @@ def moving_block_gains(data: DynamicData, reference: ModelFit,
     return 1.0 - rmse[1][moving] / rmse[0][moving]
 
 
+def few_moving_stretches(data: Any, reference: ModelFit,
+                         fit: ModelFit) -> Optional[np.ndarray]:
+    """
+    Return the moving blocks' gains when a few stretches carry `fit`'s gain, else None.
+
+    Check 3's last part: where at least `MIN_MOVING_BLOCKS` held-out blocks move
+    (`moving_block_gains`), their median gain over `reference` must not be below zero.
+    """
+    moving = (moving_block_gains(data, reference, fit)
+              if isinstance(data, DynamicData) else None)
+    if moving is None or len(moving) < MIN_MOVING_BLOCKS or np.median(moving) >= 0.0:
+        return None
+    return moving
+
+
 def typical_pass(data: DynamicData, base: ModelFit, entries: list,
                  min_improvement: float) -> list:
     """
@@ -722,8 +737,9 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
     A candidate whose refit passes the BIC check (2) and is resolved (4) is significant
     when its typical gain (`typical_gain`) over the base is at least `min_improvement`, and
     so is its typical gain over the counterfactual (3: the base refitted on its grid without
-    it), whose training fit it beats on BIC as in 3. Each such entry gets 'typical_gain'
-    and says so in its explanation.
+    it), whose training fit it beats on BIC as in 3, and a few moving stretches do not
+    carry it (`few_moving_stretches`, as in 3: blocks that hardly move can lift the median
+    of all five). Each such entry gets 'typical_gain' and says so in its explanation.
     """
     named = []
     for c in entries:
@@ -732,7 +748,8 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
             continue
         eff = get_effect(c['effect'])
         gain = typical_gain(data, base, fit)
-        if gain is None or gain < min_improvement or unresolved_by(eff, fit.values, data):
+        if (gain is None or gain < min_improvement or unresolved_by(eff, fit.values, data)
+                or few_moving_stretches(data, base, fit) is not None):
             continue
         off = c.get('base_refit') or _regridded_base(data, base, fit, eff)
         carried = None if off is None else typical_gain(data, off, fit)
@@ -953,9 +970,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = v_off is None or v_off <= 0 or (v_off - v1) / v_off >= min_improvement
     bic_off = None if base_refit is None else bic_gain(base_refit, fit)
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
-    moving = (moving_block_gains(data, base, fit)
-              if evident and carried and isinstance(data, DynamicData) else None)
-    spread = moving is None or len(moving) < MIN_MOVING_BLOCKS or np.median(moving) >= 0.0
+    few = few_moving_stretches(data, base, fit) if evident and carried else None
+    spread = few is None
     unresolved = unresolved_by(eff, fit.values, data)
     significant = bool(evident and carried and spread and unresolved is None)
     checks = ('' if v_off is None else
@@ -968,8 +984,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
     if not spread:
-        checks += (f'; not significant: {np.sum(moving < 0)} of the {len(moving)} held-out '
-                   f'blocks that move get worse (median {100 * np.median(moving):+.1f} %), '
+        checks += (f'; not significant: {np.sum(few < 0)} of the {len(few)} held-out '
+                   f'blocks that move get worse (median {100 * np.median(few):+.1f} %), '
                    'so a few stretches, not the effect, carry the gain')
     if unresolved:
         checks += f'; not significant: {unresolved[0]}'
