@@ -71,11 +71,14 @@ def test_one_step_fits_any_time_constant_and_two_levels_tie_it():
     assert min(profile.train_nrmse) > 2.0 * profile.fitted_nrmse
 
 
-def test_a_pinned_time_constant_stays_where_it_is_held():
+def test_a_pinned_parameter_stays_where_it_is_held():
     data = all_training(single_wire([0.2, 0.5, 0.25]))
     fit = fit_model(data, pinned={'tau_s': 1.7})
     assert fit.values['tau_s'] == pytest.approx(1.7, rel=1e-5)
     assert fit_model(data).values['tau_s'] == pytest.approx(ActuatorParams().tau_s, rel=0.1)
+    # an effect's parameter held below zero (a resistance that falls on heating)
+    fit = fit_model(data, ['phase_resistance'], pinned={'phase_kappa': -0.1})
+    assert fit.values['phase_kappa'] == pytest.approx(-0.1, rel=1e-5)
 
 
 @pytest.mark.skipif(not (WIRE / 'step_a.csv').is_file(), reason='shared data not found')

@@ -426,7 +426,8 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
     pinned: {free parameter: value} held within PIN_TOLERANCE of value.
     """
     pinned = pinned or {}
-    free = {k: (v * (1.0 - PIN_TOLERANCE), v * (1.0 + PIN_TOLERANCE), v)
+    # sorted: a negative value's lower bound is v (1 + tolerance)
+    free = {k: tuple(sorted((v * (1.0 - PIN_TOLERANCE), v * (1.0 + PIN_TOLERANCE)))) + (v,)
             for k, v in pinned.items()}
     start = dict(base_fit.values) if base_fit else {}
     start.update(pinned)
