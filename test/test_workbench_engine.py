@@ -195,17 +195,17 @@ def test_the_typical_pass_leaves_a_gain_that_quiet_blocks_carry():
                  'fit': fit(error, 0.05, ['sensor_nonlinearity']), 'improvement': 0.1,
                  'base_refit': fit(np.full(n, 0.1), 0.1), 'explanation': ''}
         assert engine.typical_gain(data, base, entry['fit']) == pytest.approx(0.5)
-        return engine.typical_pass(data, base, [entry], engine.MIN_IMPROVEMENT), data, entry
+        named = engine.typical_pass(data, base, [entry], engine.MIN_IMPROVEMENT)
+        return named, engine.moving_block_gains(data, base, entry['fit']), entry
 
-    quiet = np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 3), np.zeros(20)])
-    named, data, entry = judged(quiet)
+    named, gains, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 3),
+                                                 np.zeros(20)]))
     # three blocks move, and two of them get worse: the quiet ones carry the median
-    gains = engine.moving_block_gains(data, engine.ModelFit(
-        [], 'modified', {}, None, None, quiet + 0.1, idn.Split(50), 0, None), entry['fit'])
     np.testing.assert_allclose(gains, [0.5, -0.1, -0.1])
     assert named == [] and not entry['significant']
     # the same errors where every block moves: the candidate is better in most of them
-    named, _, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 5)]))
+    named, gains, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 5)]))
+    assert len(gains) == engine.HELD_OUT_BLOCKS
     assert named == ['sensor_nonlinearity'] and entry['typical_gain'] == pytest.approx(0.5)
 
 
