@@ -25,7 +25,7 @@ import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
-from sma_actuator.workbench import engine
+from sma_actuator.workbench import cli, engine
 from sma_actuator.workbench.batch import round_summary
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
 from support import plant_records
@@ -262,28 +262,45 @@ def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
     assert not any('Near tie' in c['explanation'] for c in out)
 
 
-def test_the_named_effect_says_which_unresolved_candidate_fits_better():
+def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
     def entry(name, gain, significant, unresolved=None):
         return {'effect': name, 'improvement': gain, 'significant': significant,
-                'bic_change': -50.0, 'explanation': name + '.', 'unresolved': unresolved}
+                'bic_change': -50.0, 'explanation': name + '.', 'unresolved': unresolved,
+                'validation_nrmse': 0.01 * (1.0 - gain)}
 
-    # at 10 Hz a 72 ms delay (below one sample) fits better than the lag that is named
+    # at 10 Hz a 72 ms delay (below one sample) fits better than the significant lag
     why = ('the fitted delay 72 ms is below one sample period (100 ms)',
            'at this sample rate the two are not told apart; record faster')
     diag = engine.rank_candidates(None, [entry('delay', 0.60, False, why),
                                          entry('fast_dynamics', 0.46, True),
                                          entry('convection', 0.05, False)])
-    named = diag.candidates[0]
-    assert diag.missing_effect == 'fast_dynamics' and named['effect'] == 'fast_dynamics'
-    assert 'delay fits the held-out window better (+60 % against +46 %)' in named['explanation']
-    assert f'({why[0]}): {why[1]} to separate them.' in named['explanation']
-    assert engine.candidate_json(diag.candidates[1])['not_resolved'] == why[0]
-    # ranked again (a later pass): said once
-    engine.rank_candidates(None, diag.candidates)
-    assert named['explanation'].count('fits the held-out window better') == 1
-    # an unresolved candidate that gains less, or a named one that gains more: nothing said
+    assert diag.missing_effect is None
+    lag = next(c for c in diag.candidates if c['effect'] == 'fast_dynamics')
+    assert not lag['significant'] and lag['rival'] == 'delay'
+    assert ('Not named: delay fits the held-out window better (+60 % against +46 %)'
+            in lag['explanation'])
+    assert f'({why[0]}): {why[1]} to separate them.' in lag['explanation']
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.01, 'train_nrmse': 0.01},
+           'candidates': [engine.candidate_json(c) for c in diag.candidates],
+           'missing_effect': diag.missing_effect}
+    assert doc['candidates'][0]['not_resolved'] == why[0]
+    assert doc['candidates'][1]['rival'] == 'delay'
+    assert any('fast_dynamics passed every check, but delay' in line
+               for line in cli.diagnosis_lines(doc, 'modified'))
+    # ranked again (a later pass): said once, still not named
+    assert engine.rank_candidates(None, diag.candidates).missing_effect is None
+    assert lag['explanation'].count('fits the held-out window better') == 1
+    # within a near tie of it (25 Hz: a 36 ms delay +48 %, the lag +45 %): named, rival said
+    diag = engine.rank_candidates(None, [entry('delay', 0.48, False, why),
+                                         entry('fast_dynamics', 0.45, True)])
+    assert diag.missing_effect == 'fast_dynamics'
+    assert diag.candidates[0]['explanation'] == (
+        f'fast_dynamics. delay fits the held-out window better (+48 % against +45 %) but is '
+        f'not resolved ({why[0]}): {why[1]} to separate them.')
+    # an unresolved candidate that gains less: named, nothing said
     diag = engine.rank_candidates(None, [entry('delay', 0.40, False, why),
                                          entry('fast_dynamics', 0.86, True)])
+    assert diag.missing_effect == 'fast_dynamics'
     assert diag.candidates[0]['explanation'] == 'fast_dynamics.'
 
 

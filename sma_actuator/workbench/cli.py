@@ -889,6 +889,8 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     lines.append(f'missing effect: {missing}' if missing else f'missing effect: none ({why})')
     lines += [f'  {c["effect"]} cuts it by {100 * c["improvement"]:.0f} %, not resolved: '
               f'{c["not_resolved"]}' for c in unresolved]
+    lines += [f'  {c["effect"]} passed every check, but {c["rival"]} cuts the held-out error '
+              'more: not named' for c in doc['candidates'] if c.get('rival') and not missing]
     if not missing and floor and base['validation_nrmse'] is not None:
         lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
                                             base['train_nrmse'] / floor))

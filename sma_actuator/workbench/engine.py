@@ -50,6 +50,9 @@ held-out error. A candidate is significant only if
      delay must exceed one sample period), and an effect on the heating law
      (`Effect.heating_law`) is not judged on training records that heat at one duty level
      (`levels.duty_levels`): there it fits about as well as any other heating law.
+     A candidate that passes 1-3 but not 4 and gains more held out than a significant
+     one, beyond `NEAR_TIE`, makes that one not significant too: the records cannot tell
+     which of the two they show (`_yield_to_unresolved_rivals`).
 When no candidate is significant, every one without an own grid is also refitted from
 scratch (the better training fit of the two is judged again): with two effects missing,
 the base can sit so far from the data that a warm refit stays in its basin. A base that
@@ -745,7 +748,8 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
     named = []
     for c in entries:
         fit = c.get('fit')
-        if fit is None or c['significant'] or c['bic_change'] >= -BIC_MARGIN:
+        if (fit is None or c['significant'] or c.get('rival')
+                or c['bic_change'] >= -BIC_MARGIN):
             continue
         eff = get_effect(c['effect'])
         gain = typical_gain(data, base, fit)
@@ -820,41 +824,53 @@ def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') ->
     Return the `Diagnosis` of judged entries: significant first, by held-out gain.
 
     gain: the entry key the significant ones are ranked by ('typical_gain' after
-    `typical_pass`); the others by their whole-window improvement.
+    `typical_pass`); the others by their whole-window improvement. A significant entry
+    that an unresolved candidate clearly outgains held out is made not significant first
+    (`_yield_to_unresolved_rivals`); the first significant entry left is the missing effect.
     """
     def key(c: dict) -> tuple:
         value = c.get(gain) if c['significant'] else c['improvement']
         return c['significant'], -np.inf if value is None else value
 
+    for c in entries:
+        if c['significant']:
+            _yield_to_unresolved_rivals(c, entries)
     out = sorted(entries, key=key, reverse=True)
-    _flag_near_ties(out, gain)
     best = next((c for c in out if c['significant']), None)
-    if best is not None:
-        _note_unresolved_rivals(best, out)
+    _flag_near_ties(out, gain)
     return Diagnosis(base, out, None if best is None else best['effect'])
 
 
-def _note_unresolved_rivals(named: dict, ranked: list) -> None:
+def _yield_to_unresolved_rivals(best: dict, entries: list) -> None:
     """
-    Say in the named entry's explanation which unresolved candidates fit better.
+    Make `best` not significant when an unresolved candidate fits held out clearly better.
 
     A candidate that passed every check but resolution (`unresolved_by`: a delay below one
     sample, a lag below half a sample, a heating law on records at one duty level) and
-    gains more held out than the named effect is another explanation of the same data that
-    these records cannot confirm: at 10 Hz a 50 ms delay and a 0.1 s lag shift the sampled
-    response alike.
+    gains more held out than `best` is another explanation of the same data that these
+    records cannot confirm: at 10 Hz a 50 ms delay and a 0.1 s lag shift the sampled
+    response alike. When `best` comes within `NEAR_TIE` of its gain, the data barely
+    separate the two and the resolved one stays named, its explanation naming the rival;
+    when the rival gains clearly more, naming `best` would be a guess, so it is made not
+    significant ('rival' holds the rival's name).
     """
-    # both gains are set: the named entry is significant, a rival passed check 1
-    rivals = [c for c in ranked if c.get('unresolved') and c is not named
-              and c['improvement'] > named['improvement']]
-    for c in rivals:
-        if f" {c['effect']} fits the held-out window better" in named['explanation']:
-            continue   # ranked again after a later pass
-        reason, remedy = c['unresolved']
-        named['explanation'] += (
-            f" {c['effect']} fits the held-out window better ({100 * c['improvement']:+.0f} % "
-            f"against {100 * named['improvement']:+.0f} %) but is not resolved "
-            f'({reason}): {remedy} to separate them.')
+    # both gains are set: best is significant, a rival passed check 1
+    rivals = [c for c in entries if c.get('unresolved') and c is not best
+              and c['improvement'] > best['improvement']]
+    if not rivals:
+        return
+    c = max(rivals, key=lambda r: r['improvement'])
+    reason, remedy = c['unresolved']
+    clearly = best['improvement'] < (1.0 - NEAR_TIE) * c['improvement']
+    said = f" {c['effect']} fits the held-out window better"
+    if said in best['explanation']:
+        return   # ranked again after a later pass
+    best['explanation'] += (
+        (' Not named:' if clearly else '') + said
+        + f" ({100 * c['improvement']:+.0f} % against {100 * best['improvement']:+.0f} %) "
+        f'but is not resolved ({reason}): {remedy} to separate them.')
+    if clearly:
+        best.update(significant=False, rival=c['effect'])
 
 
 def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
