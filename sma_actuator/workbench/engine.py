@@ -841,36 +841,36 @@ def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') ->
     return Diagnosis(base, out, None if best is None else best['effect'])
 
 
-def _yield_to_unresolved_rivals(best: dict, entries: list) -> None:
+def _yield_to_unresolved_rivals(entry: dict, entries: list) -> None:
     """
-    Make `best` not significant when an unresolved candidate fits held out clearly better.
+    Make the significant `entry` not significant when an unresolved rival clearly gains more.
 
     A candidate that passed every check but resolution (`unresolved_by`: a delay below one
     sample, a lag below half a sample, a heating law on records at one duty level) and
-    gains more held out than `best` is another explanation of the same data that these
+    gains more held out than `entry` is another explanation of the same data that these
     records cannot confirm: at 10 Hz a 50 ms delay and a 0.1 s lag shift the sampled
-    response alike. When `best` comes within `NEAR_TIE` of its gain, the data barely
+    response alike. When `entry` comes within `NEAR_TIE` of its gain, the data barely
     separate the two and the resolved one stays named, its explanation naming the rival;
-    when the rival gains clearly more, naming `best` would be a guess, so it is made not
+    when the rival gains clearly more, naming `entry` would be a guess, so it is made not
     significant ('rival' holds the rival's name).
     """
-    # both gains are set: best is significant, a rival passed check 1
-    rivals = [c for c in entries if c.get('unresolved') and c is not best
-              and c['improvement'] > best['improvement']]
+    # both gains are set: entry is significant, a rival passed check 1
+    rivals = [c for c in entries if c.get('unresolved') and c is not entry
+              and c['improvement'] > entry['improvement']]
     if not rivals:
         return
     c = max(rivals, key=lambda r: r['improvement'])
     reason, remedy = c['unresolved']
-    clearly = best['improvement'] < (1.0 - NEAR_TIE) * c['improvement']
+    clearly = entry['improvement'] < (1.0 - NEAR_TIE) * c['improvement']
     said = f" {c['effect']} fits the held-out window better"
-    if said in best['explanation']:
+    if said in entry['explanation']:
         return   # ranked again after a later pass
-    best['explanation'] += (
+    entry['explanation'] += (
         (' Not named:' if clearly else '') + said
-        + f" ({100 * c['improvement']:+.0f} % against {100 * best['improvement']:+.0f} %) "
+        + f" ({100 * c['improvement']:+.0f} % against {100 * entry['improvement']:+.0f} %) "
         f'but is not resolved ({reason}): {remedy} to separate them.')
     if clearly:
-        best.update(significant=False, rival=c['effect'])
+        entry.update(significant=False, rival=c['effect'])
 
 
 def diagnose_rounds(data: Any, base: ModelFit, rounds: int, **kw: Any) -> tuple:
