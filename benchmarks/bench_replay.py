@@ -43,27 +43,30 @@ T0 = 1_700_000_000_000_000_000
 
 def write_bag(path, rate_hz, duration_s):
     """Bag with message k of topic j logged at T0 + k/rate + j/(5 rate); payload holds k."""
-    from sma_actuator.bag.synthetic import SMA_TOPICS, cdr_encoder, offered_profile, stamp
+    from sma_actuator.bag.synthetic import SMA_TOPICS, offered_profile, stamp, to_cdr
     from sma_actuator.bag.writer import BagWriter
     period_ns = int(1e9 / rate_hz)
+    written = []   # (topic, message, time [ns])
+    for k in range(int(rate_hz * duration_s)):
+        for j, topic in enumerate(TOPICS):
+            t = T0 + k * period_ns + j * period_ns // len(TOPICS)
+            if topic == '/sma/setpoint':
+                msg = {'data': float(k)}
+            elif topic == '/sma/duty':
+                msg = {'data': [float(k), 0.0]}
+            elif topic == '/sma/joint_states':
+                msg = {'header': {'stamp': stamp(t)}, 'name': ['shaft'],
+                       'position': [float(k)], 'velocity': [0.0]}
+            else:
+                msg = {'header': {'stamp': stamp(t)}, 'temperature': float(k)}
+            written.append((topic, msg, t))
+    payloads = to_cdr([(SMA_TOPICS[topic][0], msg) for topic, msg, _ in written])
     with BagWriter(path) as bag:
         for topic in TOPICS:
             type_name, reliability = SMA_TOPICS[topic]
             bag.add_topic(topic, type_name, [offered_profile(reliability)])
-        for k in range(int(rate_hz * duration_s)):
-            for j, topic in enumerate(TOPICS):
-                t = T0 + k * period_ns + j * period_ns // len(TOPICS)
-                type_name = SMA_TOPICS[topic][0]
-                if topic == '/sma/setpoint':
-                    msg = {'data': float(k)}
-                elif topic == '/sma/duty':
-                    msg = {'data': [float(k), 0.0]}
-                elif topic == '/sma/joint_states':
-                    msg = {'header': {'stamp': stamp(t)}, 'name': ['shaft'],
-                           'position': [float(k)], 'velocity': [0.0]}
-                else:
-                    msg = {'header': {'stamp': stamp(t)}, 'temperature': float(k)}
-                bag.write(topic, cdr_encoder(type_name)(msg), t)
+        for (topic, _, t), data in zip(written, payloads):
+            bag.write(topic, data, t)
 
 
 def measure(bag, factor, rate_hz, duration_s):

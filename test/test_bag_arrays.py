@@ -20,7 +20,7 @@ from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.arrays import load_run, zero_order_hold
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, MissingTopicError, NotMcapError,
                                      TruncatedBagError, UnknownTypeError)
-from sma_actuator.bag.synthetic import cdr_encoder, stamp
+from sma_actuator.bag.synthetic import stamp, to_cdr
 from sma_actuator.bag.writer import BagWriter
 
 T0 = 1_700_000_000_000_000_000
@@ -46,10 +46,11 @@ def _events(js_times_ms, position_of_t, duty=(), setpoint=(), ambient=(), js_top
 
 
 def _write(path, events, **options):
+    payloads = to_cdr([(type_name, msg) for _, type_name, msg, _ in events])
     with BagWriter(path, **options) as bag:
-        for topic, type_name, msg, log in events:
+        for (topic, type_name, _, log), data in zip(events, payloads):
             bag.add_topic(topic, type_name)
-            bag.write(topic, cdr_encoder(type_name)(msg), log)
+            bag.write(topic, data, log)
     return path
 
 
@@ -152,11 +153,12 @@ def test_same_arrays_from_an_independent_rosbag2_writer(run, tmp_path):
     path = tmp_path / 'rosbag2_run'
     with RosbagsWriter(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         conns = {}
-        for topic, type_name, msg, log in events:
+        # bytes from our encoder, decodable by any CDR reader
+        payloads = to_cdr([(type_name, msg) for _, type_name, msg, _ in events])
+        for (topic, type_name, _, log), data in zip(events, payloads):
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, type_name, typestore=store)
-            # bytes from our encoder, decodable by any CDR reader
-            writer.write(conns[topic], log, cdr_encoder(type_name)(msg))
+            writer.write(conns[topic], log, data)
     ours, theirs = load_run(run), load_run(path)
     assert list(ours) == list(theirs)
     for key in ours:

@@ -20,17 +20,17 @@ from rosbags.typesys import get_typestore, Stores
 from sma_actuator.bag.errors import (BagError, BagNotFoundError, NotMcapError,
                                      TruncatedBagError)
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.synthetic import cdr_encoder
+from sma_actuator.bag.synthetic import to_cdr
 from sma_actuator.bag.writer import BagWriter
 import yaml
 
 T0 = 1_600_000_000_000_000_000
-ENCODE = cdr_encoder('std_msgs/msg/Float64MultiArray')
+DUTY = 'std_msgs/msg/Float64MultiArray'
 
 
 def _write(path, count=300, **options):
     """Bag of ``count`` duty messages (distinct payloads); returns the payloads in order."""
-    payloads = [ENCODE({'data': [i * 1e-3, 1.0]}) for i in range(count)]
+    payloads = to_cdr([(DUTY, {'data': [i * 1e-3, 1.0]}) for i in range(count)])
     with BagWriter(path, chunk_size_bytes=1500, **options) as bag:
         bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
         for i, data in enumerate(payloads):
@@ -118,7 +118,7 @@ def test_damaged_chunk_is_skipped_and_later_chunks_kept(mcap_file, tmp_path):
 def test_messages_in_a_cut_chunk_are_counted_as_lost(tmp_path, compression):
     # lz4/zstd decode whole blocks only (64/128 KiB), so use chunks of several blocks
     size = 1500 if compression == 'none' else 400_000
-    payloads = [ENCODE({'data': [i * 1e-3, 1.0]}) for i in range(12000)]
+    payloads = to_cdr([(DUTY, {'data': [i * 1e-3, 1.0]}) for i in range(12000)])
     with BagWriter(tmp_path / 'bag', chunk_size_bytes=size, compression=compression) as bag:
         bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
         for i, data in enumerate(payloads):

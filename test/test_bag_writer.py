@@ -24,7 +24,7 @@ from sma_actuator.bag.errors import BagExistsError, BagWriteError
 from sma_actuator.bag.msgdefs import DELIMITER, message_definition, type_description_hash
 from sma_actuator.bag.qos import load_offered_qos_profiles
 from sma_actuator.bag.reader import BagReader
-from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, SMA_TOPICS, stamp
+from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, SMA_TOPICS, stamp, to_cdr
 from sma_actuator.bag.writer import BagWriter
 import yaml
 
@@ -52,16 +52,17 @@ def _message(topic, i):
 
 def _write_bag(path, count=40, **options):
     """Write ``count`` messages on every contract topic; return [(topic, bytes, log, pub)]."""
+    order = [(i, k, topic) for i in range(count) for k, topic in enumerate(SMA_TOPICS)]
+    payloads = iter(to_cdr([(SMA_TOPICS[topic][0], _message(topic, i)) for i, _, topic in order]))
     written = []
     with BagWriter(path, **options) as bag:
         for topic, (type_name, reliability) in SMA_TOPICS.items():
             bag.add_topic(topic, type_name, [offered_profile(reliability)])
-        for i in range(count):
-            for k, topic in enumerate(SMA_TOPICS):
-                data = cdr_encoder(SMA_TOPICS[topic][0])(_message(topic, i))
-                log, pub = T0 + i * 1_000_000 + k * 1000 + 500, T0 + i * 1_000_000 + k * 1000
-                bag.write(topic, data, log, pub)
-                written.append((topic, data, log, pub))
+        for i, k, topic in order:
+            data = next(payloads)
+            log, pub = T0 + i * 1_000_000 + k * 1000 + 500, T0 + i * 1_000_000 + k * 1000
+            bag.write(topic, data, log, pub)
+            written.append((topic, data, log, pub))
     return written
 
 
@@ -300,3 +301,21 @@ def test_a_split_costs_the_same_however_many_files_came_before(tmp_path, monkeyp
     info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert sum(f['message_count'] for f in info['files']) == 400
     assert [m.data for m in BagReader(path).messages()] == [payload] * 400
+
+
+def test_cdr_bytes_read_back_with_rclpy_in_order_across_types():
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64, Float64MultiArray
+    items = [('std_msgs/msg/Float64', {'data': 1.5}),
+             ('sensor_msgs/msg/JointState', {'header': {'stamp': stamp(T0)}, 'name': ['shaft'],
+                                             'position': [0.25], 'velocity': [0.0]}),
+             ('std_msgs/msg/Float64MultiArray', {'data': [0.1, 0.7]}),
+             ('std_msgs/msg/Float64', {'data': -2.0})]
+    raw = to_cdr(items)
+    assert [deserialize_message(raw[k], Float64).data for k in (0, 3)] == [1.5, -2.0]
+    joint_state = deserialize_message(raw[1], JointState)
+    assert (joint_state.name, list(joint_state.position)) == (['shaft'], [0.25])
+    assert joint_state.header.stamp.sec == T0 // 1_000_000_000
+    assert list(deserialize_message(raw[2], Float64MultiArray).data) == [0.1, 0.7]
+    assert cdr_encoder('std_msgs/msg/Float64')({'data': -2.0}) == raw[3]

@@ -31,7 +31,7 @@ from rclpy.serialization import deserialize_message  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from sma_actuator.bag.errors import BagError, BagNotFoundError  # noqa: E402
-from sma_actuator.bag.synthetic import cdr_encoder, offered_profile, stamp  # noqa: E402
+from sma_actuator.bag.synthetic import offered_profile, stamp, to_cdr  # noqa: E402
 from sma_actuator.bag.writer import BagWriter  # noqa: E402
 from sma_actuator.nodes.replay import ReplayNode  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
@@ -55,9 +55,8 @@ def _write_bag(path, count=30, period_ms=10):
                      ('/sma/joint_states', {'header': {'stamp': stamp(t)}, 'name': ['shaft'],
                                             'position': [0.01 * i], 'velocity': [0.0]}),
                      ('/sma/setpoint', {'data': 0.1})]
-            for k, (topic, msg) in enumerate(items):
-                type_name = bag.topics[topic].type
-                data = cdr_encoder(type_name)(msg)
+            payloads = to_cdr([(bag.topics[topic].type, msg) for topic, msg in items])
+            for k, ((topic, _), data) in enumerate(zip(items, payloads)):
                 bag.write(topic, data, t + k * 1000)
                 stored[topic].append(data)
     return stored

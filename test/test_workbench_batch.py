@@ -18,7 +18,7 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from sma_actuator.bag.synthetic import cdr_encoder, stamp
+from sma_actuator.bag.synthetic import stamp, to_cdr
 from sma_actuator.bag.writer import BagWriter
 from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams, simulate
@@ -30,6 +30,7 @@ N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed 
 DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 T0_NS = 1_700_000_000_000_000_000
+DUTY, JOINT_STATE = 'std_msgs/msg/Float64MultiArray', 'sensor_msgs/msg/JointState'
 
 
 def _record(effect, seed, warm_s=None):
@@ -61,16 +62,19 @@ def _write_csv(path, rec):
 
 def _write_bag(path, rec):
     """Return the record as the recorder would store it: joint states and duty commands."""
-    js, duty = cdr_encoder('sensor_msgs/msg/JointState'), cdr_encoder(
-        'std_msgs/msg/Float64MultiArray')
+    written = []   # (topic, type, message, time [ns])
+    for t, da, db, pos in zip(*(rec[c] for c in COLUMNS)):
+        ns = T0_NS + int(round(t * 1e9))
+        written.append(('/sma/duty', DUTY, {'data': [float(da), float(db)]}, ns - 1000))
+        written.append(('/sma/joint_states', JOINT_STATE, {
+            'header': {'stamp': stamp(ns)}, 'name': ['shaft'], 'position': [float(pos)],
+            'velocity': [0.0]}, ns))
+    payloads = to_cdr([(type_name, msg) for _, type_name, msg, _ in written])
     with BagWriter(path) as bag:
-        bag.add_topic('/sma/joint_states', 'sensor_msgs/msg/JointState')
-        bag.add_topic('/sma/duty', 'std_msgs/msg/Float64MultiArray')
-        for t, da, db, pos in zip(*(rec[c] for c in COLUMNS)):
-            ns = T0_NS + int(round(t * 1e9))
-            bag.write('/sma/duty', duty({'data': [float(da), float(db)]}), ns - 1000)
-            bag.write('/sma/joint_states', js({'header': {'stamp': stamp(ns)}, 'name': ['shaft'],
-                                               'position': [float(pos)], 'velocity': [0.0]}), ns)
+        bag.add_topic('/sma/joint_states', JOINT_STATE)
+        bag.add_topic('/sma/duty', DUTY)
+        for (topic, _, _, ns), data in zip(written, payloads):
+            bag.write(topic, data, ns)
     return path
 
 
