@@ -33,8 +33,8 @@ import tempfile
 import time
 
 import numpy as np
-from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams, simulate
+from sma_actuator.core.excitation import multilevel
 from sma_actuator.workbench import batch
 from sma_actuator.workbench.data import check_excitation, load_data
 from sma_actuator.workbench.engine import diagnose, fit_model

@@ -27,9 +27,12 @@ whether the name rests on one block. Also the null case. Two sources of records:
       `plant_sim` makes it (test/support/plant_records.py; weak, middle, strong setting).
 --layout single (rich simulator, open loop): wire b is never heated, so the record is one
 wire against a bias spring; effects that need two wires are left out.
+--excitation rig (rich simulator): the package's `core.excitation.rig_excitation` in the
+rig's own time (τ = its cooling_tau_s, full duty = its duty_max) instead of the simulator's
+own duty sequences; no saturation case (the simulator's saturation is an excitation).
 
     python benchmarks/bench_hidden_effects.py [--source richsim|plant] [--duration 480]
-        [--rate 40] [--excitation open] [--layout antagonistic|single]
+        [--rate 40] [--excitation open|closed|rig] [--layout antagonistic|single]
         [--param KEY=VALUE ...] (another rig: richsim DEFAULTS keys, e.g.
                                  wire_diameter_m=200e-6 cooling_tau_s=2.5)
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
@@ -47,13 +50,15 @@ one_blas_thread()   # before numpy loads, as `sma-model` and the record workers 
 keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
-from sma_actuator.core.identification import DynamicData  # noqa: E402, I100
+from sma_actuator.core.excitation import rig_excitation  # noqa: E402, I100
+from sma_actuator.core.identification import DynamicData  # noqa: E402
 from sma_actuator.workbench.effects import get_effect  # noqa: E402
 from sma_actuator.workbench.engine import (  # noqa: E402
     diagnose, held_out_block_rmse, typical_gain)
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
-from support.richsim import EFFECTS, rig_from_command_line, simulate  # noqa: E402
+from support.richsim import (  # noqa: E402
+    DEFAULTS, EFFECTS, rig_from_command_line, simulate, simulate_profile)
 
 
 def run_case(case):
@@ -62,6 +67,12 @@ def run_case(case):
     if args.source == 'plant':
         d = plant_records.simulate(effect, int(magnitude), duration_s=args.duration,
                                    rate_hz=args.rate, noise_rad=args.noise, seed=seed)
+    elif args.excitation == 'rig':
+        rig = dict(DEFAULTS, **args.params)
+        duty = rig_excitation(args.duration, rig['cmd_dt_s'], rig['cooling_tau_s'],
+                              rig['duty_max'], args.layout, seed)
+        d = simulate_profile(*duty, effect=effect, magnitude=magnitude, rate_hz=args.rate,
+                             noise_rad=args.noise, seed=seed, params=args.params)
     else:
         d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
                      duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise,
@@ -91,7 +102,7 @@ def main():
     ap.add_argument('--source', choices=('richsim', 'plant'), default='richsim')
     ap.add_argument('--noise', type=float, default=None,
                     help='position noise [rad] (default 0.002 richsim, 0.001 plant)')
-    ap.add_argument('--excitation', choices=('open', 'closed'), default='open')
+    ap.add_argument('--excitation', choices=('open', 'closed', 'rig'), default='open')
     ap.add_argument('--layout', choices=('antagonistic', 'single'), default='antagonistic')
     ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
@@ -101,14 +112,20 @@ def main():
     plant = args.source == 'plant'
     if args.noise is None:
         args.noise = 0.001 if plant else 0.002
-    if args.layout == 'single' and (plant or args.excitation != 'open'):
-        ap.error('--layout single needs --source richsim and --excitation open')
+    if args.layout == 'single' and (plant or args.excitation == 'closed'):
+        ap.error('--layout single needs --source richsim and --excitation open or rig')
+    if args.excitation == 'rig' and (plant or 'saturation' in (args.effects or ())):
+        ap.error('--excitation rig needs --source richsim and has no saturation case (the '
+                 "simulator's saturation is an excitation)")
     args.params = rig_from_command_line(ap, args.param, not plant)
     catalog = plant_records.EFFECTS if plant else EFFECTS
     effects = args.effects or [e for e in catalog if e != 'none' and not (
-        args.layout == 'single' and get_effect(e).needs_two_wires)]
+        args.layout == 'single' and get_effect(e).needs_two_wires) and not (
+        args.excitation == 'rig' and e == 'saturation')]
+    loop = 'open loop' if plant else {'open': 'open loop', 'closed': 'closed loop',
+                                      'rig': 'open loop (rig_excitation)'}[args.excitation]
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
-          f'{"open" if plant else args.excitation} loop, {args.layout}, noise {args.noise} rad'
+          f'{loop}, {args.layout}, noise {args.noise} rad'
           + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else '')
           + ''.join(f', {k} = {v:g}' for k, v in args.params.items()))
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '

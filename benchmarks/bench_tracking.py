@@ -16,7 +16,7 @@
 Tracking with the fitted model: pi vs pi_inverse, base model vs the model with the effect.
 
 For each plant (an effect switched on) the benchmark
-1. records an open-loop excitation (300 s at 40 Hz: `control.excitation.multilevel` on
+1. records an open-loop excitation (300 s at 40 Hz: `core.excitation.multilevel` on
    plant_sim's model, the simulator's own excitation on the rich simulator) and fits two
    models with the workbench
    (`workbench.engine.fit_model`, what `sma-model fit` runs): the paper's base model and
@@ -50,8 +50,8 @@ import numpy as np
 
 from sma_actuator.control import ControllerCore, ControllerSettings, law, load_model
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
-from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams
+from sma_actuator.core.excitation import multilevel
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.core.model_file import write_model
 from sma_actuator.profiles import Profile
@@ -101,7 +101,7 @@ def excitation_record(source, case, seconds, seed):
     """
     Return the DynamicData of an open-loop excitation record of the plant.
 
-    plant_sim's model: `control.excitation.multilevel` (what scripts/fit_controller_model.py
+    plant_sim's model: `core.excitation.multilevel` (what scripts/fit_controller_model.py
     records); the rich simulator: its own open-loop excitation (test/support/richsim.py).
     """
     if source == 'richsim':

@@ -16,7 +16,7 @@
 Make config/controller_model.yaml: record plant_sim's excitation run, then sma-model fit it.
 
 1. plant_sim (the ROS node, accelerated, lockstep, noise seed SEED + 1000) is driven open
-   loop by `control.excitation.multilevel` (150 s, seed SEED) through the real topics
+   loop by `core.excitation.multilevel` (150 s, seed SEED) through the real topics
    (`in_process.run_excitation`); the record is written as a CSV
    (time,duty_a,duty_b,position) next to the model, `<out>.record.csv`.
 2. ``sma-model fit <record> --out <out>`` fits the paper's model (plus --add EFFECT ...)
@@ -34,7 +34,7 @@ import sys
 
 import numpy as np
 import rclpy
-from sma_actuator.control.excitation import multilevel
+from sma_actuator.core.excitation import multilevel
 from sma_actuator.in_process import run_excitation
 from sma_actuator.workbench.cli import main as sma_model
 import yaml
@@ -90,7 +90,7 @@ def main(argv=None):
               f'--seed {ns.seed}' + (f' --plant {" ".join(ns.plant)}' if ns.plant else '')
               + (f' --add {" ".join(ns.add)}' if ns.add else '') + '\n'
               f'record: {rec.name}, {n} samples at 40 Hz: plant_sim '
-              f'{plant or "(defaults)"} driven open loop by control.excitation.multilevel '
+              f'{plant or "(defaults)"} driven open loop by core.excitation.multilevel '
               f'(seed {ns.seed}, noise seed {ns.seed + 1000})\n'
               f'model: sma-model {" ".join(cmd[:-1])}; validation NRMSE {100 * val:.2f} %, '
               f'tau_s {tau:.3f} s')

@@ -12,12 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Excitation sequences (control.excitation) and model files (core.model_file)."""
+"""Excitation sequences (core.excitation) and model files (core.model_file)."""
 import numpy as np
 import pytest
-from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams
+from sma_actuator.core.datakinds import DynamicData
+from sma_actuator.core.excitation import HOLD_TAUS, LEVEL_FRACTIONS, multilevel, rig_excitation
 from sma_actuator.core.model_file import load_model, save_model
+from sma_actuator.workbench.levels import duty_levels
 import yaml
 
 
@@ -61,3 +63,35 @@ def test_model_file_round_trip_keeps_every_parameter(tmp_path):
     for key in ('r', 'lo', 'hi', 'w'):
         np.testing.assert_allclose(got['hysteresis'][key], want['hysteresis'][key])
     assert yaml.safe_load(text)['model']['tau_fast_s'] == 0.1     # plain float, not numpy
+
+
+def test_rig_excitation_holds_in_the_wires_time_at_several_duties():
+    tau_s, dt = 6.0, 0.025
+    a, b = rig_excitation(900.0, dt, tau_s=tau_s, duty_full=0.2, seed=1)
+    levels = {round(0.2 * f, 6) for f in LEVEL_FRACTIONS}
+    assert not ((a > 0) & (b > 0)).any()                       # never both heated
+    assert {round(v, 6) for v in np.unique(np.r_[a, b])} <= levels | {0.0}
+    changes = np.flatnonzero((np.diff(a) != 0) | (np.diff(b) != 0))
+    assert np.diff(changes).min() * dt >= HOLD_TAUS[0] * tau_s - 1e-9
+    assert np.diff(changes).max() * dt <= 2 * HOLD_TAUS[1] * tau_s  # two equal holds at most
+    heated = np.r_[a[a > 0], b[b > 0]]
+    assert len(np.unique(heated)) == len(levels)
+    # the workbench's own test: this record does not heat at one duty level
+    data = DynamicData(np.arange(a.size) * dt, a, b, np.zeros(a.size))
+    assert not duty_levels(data).one_level
+
+
+def test_rig_excitation_for_one_wire_heats_wire_a_only():
+    pair = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, seed=4)
+    a, b = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, layout='single', seed=4)
+    assert not b.any()
+    np.testing.assert_array_equal(a, np.maximum(*pair))
+
+
+@pytest.mark.parametrize('bad', [{'tau_s': 0.0}, {'tau_s': float('nan')},
+                                 {'duty_full': 1.5}, {'duty_full': 0.0},
+                                 {'layout': 'triple'}])
+def test_rig_excitation_rejects_bad_arguments(bad):
+    args = {'duration_s': 60.0, 'dt': 0.025, 'tau_s': 2.0, 'duty_full': 0.5, **bad}
+    with pytest.raises(ValueError):
+        rig_excitation(**args)

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from sma_actuator.control import ControllerCore, ControllerSettings, load_model
 from sma_actuator.control.closed_loop import CorePlant
-from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams
+from sma_actuator.core.excitation import multilevel
 from sma_actuator.core.model_file import ModelFileError, ModelFormatWarning, save_model
 from sma_actuator.workbench.cli import main as sma_model
 import yaml

@@ -20,8 +20,8 @@ import pyarrow.parquet as pq
 import pytest
 from sma_actuator.bag.synthetic import stamp, to_cdr
 from sma_actuator.bag.writer import BagWriter
-from sma_actuator.control.excitation import multilevel
 from sma_actuator.core.actuator import ActuatorParams, simulate
+from sma_actuator.core.excitation import multilevel
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
 

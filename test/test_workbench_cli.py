@@ -225,6 +225,14 @@ def test_argparse_errors_are_one_line_exit_2(tmp_path):
     (['fit', REAL, '--add', 'delay'], 'delay'),
     (['fit', 'dup.csv', '--out', 'dup.csv', '--force'], '--out dup.csv is DATA itself'),
     (['fit', REAL, '--rate', '-3'], "argument --rate: '-3' is not a positive number"),
+    (['excite', '--tau-s', 'nan', '--duty-full', '0.2', '--out', 'e.csv'],
+     "argument --tau-s: 'nan' is not a positive number"),
+    (['excite', '--tau-s', '6.8', '--duty-full', '1.5', '--out', 'e.csv'],
+     '--duty-full 1.5 is over 1'),
+    (['excite', '--tau-s', '100', '--duty-full', '0.2', '--out', 'e.csv'],
+     'the largest time constant the fit takes'),
+    (['excite', '--tau-s', '6.8', '--duty-full', '0.2', '--out', 'dup.csv'],
+     'dup.csv: exists; use --force to overwrite it'),
 ])
 def test_bad_input_in_process(tmp_path, monkeypatch, capsys, argv, fragment):
     monkeypatch.chdir(tmp_path)
@@ -247,6 +255,29 @@ def test_bad_input_in_process(tmp_path, monkeypatch, capsys, argv, fragment):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith('sma-model: error: ') and fragment in err[0]
     assert (tmp_path / 'dup.csv').read_bytes() == before
+
+
+def test_excite_writes_a_csv_in_the_rigs_time_and_a_bag_that_ends_cold(tmp_path, capsys):
+    from rclpy.serialization import deserialize_message
+    from sma_actuator.bag.reader import BagReader
+    from std_msgs.msg import Float64MultiArray
+    csv = tmp_path / 'excite.csv'
+    args = ['excite', '--tau-s', '6.8', '--duty-full', '0.2', '--layout', 'single',
+            '--duration', '300']
+    assert cli.main(args + ['--out', str(csv)]) == 0
+    assert 'holds of 5.1-17 s (0.75-2.5 x tau 6.8 s)' in capsys.readouterr().out
+    lines = csv.read_text().splitlines()
+    assert lines[3] == 'time,duty_a,duty_b' and all(x.startswith('# ') for x in lines[:3])
+    time_s, duty_a, duty_b = np.loadtxt(lines[4:], delimiter=',').T
+    np.testing.assert_allclose(np.diff(time_s), 0.025, atol=1e-6)
+    assert time_s.size == 12000 and not duty_b.any() and duty_a.max() == pytest.approx(0.2)
+    bag = tmp_path / 'excite_bag'
+    assert cli.main(args + ['--out', str(bag)]) == 0
+    messages = list(BagReader(bag).messages())
+    assert len(messages) == 12001 and {m.topic for m in messages} == {'/sma/duty'}
+    duties = [list(deserialize_message(m.data, Float64MultiArray).data) for m in messages]
+    np.testing.assert_allclose(np.array(duties[:-1])[:, 0], duty_a)
+    assert duties[-1] == [0.0, 0.0]
 
 
 def test_compare_of_a_static_model_on_dynamic_data_is_refused(tmp_path, capsys):

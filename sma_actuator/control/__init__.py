@@ -38,7 +38,6 @@ Modules:
 * `law`: the control law, `ControllerCore`: the three modes assembled into one step function.
 * `inputs`: validation of setpoints and duties (reject, keep the last valid value).
 * `metrics`: rms / max error and settling time of a tracking run.
-* `excitation`: open-loop duty sequences for identification runs.
 * `interlock`: the dead-time rule between the two wires (also used by plant_sim and the bridge).
 * `closed_loop`: a `ControllerCore` against any plant, sample by sample (benchmarks, tests).
 

@@ -994,6 +994,40 @@ def cmd_effects(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------------ excite
+def cmd_excite(args: argparse.Namespace) -> int:
+    """Run `sma-model excite`: write an identification excitation in the rig's time scale."""
+    from ..core.excitation import rig_excitation
+    from ..core.identification import MAX_TAU_S
+    from .excite import design_lines, MAX_DURATION_S, write_bag, write_csv
+    if not args.tau_s <= MAX_TAU_S:
+        raise UsageError(f'--tau-s {args.tau_s:g} s is over {MAX_TAU_S:g} s, the largest '
+                         'time constant the fit takes')
+    if not args.duty_full <= 1:
+        raise UsageError(f'--duty-full {args.duty_full:g} is over 1 (the duty is 0-1)')
+    if not 10 * args.tau_s <= args.duration <= MAX_DURATION_S:
+        raise UsageError(f'--duration {args.duration:g} s is outside 10 x tau '
+                         f'({10 * args.tau_s:g} s) to {MAX_DURATION_S:g} s')
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise UsageError(f'{out}: exists; use --force to overwrite it')
+    if not out.parent.is_dir():
+        raise UsageError(f'{out}: directory {out.parent} does not exist')
+    dt_s = 1.0 / args.rate
+    duty_a, duty_b = rig_excitation(args.duration, dt_s, args.tau_s, args.duty_full,
+                                    args.layout, args.seed)
+    lines = design_lines(args.duration, args.rate, args.tau_s, args.duty_full, args.layout,
+                         args.seed)
+    if out.suffix.lower() == '.csv':
+        write_csv(out, duty_a, duty_b, dt_s, lines)
+    else:
+        write_bag(out, duty_a, duty_b, dt_s, overwrite=args.force)
+    for line in lines[:2]:
+        print(line)
+    print(f'wrote {out}')
+    return 0
+
+
 # ------------------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
     """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
@@ -1092,6 +1126,28 @@ def build_parser() -> argparse.ArgumentParser:
                      help='load user effects from a Python file or module (repeatable)')
     eff.add_argument('--json', action='store_true', help='print the catalog as JSON')
     eff.set_defaults(func=cmd_effects)
+    exc = sub.add_parser('excite', help='write an identification excitation for a rig',
+                         description='Write the duty sequence of an identification record '
+                         "in the rig's own time: holds of 0.75-2.5 tau at six duties from "
+                         '0.5 to 1 x --duty-full. OUT.csv: time,duty_a,duty_b for your own '
+                         'logger; any other OUT: a bag of /sma/duty commands for `replay`.')
+    exc.add_argument('--tau-s', type=_positive_number, required=True, metavar='S',
+                     help='thermal time constant of the wire [s] (the fitted tau_s)')
+    exc.add_argument('--duty-full', type=_positive_number, required=True, metavar='D',
+                     help='the duty that holds a wire at its full stroke (0-1)')
+    exc.add_argument('--layout', choices=('single', 'antagonistic'), default='antagonistic',
+                     help='single: one wire against a bias spring, duty_b 0 (default '
+                     'antagonistic: one wire of the pair heated at a time)')
+    exc.add_argument('--duration', type=_positive_number, default=480.0, metavar='S',
+                     help='length of the record [s] (default 480: 8 minutes)')
+    exc.add_argument('--rate', type=_positive_float, default=40.0, metavar='HZ',
+                     help="duty command rate [Hz] (default 40, the controller's)")
+    exc.add_argument('--seed', type=_non_negative_int, default=0, metavar='N',
+                     help='random seed of the sequence (default 0)')
+    exc.add_argument('--out', required=True, metavar='OUT.csv|BAG',
+                     help='CSV file, or bag directory for `replay`')
+    exc.add_argument('--force', action='store_true', help='overwrite OUT')
+    exc.set_defaults(func=cmd_excite)
     return parser
 
 
@@ -1107,6 +1163,18 @@ def _positive_float(text: str) -> float:
     if not MIN_RATE_HZ <= value <= MAX_RATE_HZ:
         raise argparse.ArgumentTypeError(f'{text} Hz is outside {MIN_RATE_HZ:g} to '
                                          f'{MAX_RATE_HZ:g} Hz')
+    return value
+
+
+def _positive_number(text: str) -> float:
+    """Parse a positive finite number (a time [s], a duty; argparse type)."""
+    from .limits import parse_number
+    try:
+        value = parse_number(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text[:40]!r} is not a number') from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
     return value
 
 

@@ -27,7 +27,7 @@ from typing import Sequence, Tuple
 
 import numpy as np
 
-from ..core.validate import finite_scalar
+from .validate import finite_scalar
 
 
 def multilevel(duration_s: float, dt: float, seed: int = 0,
@@ -53,3 +53,34 @@ def multilevel(duration_s: float, dt: float, seed: int = 0,
         duty[k:k + hold, wire] = level
         k += hold
     return duty[:, 0].copy(), duty[:, 1].copy()
+
+
+#: Levels of `rig_excitation`, as fractions of the duty that holds a wire at its full stroke.
+LEVEL_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+#: Holds of `rig_excitation` in thermal time constants: `multilevel`'s 1.5-5 s at T = 2 s.
+HOLD_TAUS = (0.75, 2.5)
+
+
+def rig_excitation(duration_s: float, dt: float, tau_s: float, duty_full: float,
+                   layout: str = 'antagonistic', seed: int = 0) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return (duty_a, duty_b) for an identification record of a rig, in its own time scale.
+
+    `multilevel` with holds of 0.75-2.5 τ (τ = tau_s, the wire's basic time constant
+    T = C / hA [s] of eq. (7)) at levels 0.5-1.0 × duty_full (the duty that holds a wire at
+    its full stroke): each hold lets the temperature settle near one of six steady values
+    θa + G d, so the record shows the heating law at several duties and minor loops from
+    both branches. layout 'single' (one wire against a bias spring): every segment on wire
+    a, duty_b 0.
+    """
+    tau_s, duty_full = finite_scalar('tau_s', tau_s), finite_scalar('duty_full', duty_full)
+    if tau_s <= 0 or not 0 < duty_full <= 1:
+        raise ValueError('tau_s must be positive and duty_full in (0, 1]')
+    if layout not in ('antagonistic', 'single'):
+        raise ValueError(f"layout must be 'antagonistic' or 'single', got {layout!r}")
+    levels = tuple(duty_full * f for f in LEVEL_FRACTIONS)
+    duty_a, duty_b = multilevel(duration_s, dt, seed, levels, HOLD_TAUS[0] * tau_s,
+                                HOLD_TAUS[1] * tau_s)
+    if layout == 'single':
+        return np.maximum(duty_a, duty_b), np.zeros_like(duty_b)
+    return duty_a, duty_b
