@@ -1153,13 +1153,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _positive_float(text: str) -> float:
     """Parse a positive rate [Hz] within the accepted range (argparse type)."""
-    from .limits import MAX_RATE_HZ, MIN_RATE_HZ, parse_number
-    try:
-        value = parse_number(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'{text[:40]!r} is not a number') from None
-    if not np.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
+    from .limits import MAX_RATE_HZ, MIN_RATE_HZ
+    value = _positive_number(text)
     if not MIN_RATE_HZ <= value <= MAX_RATE_HZ:
         raise argparse.ArgumentTypeError(f'{text} Hz is outside {MIN_RATE_HZ:g} to '
                                          f'{MAX_RATE_HZ:g} Hz')
