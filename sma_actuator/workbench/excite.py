@@ -32,20 +32,18 @@ from ..core.excitation import HOLD_TAUS, LEVEL_FRACTIONS
 
 #: Longest excitation written [s] (a day).
 MAX_DURATION_S = 86_400.0
-DUTY_TOPIC = '/sma/duty'
-DUTY_TYPE = 'std_msgs/msg/Float64MultiArray'
 
 
 def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: float,
                  layout: str, seed: int) -> Sequence[str]:
-    """Return the lines that describe an excitation (CSV comment, bag metadata, stdout)."""
+    """Return the lines that describe an excitation (the CSV's comment lines, stdout)."""
     hold_lo, hold_hi = (f * tau_s for f in HOLD_TAUS)
     duties = ', '.join(f'{duty_full * f:.3g}' for f in LEVEL_FRACTIONS)
     wires = ('one wire against a bias spring (duty_b 0)' if layout == 'single'
              else 'an antagonistic pair, one wire heated at a time')
     return [f'identification excitation: {duration_s:g} s at {rate_hz:g} Hz for {wires}',
-            f'holds of {hold_lo:.3g}-{hold_hi:.3g} s (0.75-2.5 x tau {tau_s:g} s) at duties '
-            f'{duties} or 0, seed {seed}',
+            f'holds of {hold_lo:.3g}-{hold_hi:.3g} s ({HOLD_TAUS[0]:g}-{HOLD_TAUS[1]:g} x tau '
+            f'{tau_s:g} s) at duties {duties} or 0, seed {seed}',
             'time in s; duty_a, duty_b PWM duty 0-1, held until the next row']
 
 
@@ -65,12 +63,14 @@ def write_bag(path: Path, duty_a: np.ndarray, duty_b: np.ndarray, dt_s: float,
 
     overwrite: replace the bag files already in `path` (nothing else there is touched).
     """
-    from ..bag.synthetic import offered_profile, to_cdr
+    from ..bag.synthetic import offered_profile, SMA_TOPICS, to_cdr
     from ..bag.writer import BagWriter
+    topic = '/sma/duty'
+    type_name, reliability = SMA_TOPICS[topic]
     duty = np.vstack([np.column_stack([duty_a, duty_b]), [0.0, 0.0]])
-    payloads = to_cdr([(DUTY_TYPE, {'data': [float(a), float(b)]}) for a, b in duty])
+    payloads = to_cdr([(type_name, {'data': [float(a), float(b)]}) for a, b in duty])
     start_ns, step_ns = time.time_ns(), int(round(dt_s * 1e9))
     with BagWriter(path, overwrite=overwrite) as bag:
-        bag.add_topic(DUTY_TOPIC, DUTY_TYPE, [offered_profile('reliable')])
+        bag.add_topic(topic, type_name, [offered_profile(reliability)])
         for k, data in enumerate(payloads):
-            bag.write(DUTY_TOPIC, data, start_ns + k * step_ns)
+            bag.write(topic, data, start_ns + k * step_ns)
