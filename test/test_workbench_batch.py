@@ -18,7 +18,7 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from sma_actuator.bag.synthetic import stamp, to_cdr
+from sma_actuator.bag.synthetic import SMA_TOPICS, stamp, to_cdr
 from sma_actuator.bag.writer import BagWriter
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.excitation import multilevel
@@ -30,7 +30,7 @@ N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed 
 DURATION_S, RATE_HZ, DELAY_S = 120.0, 10.0, 0.8
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')
 T0_NS = 1_700_000_000_000_000_000
-DUTY, JOINT_STATE = 'std_msgs/msg/Float64MultiArray', 'sensor_msgs/msg/JointState'
+DUTY, JOINT_STATE = (SMA_TOPICS[topic][0] for topic in ('/sma/duty', '/sma/joint_states'))
 
 
 def _record(effect, seed, warm_s=None):

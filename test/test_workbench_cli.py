@@ -233,6 +233,10 @@ def test_argparse_errors_are_one_line_exit_2(tmp_path):
      'the largest time constant the fit takes'),
     (['excite', '--tau-s', '6.8', '--duty-full', '0.2', '--out', 'dup.csv'],
      'dup.csv: exists; use --force to overwrite it'),
+    (['excite', '--duty-full', '0.2', '--out', 'e.csv'], 'give --tau-s and --duty-full, or'),
+    (['excite', '--model', 'static_fit.yaml', '--out', 'e.csv'],
+     'a static (curve) fit has no thermal time constant'),
+    (['excite', '--model', 'plain.yaml', '--out', 'e.csv'], 'holds no fitted model'),
 ])
 def test_bad_input_in_process(tmp_path, monkeypatch, capsys, argv, fragment):
     monkeypatch.chdir(tmp_path)
@@ -278,6 +282,46 @@ def test_excite_writes_a_csv_in_the_rigs_time_and_a_bag_that_ends_cold(tmp_path,
     duties = [list(deserialize_message(m.data, Float64MultiArray).data) for m in messages]
     np.testing.assert_allclose(np.array(duties[:-1])[:, 0], duty_a)
     assert duties[-1] == [0.0, 0.0]
+
+
+@pytest.mark.parametrize('changes', [{}, {'latent_heat_k': 10.0, 'stress_k': 5.0,
+                                          'duty_limit': 0.5, 'duty_limit_sharpness': 4.0,
+                                          'convection_exponent': 0.3}])
+def test_full_stroke_duty_holds_the_wire_at_its_full_stroke(changes):
+    from sma_actuator.workbench.excite import FULL_STROKE_SHARE, full_stroke_duty
+    params = ActuatorParams().with_changes(**changes)
+    duty = full_stroke_duty(params)
+    y_max = params.hysteresis.output_range()[1]
+    held = [simulate(params, np.full(8000, f * duty), np.zeros(8000), DT).y_a[-1] / y_max
+            for f in (0.9, 1.0)]
+    assert 0 < duty < 1 and held[0] < FULL_STROKE_SHARE - 0.1
+    assert held[1] == pytest.approx(FULL_STROKE_SHARE, abs=0.005)
+
+
+def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
+    from sma_actuator.core.model_file import save_model
+    from sma_actuator.workbench.excite import full_stroke_duty
+    params = ActuatorParams()
+    model = save_model(params, tmp_path / 'm.yaml')
+    out = tmp_path / 'e.csv'
+    assert cli.main(['excite', '--model', str(model), '--out', str(out)]) == 0
+    assert f'x tau {params.tau_s:.3g} s' in capsys.readouterr().out
+    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    assert duty_a.max() == pytest.approx(full_stroke_duty(params), abs=1e-4)
+    assert duty_b.max() == pytest.approx(duty_a.max())
+    spec = yaml.safe_load(model.read_text())
+    spec |= {'layout': 'single', 'duty_levels': {'one_level': True, 'level': 0.3},
+             'tau_profile': {'identified': False}}
+    model.write_text(yaml.safe_dump(spec))
+    args = ['excite', '--model', str(model), '--out', str(out), '--force']
+    assert cli.main(args) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith('note:')]
+    assert 'one duty level (0.3)' in notes[1] and 'is not identified' in notes[0]
+    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    assert duty_a.max() == pytest.approx(0.3) and not duty_b.any()
+    assert cli.main(args + ['--duty-full', '0.4', '--layout', 'antagonistic']) == 0
+    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    assert duty_a.max() == pytest.approx(0.4) and duty_b.max() == pytest.approx(0.4)
 
 
 def test_compare_of_a_static_model_on_dynamic_data_is_refused(tmp_path, capsys):

@@ -94,7 +94,7 @@ def stamp(time_ns: int) -> Dict[str, int]:
 def _demo_messages(duration_s: float, joint_state_rate_hz: float, duty_rate_hz: float,
                    start_ns: int) -> List[Tuple[str, Dict[str, Any], int]]:
     """Return the demo run's (topic, message dict, time [ns]) in writing order."""
-    written = []   # (topic, message, time [ns]) in writing order
+    written = []
     events = []
     for k in range(int(duration_s * joint_state_rate_hz) + 1):
         events.append((int(k * 1e9 / joint_state_rate_hz), 'js'))

@@ -125,10 +125,14 @@ def is_static_model(spec: Mapping[str, Any]) -> bool:
     return set(spec.get('model') or {}) == {'hysteresis'}
 
 
-def check_writable(path: PathLike, force: bool = False) -> None:
-    """Raise `ModelFileError` if writing `path` would overwrite a file without force."""
+def check_writable(path: PathLike, force: bool = False, directory: bool = False) -> None:
+    """
+    Raise `ModelFileError` if writing `path` would overwrite a file without force.
+
+    directory: `path` may be a directory (a bag's); else an existing directory is refused.
+    """
     path = Path(path)
-    if path.is_dir():
+    if path.is_dir() and not directory:
         raise ModelFileError(f'{path}: is a directory, not a model file')
     if path.exists() and not force:
         raise ModelFileError(f'{path}: exists; use --force to overwrite it')

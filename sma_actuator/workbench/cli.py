@@ -341,10 +341,20 @@ class _StaticKind:
 _KINDS = {DynamicData.kind: _DynamicKind, StaticData.kind: _StaticKind}
 
 
-def read_model_spec(path: str, catalog: Mapping[str, Any]) -> Dict[str, Any]:
-    """Return MODEL.yaml as a checked dict (effects known to the catalog)."""
+def read_model_spec(path: str, catalog: Optional[Mapping[str, Any]]) -> Dict[str, Any]:
+    """Return MODEL.yaml as a checked dict (effects known to the catalog; None: any name)."""
     from ..core.model_file import read_model
     return read_model(path, known_effects=catalog)
+
+
+def read_fitted_spec(path: str, catalog: Optional[Mapping[str, Any]]) -> Dict[str, Any]:
+    """Return `read_model_spec` of a fit's model file; refuse a file without a fitted model."""
+    from ..core.model_file import is_fitted
+    spec = read_model_spec(path, catalog)
+    if not is_fitted(spec):
+        raise UsageError(f'{path}: holds no fitted model (no "model" section); run '
+                         f'{PROG} fit DATA --out FITTED.yaml first')
+    return spec
 
 
 def model_signals(fit: Any, data: Any) -> Dict[str, np.ndarray]:
@@ -522,16 +532,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from .compare import compare, score_line, summary_lines
     from .engine import model_travel
     from .leadins import lead_ins
-    from ..core.model_file import is_fitted, is_static_model
+    from ..core.model_file import is_static_model
     from .report import check_report_dir
     catalog = setup_effects(args)
     check_outputs_spare_data(args)
     if args.report:
         check_report_dir(args.report, args.force)
-    spec = read_model_spec(args.model, catalog)
-    if not is_fitted(spec):
-        raise UsageError(f'{args.model}: holds no fitted model (no "model" section); run '
-                         f'{PROG} fit DATA --out FITTED.yaml first')
+    spec = read_fitted_spec(args.model, catalog)
     loaded = load_checked_records(args, spec)
     names = ' '.join(all_data(args))
     first = loaded[0][1]
@@ -998,27 +1005,16 @@ def cmd_effects(args: argparse.Namespace) -> int:
 def cmd_excite(args: argparse.Namespace) -> int:
     """Run `sma-model excite`: write an identification excitation in the rig's time scale."""
     from ..core.excitation import rig_excitation
-    from ..core.identification import MAX_TAU_S
-    from .excite import design_lines, MAX_DURATION_S, write_bag, write_csv
-    if not args.tau_s <= MAX_TAU_S:
-        raise UsageError(f'--tau-s {args.tau_s:g} s is over {MAX_TAU_S:g} s, the largest '
-                         'time constant the fit takes')
-    if not args.duty_full <= 1:
-        raise UsageError(f'--duty-full {args.duty_full:g} is over 1 (the duty is 0-1)')
-    if not 10 * args.tau_s <= args.duration <= MAX_DURATION_S:
-        raise UsageError(f'--duration {args.duration:g} s is outside 10 x tau '
-                         f'({10 * args.tau_s:g} s) to {MAX_DURATION_S:g} s')
+    from ..core.model_file import check_writable
+    from .excite import design_lines, write_bag, write_csv
+    tau_s, duty_full, layout = _excite_design(args)
     out = Path(args.out)
-    if out.exists() and not args.force:
-        raise UsageError(f'{out}: exists; use --force to overwrite it')
-    if not out.parent.is_dir():
-        raise UsageError(f'{out}: directory {out.parent} does not exist')
+    csv_out = out.suffix.lower() == '.csv'
+    check_writable(out, args.force, directory=not csv_out)
     dt_s = 1.0 / args.rate
-    duty_a, duty_b = rig_excitation(args.duration, dt_s, args.tau_s, args.duty_full,
-                                    args.layout, args.seed)
-    lines = design_lines(args.duration, args.rate, args.tau_s, args.duty_full, args.layout,
-                         args.seed)
-    if out.suffix.lower() == '.csv':
+    duty_a, duty_b = rig_excitation(args.duration, dt_s, tau_s, duty_full, layout, args.seed)
+    lines = design_lines(args.duration, args.rate, tau_s, duty_full, layout, args.seed)
+    if csv_out:
         write_csv(out, duty_a, duty_b, dt_s, lines)
     else:
         write_bag(out, duty_a, duty_b, dt_s, overwrite=args.force)
@@ -1026,6 +1022,36 @@ def cmd_excite(args: argparse.Namespace) -> int:
         print(line)
     print(f'wrote {out}')
     return 0
+
+
+def _excite_design(args: argparse.Namespace) -> Tuple[float, float, str]:
+    """Return excite's (tau_s, duty_full, layout): the flags, else the --model file's."""
+    from ..core.identification import MAX_TAU_S
+    from ..core.model_file import is_static_model
+    from .excite import MAX_DURATION_S, model_design
+    tau_s, duty_full, layout = args.tau_s, args.duty_full, args.layout
+    if args.model:
+        spec = read_fitted_spec(args.model, None)   # effect names do not matter here
+        if is_static_model(spec):
+            raise UsageError(f'{args.model}: a static (curve) fit has no thermal time '
+                             'constant; give --tau-s and --duty-full')
+        design = model_design(spec, _fitted(args, spec).params)
+        for note in design[3]:
+            print(f'note: {note}')
+        tau_s = design[0] if tau_s is None else tau_s
+        duty_full = design[1] if duty_full is None else duty_full
+        layout = design[2] if layout is None else layout
+    elif tau_s is None or duty_full is None:
+        raise UsageError('give --tau-s and --duty-full, or --model FITTED.yaml')
+    if not tau_s <= MAX_TAU_S:
+        raise UsageError(f'tau {tau_s:g} s is over {MAX_TAU_S:g} s, the largest '
+                         'time constant the fit takes')
+    if not duty_full <= 1:
+        raise UsageError(f'--duty-full {duty_full:g} is over 1 (the duty is 0-1)')
+    if not 10 * tau_s <= args.duration <= MAX_DURATION_S:
+        raise UsageError(f'--duration {args.duration:g} s is outside 10 x tau '
+                         f'({10 * tau_s:g} s) to {MAX_DURATION_S:g} s')
+    return tau_s, duty_full, layout or 'antagonistic'
 
 
 # ------------------------------------------------------------------------------ parser
@@ -1131,13 +1157,16 @@ def build_parser() -> argparse.ArgumentParser:
                          "in the rig's own time: holds of 0.75-2.5 tau at six duties from "
                          '0.5 to 1 x --duty-full. OUT.csv: time,duty_a,duty_b for your own '
                          'logger; any other OUT: a bag of /sma/duty commands for `replay`.')
-    exc.add_argument('--tau-s', type=_positive_number, required=True, metavar='S',
+    exc.add_argument('--model', metavar='FITTED.yaml',
+                     help="take tau, the full-stroke duty and the layout from a fit's model "
+                     'file (the flags below override each)')
+    exc.add_argument('--tau-s', type=_positive_number, metavar='S',
                      help='thermal time constant of the wire [s] (the fitted tau_s)')
-    exc.add_argument('--duty-full', type=_positive_number, required=True, metavar='D',
+    exc.add_argument('--duty-full', type=_positive_number, metavar='D',
                      help='the duty that holds a wire at its full stroke (0-1)')
-    exc.add_argument('--layout', choices=('single', 'antagonistic'), default='antagonistic',
-                     help='single: one wire against a bias spring, duty_b 0 (default '
-                     'antagonistic: one wire of the pair heated at a time)')
+    exc.add_argument('--layout', choices=('single', 'antagonistic'),
+                     help='single: one wire against a bias spring, duty_b 0 (default: '
+                     "--model's, else antagonistic: one wire of the pair heated at a time)")
     exc.add_argument('--duration', type=_positive_number, default=480.0, metavar='S',
                      help='length of the record [s] (default 480: 8 minutes)')
     exc.add_argument('--rate', type=_positive_float, default=40.0, metavar='HZ',

@@ -18,13 +18,14 @@
 `core.excitation.rig_excitation` in the rig's own time constant, written as a CSV
 (``time,duty_a,duty_b``, for a rig's own logger) or as a bag of ``/sma/duty`` commands that
 the `replay` node plays to `hardware_bridge` while `recorder` records the run
-(docs/workbench.md, "Recording a rig for the workbench").
+(docs/workbench.md, "Recording a rig for the workbench"). `model_design` takes the design's
+τ, full-stroke duty and layout from a fitted model file.
 """
 from __future__ import annotations
 
 from pathlib import Path
 import time
-from typing import Sequence
+from typing import Any, List, Mapping, Sequence, Tuple
 
 import numpy as np
 
@@ -32,6 +33,50 @@ from ..core.excitation import HOLD_TAUS, LEVEL_FRACTIONS
 
 #: Longest excitation written [s] (a day).
 MAX_DURATION_S = 86_400.0
+#: Share of the model's largest contraction y_max that counts as the full stroke (at y_max
+#: itself the inverse sits on the saturation corner, where any hotter wire also fits).
+FULL_STROKE_SHARE = 0.98
+
+
+def full_stroke_duty(params: Any) -> float:
+    """
+    Return the steady duty that holds wire a at `FULL_STROKE_SHARE` x y_max (0-1).
+
+    The controller's inverse (`InverseFeedforward.duties`, steps 1-4) of the model at the
+    angle φ0 + g y (step 4, wire b cold), with the wire already there: no latent heat
+    on top. 1 when the model needs more than full duty.
+    """
+    from ..control.feedforward import InverseFeedforward
+    y_full = FULL_STROKE_SHARE * params.hysteresis.output_range()[1]
+    angle = params.offset_rad + params.stroke_rad * y_full
+    (duty_a, _), _ = InverseFeedforward(params).duties(angle, contraction=(y_full, 0.0))
+    return duty_a
+
+
+def model_design(spec: Mapping[str, Any], params: Any) -> Tuple[float, float, str, List[str]]:
+    """
+    Return (tau_s, duty_full, layout, notes) of a fitted model file's dict and parameters.
+
+    τ = C / hA (eq. 7) of the fit; the layout the file records (default antagonistic).
+    The full-stroke duty is the model's (`full_stroke_duty`) when the fit's records heat
+    at several duty levels; when they heat at one, the heating law is not identified, the
+    model's full-stroke duty is an extrapolation, and the records' own level is taken:
+    the excitation then holds 0.5-1 x the level the records show the wire moving at.
+    """
+    notes = []
+    levels = spec.get('duty_levels') if isinstance(spec.get('duty_levels'), dict) else {}
+    profile = spec.get('tau_profile') if isinstance(spec.get('tau_profile'), dict) else {}
+    if profile.get('identified') is False:
+        notes.append(f"tau {params.tau_s:.3g} s is not identified by the fit's records "
+                     '(tau_profile); the holds may be too short or too long')
+    level = levels.get('level')
+    if levels.get('one_level') and isinstance(level, (int, float)) and 0 < level <= 1:
+        duty_full = float(level)
+        notes.append(f"the fit's records heat at one duty level ({duty_full:.3g}): the "
+                     'heating law is not identified, so --duty-full is that level')
+    else:
+        duty_full = full_stroke_duty(params)
+    return float(params.tau_s), duty_full, str(spec.get('layout', 'antagonistic')), notes
 
 
 def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: float,
@@ -43,7 +88,7 @@ def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: flo
              else 'an antagonistic pair, one wire heated at a time')
     return [f'identification excitation: {duration_s:g} s at {rate_hz:g} Hz for {wires}',
             f'holds of {hold_lo:.3g}-{hold_hi:.3g} s ({HOLD_TAUS[0]:g}-{HOLD_TAUS[1]:g} x tau '
-            f'{tau_s:g} s) at duties {duties} or 0, seed {seed}',
+            f'{tau_s:.3g} s) at duties {duties} or 0, seed {seed}',
             'time in s; duty_a, duty_b PWM duty 0-1, held until the next row']
 
 
