@@ -88,8 +88,17 @@ def test_rig_excitation_for_one_wire_heats_wire_a_only():
     np.testing.assert_array_equal(a, np.maximum(*pair))
 
 
+def test_rig_excitation_holds_wire_b_at_its_own_full_stroke_duty():
+    a, b = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, seed=4)
+    a2, b2 = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, seed=4, duty_full_b=0.3)
+    np.testing.assert_array_equal(a2, a)
+    np.testing.assert_allclose(b2, 0.6 * b)
+    assert b2.max() == pytest.approx(0.3)
+
+
 @pytest.mark.parametrize('bad', [{'tau_s': 0.0}, {'tau_s': float('nan')},
                                  {'duty_full': 1.5}, {'duty_full': 0.0},
+                                 {'duty_full_b': 1.2}, {'duty_full_b': float('nan')},
                                  {'layout': 'triple'}])
 def test_rig_excitation_rejects_bad_arguments(bad):
     args = {'duration_s': 60.0, 'dt': 0.025, 'tau_s': 2.0, 'duty_full': 0.5, **bad}

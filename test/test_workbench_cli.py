@@ -286,14 +286,20 @@ def test_excite_writes_a_csv_in_the_rigs_time_and_a_bag_that_ends_cold(tmp_path,
 
 @pytest.mark.parametrize('changes', [{}, {'latent_heat_k': 10.0, 'stress_k': 5.0,
                                           'duty_limit': 0.5, 'duty_limit_sharpness': 4.0,
-                                          'convection_exponent': 0.3}])
-def test_full_stroke_duty_holds_the_wire_at_its_full_stroke(changes):
+                                          'convection_exponent': 0.3},
+                                     {'gain_ratio_b': 1.4, 'stroke_ratio_b': 0.8}])
+@pytest.mark.parametrize('wire', [0, 1])
+def test_full_stroke_duty_holds_the_wire_at_its_full_stroke(changes, wire):
     from sma_actuator.workbench.excite import FULL_STROKE_SHARE, full_stroke_duty
     params = ActuatorParams().with_changes(**changes)
-    duty = full_stroke_duty(params)
+    duty = full_stroke_duty(params, wire)
     y_max = params.hysteresis.output_range()[1]
-    held = [simulate(params, np.full(8000, f * duty), np.zeros(8000), DT).y_a[-1] / y_max
-            for f in (0.9, 1.0)]
+    held = []
+    for f in (0.9, 1.0):
+        duties = [np.zeros(8000), np.zeros(8000)]
+        duties[wire] += f * duty
+        trajectory = simulate(params, *duties, DT)
+        held.append((trajectory.y_a, trajectory.y_b)[wire][-1] / y_max)
     assert 0 < duty < 1 and held[0] < FULL_STROKE_SHARE - 0.1
     assert held[1] == pytest.approx(FULL_STROKE_SHARE, abs=0.005)
 
@@ -322,6 +328,13 @@ def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
     assert cli.main(args + ['--duty-full', '0.4', '--layout', 'antagonistic']) == 0
     _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
     assert duty_a.max() == pytest.approx(0.4) and duty_b.max() == pytest.approx(0.4)
+    unequal = params.with_changes(gain_ratio_b=1.4)
+    save_model(unequal, model)
+    assert cli.main(['excite', '--model', str(model), '--out', str(out), '--force']) == 0
+    assert '(wire b: ' in capsys.readouterr().out
+    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    assert duty_b.max() == pytest.approx(full_stroke_duty(unequal, 1), abs=1e-4)
+    assert duty_a.max() / duty_b.max() == pytest.approx(1.4, abs=0.01)
 
 
 def test_compare_of_a_static_model_on_dynamic_data_is_refused(tmp_path, capsys):

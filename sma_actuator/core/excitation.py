@@ -23,7 +23,7 @@ other wire cold; some segments step down or up within the same wire (minor loops
 """
 from __future__ import annotations
 
-from typing import Sequence, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -62,7 +62,8 @@ HOLD_TAUS = (0.75, 2.5)
 
 
 def rig_excitation(duration_s: float, dt: float, tau_s: float, duty_full: float,
-                   layout: str = 'antagonistic', seed: int = 0) -> Tuple[np.ndarray, np.ndarray]:
+                   layout: str = 'antagonistic', seed: int = 0,
+                   duty_full_b: Optional[float] = None) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return (duty_a, duty_b) for an identification record of a rig, in its own time scale.
 
@@ -71,11 +72,13 @@ def rig_excitation(duration_s: float, dt: float, tau_s: float, duty_full: float,
     its full stroke): each hold lets the temperature settle near one of six steady values
     θa + G d, so the record shows the heating law at several duties and minor loops from
     both branches. layout 'single' (one wire against a bias spring): every segment on wire
-    a, duty_b 0.
+    a, duty_b 0. duty_full_b: wire b's full-stroke duty when it differs from wire a's
+    (unequal wires, G_b = G r_G); wire b then holds the same fractions of it.
     """
     tau_s, duty_full = finite_scalar('tau_s', tau_s), finite_scalar('duty_full', duty_full)
-    if tau_s <= 0 or not 0 < duty_full <= 1:
-        raise ValueError('tau_s must be positive and duty_full in (0, 1]')
+    full_b = duty_full if duty_full_b is None else finite_scalar('duty_full_b', duty_full_b)
+    if tau_s <= 0 or not (0 < duty_full <= 1 and 0 < full_b <= 1):
+        raise ValueError('tau_s must be positive and duty_full, duty_full_b in (0, 1]')
     if layout not in ('antagonistic', 'single'):
         raise ValueError(f"layout must be 'antagonistic' or 'single', got {layout!r}")
     levels = tuple(duty_full * f for f in LEVEL_FRACTIONS)
@@ -83,4 +86,4 @@ def rig_excitation(duration_s: float, dt: float, tau_s: float, duty_full: float,
                                 HOLD_TAUS[1] * tau_s)
     if layout == 'single':
         return np.maximum(duty_a, duty_b), np.zeros_like(duty_b)
-    return duty_a, duty_b
+    return duty_a, duty_b * (full_b / duty_full)

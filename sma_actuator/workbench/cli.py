@@ -1007,13 +1007,15 @@ def cmd_excite(args: argparse.Namespace) -> int:
     from ..core.excitation import rig_excitation
     from ..core.model_file import check_writable
     from .excite import design_lines, write_bag, write_csv
-    tau_s, duty_full, layout = _excite_design(args)
+    tau_s, (full_a, full_b), layout = _excite_design(args)
     out = Path(args.out)
     csv_out = out.suffix.lower() == '.csv'
     check_writable(out, args.force, directory=not csv_out)
     dt_s = 1.0 / args.rate
-    duty_a, duty_b = rig_excitation(args.duration, dt_s, tau_s, duty_full, layout, args.seed)
-    lines = design_lines(args.duration, args.rate, tau_s, duty_full, layout, args.seed)
+    duty_a, duty_b = rig_excitation(args.duration, dt_s, tau_s, full_a, layout, args.seed,
+                                    duty_full_b=full_b)
+    lines = design_lines(args.duration, args.rate, tau_s, full_a, layout, args.seed,
+                         duty_full_b=full_b)
     if csv_out:
         write_csv(out, duty_a, duty_b, dt_s, lines)
     else:
@@ -1024,12 +1026,13 @@ def cmd_excite(args: argparse.Namespace) -> int:
     return 0
 
 
-def _excite_design(args: argparse.Namespace) -> Tuple[float, float, str]:
-    """Return excite's (tau_s, duty_full, layout): the flags, else the --model file's."""
+def _excite_design(args: argparse.Namespace) -> Tuple[float, Tuple[float, float], str]:
+    """Return excite's (tau_s, (duty_full_a, duty_full_b), layout): the flags, else --model's."""
     from ..core.identification import MAX_TAU_S
     from ..core.model_file import is_static_model
     from .excite import MAX_DURATION_S, model_design
-    tau_s, duty_full, layout = args.tau_s, args.duty_full, args.layout
+    tau_s, layout = args.tau_s, args.layout
+    duty_full = None if args.duty_full is None else (args.duty_full, args.duty_full)
     if args.model:
         spec = read_fitted_spec(args.model, None)   # effect names do not matter here
         if is_static_model(spec):
@@ -1046,8 +1049,8 @@ def _excite_design(args: argparse.Namespace) -> Tuple[float, float, str]:
     if not tau_s <= MAX_TAU_S:
         raise UsageError(f'tau {tau_s:g} s is over {MAX_TAU_S:g} s, the largest '
                          'time constant the fit takes')
-    if not duty_full <= 1:
-        raise UsageError(f'--duty-full {duty_full:g} is over 1 (the duty is 0-1)')
+    if not max(duty_full) <= 1:
+        raise UsageError(f'--duty-full {max(duty_full):g} is over 1 (the duty is 0-1)')
     if not 10 * tau_s <= args.duration <= MAX_DURATION_S:
         raise UsageError(f'--duration {args.duration:g} s is outside 10 x tau '
                          f'({10 * tau_s:g} s) to {MAX_DURATION_S:g} s')

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from pathlib import Path
 import time
-from typing import Any, List, Mapping, Sequence, Tuple
+from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -38,30 +38,37 @@ MAX_DURATION_S = 86_400.0
 FULL_STROKE_SHARE = 0.98
 
 
-def full_stroke_duty(params: Any) -> float:
+def full_stroke_duty(params: Any, wire: int = 0) -> float:
     """
-    Return the steady duty that holds wire a at `FULL_STROKE_SHARE` x y_max (0-1).
+    Return the steady duty that holds a wire at `FULL_STROKE_SHARE` x y_max (0-1).
 
     The controller's inverse (`InverseFeedforward.duties`, steps 1-4) of the model at the
-    angle φ0 + g y (step 4, wire b cold), with the wire already there: no latent heat
-    on top. 1 when the model needs more than full duty.
+    angle φ0 + g y (wire a, wire b cold) or φ0 − g s_b y (wire b, wire a cold), with the
+    wire already there: no latent heat on top. 1 when the model needs more than full duty.
+    wire: 0 for wire a, 1 for wire b.
     """
     from ..control.feedforward import InverseFeedforward
     y_full = FULL_STROKE_SHARE * params.hysteresis.output_range()[1]
-    angle = params.offset_rad + params.stroke_rad * y_full
-    (duty_a, _), _ = InverseFeedforward(params).duties(angle, contraction=(y_full, 0.0))
-    return duty_a
+    ratio = params.stroke_ratio_b if params.stroke_ratio_b > 0 else 1.0
+    move = y_full if wire == 0 else -ratio * y_full
+    contraction = (y_full, 0.0) if wire == 0 else (0.0, y_full)
+    angle = params.offset_rad + params.stroke_rad * move
+    duties, _ = InverseFeedforward(params).duties(angle, contraction=contraction)
+    return duties[wire]
 
 
-def model_design(spec: Mapping[str, Any], params: Any) -> Tuple[float, float, str, List[str]]:
+def model_design(spec: Mapping[str, Any],
+                 params: Any) -> Tuple[float, Tuple[float, float], str, List[str]]:
     """
-    Return (tau_s, duty_full, layout, notes) of a fitted model file's dict and parameters.
+    Return (tau_s, (duty_full_a, duty_full_b), layout, notes) of a fitted model file.
 
-    τ = C / hA (eq. 7) of the fit; the layout the file records (default antagonistic).
-    The full-stroke duty is the model's (`full_stroke_duty`) when the fit's records heat
-    at several duty levels; when they heat at one, the heating law is not identified, the
-    model's full-stroke duty is an extrapolation, and the records' own level is taken:
-    the excitation then holds 0.5-1 x the level the records show the wire moving at.
+    spec: the file's dict; params: its `ActuatorParams`. τ = C / hA (eq. 7) of the fit;
+    the layout the file records (default antagonistic). The full-stroke duty of each
+    wire is the model's (`full_stroke_duty`; unequal wires differ) when the fit's records
+    heat at several duty levels; when they heat at one, the heating law is not
+    identified, the model's full-stroke duty is an extrapolation, and the records' own
+    level is taken for both wires: the excitation then holds 0.5-1 x the level the records
+    show the wire moving at.
     """
     notes = []
     levels = spec.get('duty_levels') if isinstance(spec.get('duty_levels'), dict) else {}
@@ -69,21 +76,26 @@ def model_design(spec: Mapping[str, Any], params: Any) -> Tuple[float, float, st
     if profile.get('identified') is False:
         notes.append(f"tau {params.tau_s:.3g} s is not identified by the fit's records "
                      '(tau_profile); the holds may be too short or too long')
+    layout = str(spec.get('layout', 'antagonistic'))
     level = levels.get('level')
     if levels.get('one_level') and isinstance(level, (int, float)) and 0 < level <= 1:
-        duty_full = float(level)
-        notes.append(f"the fit's records heat at one duty level ({duty_full:.3g}): the "
+        duty_full = (float(level), float(level))
+        notes.append(f"the fit's records heat at one duty level ({level:.3g}): the "
                      'heating law is not identified, so --duty-full is that level')
     else:
-        duty_full = full_stroke_duty(params)
-    return float(params.tau_s), duty_full, str(spec.get('layout', 'antagonistic')), notes
+        duty_a = full_stroke_duty(params)
+        duty_full = (duty_a, duty_a if layout == 'single' else full_stroke_duty(params, 1))
+    return float(params.tau_s), duty_full, layout, notes
 
 
 def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: float,
-                 layout: str, seed: int) -> Sequence[str]:
+                 layout: str, seed: int, duty_full_b: Optional[float] = None) -> Sequence[str]:
     """Return the lines that describe an excitation (the CSV's comment lines, stdout)."""
     hold_lo, hold_hi = (f * tau_s for f in HOLD_TAUS)
     duties = ', '.join(f'{duty_full * f:.3g}' for f in LEVEL_FRACTIONS)
+    if layout != 'single' and duty_full_b is not None and duty_full_b != duty_full:
+        duties_b = ', '.join(f'{duty_full_b * f:.3g}' for f in LEVEL_FRACTIONS)
+        duties = f'{duties} (wire b: {duties_b})'
     wires = ('one wire against a bias spring (duty_b 0)' if layout == 'single'
              else 'an antagonistic pair, one wire heated at a time')
     return [f'identification excitation: {duration_s:g} s at {rate_hz:g} Hz for {wires}',
