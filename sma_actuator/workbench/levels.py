@@ -65,7 +65,8 @@ class DutyLevels:
                 f'the heated time at duty {self.level:.3g} ± {self.tolerance:.2g}): a heat '
                 'loss or heating power that is not linear (convection, current_limit) is not '
                 'identified, and other duty levels are extrapolated; fit with a record that '
-                'holds two or three other duty levels (a staircase)')
+                'holds two or three other duty levels (a staircase; `sma-model excite '
+                '--model FITTED.yaml` writes its duty sequence)')
 
 
 def heated_duties(data: DynamicData, split: Optional[Split] = None) -> np.ndarray:
