@@ -615,9 +615,9 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
         named = typical_pass(data, base, list(entries.values()), min_improvement)
         if named:
             diag = rank_candidates(base, list(entries.values()), 'typical_gain')
-    # a named effect has beaten its counterfactual (the base refitted on its grid) already
-    better = (better_base(base, list(entries.values()), min_improvement)
-              if rebase > 0 and diag.missing_effect is None else None)
+    better = (better_base(base, list(entries.values()), min_improvement,
+                          named=entries.get(diag.missing_effect))
+              if rebase > 0 else None)
     if better is not None:
         refit, why = better
         diag = diagnose(data, refit, candidates, progress, min_improvement, kind, jobs, mapper,
@@ -772,7 +772,8 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
     return named
 
 
-def better_base(base: ModelFit, entries: list, min_improvement: float) -> Optional[tuple]:
+def better_base(base: ModelFit, entries: list, min_improvement: float,
+                named: Optional[dict] = None) -> Optional[tuple]:
     """
     Return (a better fit of the base model, why) from the candidates' counterfactuals, or None.
 
@@ -781,7 +782,10 @@ def better_base(base: ModelFit, entries: list, min_improvement: float) -> Option
     `min_improvement` (training RMSE, the fit's own objective) and is no worse held out, the
     base's own fit sat in a poor minimum: with two effects missing, a fit that lacks both can
     end far from its best. Candidates judged against such a base are judged against the
-    wrong reference, so diagnose starts again from the better fit.
+    wrong reference, so diagnose starts again from the better fit. named: the entry of the
+    effect named against the base; it has beaten its own counterfactual, so the better fit
+    must also beat it held out (the base without any effect predicting better than the
+    named effect: the gain was the base's poor minimum, not the effect).
     """
     refits = [(c['base_refit'], c['effect']) for c in entries if c.get('base_refit') is not None]
     if not refits:
@@ -790,6 +794,8 @@ def better_base(base: ModelFit, entries: list, min_improvement: float) -> Option
     t0, t1 = base.train['rmse'], refit.train['rmse']
     v0, v1 = base.validation['nrmse'], refit.validation['nrmse']
     if t1 > (1.0 - min_improvement) * t0 or v1 > v0:
+        return None
+    if named is not None and not v1 < named.get('validation_nrmse', -np.inf):
         return None
     return refit, (f'the base model refitted from where the {name} refit ended fits better '
                    f'(training NRMSE {100 * base.train["nrmse"]:.2f} % -> '
