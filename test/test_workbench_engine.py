@@ -451,7 +451,7 @@ def test_a_gain_from_a_few_moving_held_out_stretches_is_not_an_effect():
 
 @pytest.fixture(scope='module')
 def poor_base():
-    """A record of the paper's model and a poor fit of it (a fit stuck in a wrong minimum)."""
+    """Return a record of the paper's model and a poor fit of it (stuck in a wrong minimum)."""
     data = record(act.ActuatorParams(), seconds=240.0, seed=9)
     # the paper's model fitted to a rig 8 K warmer: a poor fit of this one, as a fit stuck
     # in a wrong minimum would be

@@ -59,8 +59,9 @@ the base can sit so far from the data that a warm refit stays in its basin. A ba
 already fits its training window to within the noise (`at_noise`) has no such basin: the
 second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
-in training RMSE and no worse held out, the base's own fit sat in a poor minimum: the
-diagnosis starts again from that fit (`better_base`, `Diagnosis.refitted` says so).
+in training RMSE and no worse held out (and, when an effect is named, better held out than
+the named effect's model), the base's own fit sat in a poor minimum: the diagnosis starts
+again from that fit (`better_base`, `Diagnosis.refitted` says so).
 When still nothing is named and the base is short of the noise, check 1 is taken once more
 on the typical held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS` blocks
 of held-out time, against the base and against the counterfactual. One excursion beyond the
