@@ -42,19 +42,29 @@ def full_stroke_duty(params: Any, wire: int = 0) -> float:
     """
     Return the steady duty that holds a wire at `FULL_STROKE_SHARE` x y_max (0-1).
 
-    The controller's inverse (`InverseFeedforward.duties`, steps 1-4) of the model at the
-    angle φ0 + g y (wire a, wire b cold) or φ0 − g s_b y (wire b, wire a cold), with the
-    wire already there: no latent heat on top. 1 when the model needs more than full duty.
-    wire: 0 for wire a, 1 for wire b.
+    Bisection on the duty d of the model's own forward simulation (`core.actuator.simulate`,
+    every effect of the fit): the wire's contraction after 30 τ at d from cold rises with
+    d (the heating branch of the loop). 1 when the model needs more than full duty.
+    wire: 0 for wire a, 1 for wire b (the other wire cold).
     """
-    from ..control.feedforward import InverseFeedforward
+    from ..core.actuator import simulate
     y_full = FULL_STROKE_SHARE * params.hysteresis.output_range()[1]
-    ratio = params.stroke_ratio_b if params.stroke_ratio_b > 0 else 1.0
-    move = y_full if wire == 0 else -ratio * y_full
-    contraction = (y_full, 0.0) if wire == 0 else (0.0, y_full)
-    angle = params.offset_rad + params.stroke_rad * move
-    duties, _ = InverseFeedforward(params).duties(angle, contraction=contraction)
-    return duties[wire]
+    tau_s = params.tau_s * (params.tau_ratio_b if wire else 1.0)
+    steps, dt_s = 1200, tau_s / 40.0
+
+    def held(duty: float) -> float:
+        duties = [np.zeros(steps), np.zeros(steps)]
+        duties[wire] += duty
+        trajectory = simulate(params, *duties, dt_s)
+        return float((trajectory.y_a, trajectory.y_b)[wire][-1])
+
+    if held(1.0) < y_full:
+        return 1.0
+    lo, hi = 0.0, 1.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if held(mid) >= y_full else (mid, hi)
+    return hi
 
 
 def model_design(spec: Mapping[str, Any],
