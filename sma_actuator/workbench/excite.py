@@ -33,8 +33,8 @@ from ..core.excitation import HOLD_TAUS, LEVEL_FRACTIONS
 
 #: Longest excitation written [s] (a day).
 MAX_DURATION_S = 86_400.0
-#: Share of the model's largest contraction y_max that counts as the full stroke (at y_max
-#: itself the inverse sits on the saturation corner, where any hotter wire also fits).
+#: Share of the model's largest contraction y_max that counts as the full stroke (y_max
+#: itself is reached only at the saturation corner, beyond which any hotter wire holds it).
 FULL_STROKE_SHARE = 0.98
 
 
