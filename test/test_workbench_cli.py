@@ -304,6 +304,11 @@ def test_full_stroke_duty_holds_the_wire_at_its_full_stroke(changes, wire):
     assert held[1] == pytest.approx(FULL_STROKE_SHARE, abs=0.005)
 
 
+def excite_duties(path):
+    """Return the (duty_a, duty_b) columns of an excitation CSV `sma-model excite` wrote."""
+    return np.loadtxt(path, delimiter=',', comments='#', skiprows=4)[:, 1:].T
+
+
 def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
     from sma_actuator.core.model_file import save_model
     from sma_actuator.workbench.excite import full_stroke_duty
@@ -312,7 +317,7 @@ def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
     out = tmp_path / 'e.csv'
     assert cli.main(['excite', '--model', str(model), '--out', str(out)]) == 0
     assert f'x tau {params.tau_s:.3g} s' in capsys.readouterr().out
-    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    duty_a, duty_b = excite_duties(out)
     assert duty_a.max() == pytest.approx(full_stroke_duty(params), abs=1e-4)
     assert duty_b.max() == pytest.approx(duty_a.max())
     spec = yaml.safe_load(model.read_text())
@@ -323,16 +328,16 @@ def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
     assert cli.main(args) == 0
     notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith('note:')]
     assert 'one duty level (0.3)' in notes[1] and 'is not identified' in notes[0]
-    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    duty_a, duty_b = excite_duties(out)
     assert duty_a.max() == pytest.approx(0.3) and not duty_b.any()
     assert cli.main(args + ['--duty-full', '0.4', '--layout', 'antagonistic']) == 0
-    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    duty_a, duty_b = excite_duties(out)
     assert duty_a.max() == pytest.approx(0.4) and duty_b.max() == pytest.approx(0.4)
     unequal = params.with_changes(gain_ratio_b=1.4)
     save_model(unequal, model)
     assert cli.main(['excite', '--model', str(model), '--out', str(out), '--force']) == 0
     assert '(wire b: ' in capsys.readouterr().out
-    _, duty_a, duty_b = np.loadtxt(out, delimiter=',', comments='#', skiprows=4).T
+    duty_a, duty_b = excite_duties(out)
     assert duty_b.max() == pytest.approx(full_stroke_duty(unequal, 1), abs=1e-4)
     assert duty_a.max() / duty_b.max() == pytest.approx(1.4, abs=0.01)
 

@@ -28,6 +28,7 @@ import time
 from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+from scipy.optimize import brentq
 
 from ..core.excitation import HOLD_TAUS, LEVEL_FRACTIONS
 
@@ -42,9 +43,10 @@ def full_stroke_duty(params: Any, wire: int = 0) -> float:
     """
     Return the steady duty that holds a wire at `FULL_STROKE_SHARE` x y_max (0-1).
 
-    Bisection on the duty d of the model's own forward simulation (`core.actuator.simulate`,
-    every effect of the fit): the wire's contraction after 30 τ at d from cold rises with
-    d (the heating branch of the loop). 1 when the model needs more than full duty.
+    The root in d of held(d) - FULL_STROKE_SHARE y_max (Brent's method), where held(d) is
+    the wire's contraction after 30 τ at duty d from cold in the model's own forward
+    simulation (`core.actuator.simulate`, every effect of the fit); held rises with d
+    (the heating branch of the loop). 1 when the model needs more than full duty.
     wire: 0 for wire a, 1 for wire b (the other wire cold).
     """
     from ..core.actuator import simulate
@@ -52,19 +54,15 @@ def full_stroke_duty(params: Any, wire: int = 0) -> float:
     tau_s = params.tau_s * (params.tau_ratio_b if wire else 1.0)
     steps, dt_s = 1200, tau_s / 40.0
 
-    def held(duty: float) -> float:
+    def shortfall(duty: float) -> float:
         duties = [np.zeros(steps), np.zeros(steps)]
         duties[wire] += duty
         trajectory = simulate(params, *duties, dt_s)
-        return float((trajectory.y_a, trajectory.y_b)[wire][-1])
+        return float((trajectory.y_a, trajectory.y_b)[wire][-1]) - y_full
 
-    if held(1.0) < y_full:
+    if shortfall(1.0) < 0.0:
         return 1.0
-    lo, hi = 0.0, 1.0
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if held(mid) >= y_full else (mid, hi)
-    return hi
+    return float(brentq(shortfall, 0.0, 1.0, xtol=1e-9))
 
 
 def model_design(spec: Mapping[str, Any],
