@@ -108,6 +108,23 @@ def test_streaming_step_equals_batch_simulate():
     np.testing.assert_allclose(stream[:-1], fine.position_rad[sub::sub], atol=1e-9)
 
 
+def test_strided_and_read_only_arrays_reuse_the_compiled_kernel_and_give_the_same_output():
+    da, db = duty_pattern(400, 0.025)
+    ambient = 21.0 + 0.01 * np.arange(400.0)
+    r, lo, hi = np.array([[0.5, 40.0, 70.0], [2.0, 35.0, 75.0], [4.0, 30.0, 80.0]]).T
+    params = act.ActuatorParams(latent_heat_k=2.0).with_changes(
+        hysteresis=PlayHysteresis(r, lo, hi, np.array([0.3, 0.4, 0.3])))
+    plain = run(params, da.copy(), db.copy(), 0.025, ambient_c=ambient.copy())
+    compiled = set(act.simulate_wires.signatures)
+    columns = np.stack([da, db, ambient], axis=1)   # each column a strided view
+    read_only = ambient.copy()
+    read_only.flags.writeable = False
+    for amb in (columns[:, 2], read_only, np.broadcast_to(ambient, (400,))):
+        other = run(params, columns[:, 0], columns[:, 1], 0.025, ambient_c=amb)
+        np.testing.assert_array_equal(other.position_rad, plain.position_rad)
+    assert set(act.simulate_wires.signatures) == compiled
+
+
 def run(params, da, db, dt=0.05, **kw):
     """Batch simulation shortcut."""
     return act.simulate(params, da, db, dt, **kw)

@@ -62,6 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .hysteresis import PlayHysteresis
+from .kernels import kernel_array
 from .thermal import on_current_a, thermal_step, time_constant_s
 from .validate import finite_array, finite_scalar
 
@@ -572,6 +573,12 @@ def kernel_hysteresis(h: PlayHysteresis) -> KernelHysteresis:
     return h.r, h.lo, h.hi, h.w, h.k1, h.y0
 
 
+def kernel_inputs(duty_a: ArrayLike, duty_b: ArrayLike, ambient_c: ArrayLike,
+                  disturbance_k: ArrayLike) -> KernelInputs:
+    """Return the inputs argument of `simulate_wires`, each a `kernels.kernel_array`."""
+    return tuple(map(kernel_array, (duty_a, duty_b, ambient_c, disturbance_k)))
+
+
 def initial_state(params: ActuatorParams, theta_c: Optional[float] = None) -> np.ndarray:
     """
     Return the kernel state at rest (STATE_* layout).
@@ -721,7 +728,8 @@ def simulate(params: ActuatorParams, duty_a: ArrayLike, duty_b: ArrayLike, dt: f
     dist = (np.zeros(n) if disturbance_k is None
             else finite_array('disturbance_k', np.broadcast_to(disturbance_k, (n,))))
     st = initial_state(params) if state is None else state
-    ya, yb, ta, tb = simulate_wires((duty_a, duty_b, amb, dist), dt, params.kernel_vector(),
+    ya, yb, ta, tb = simulate_wires(kernel_inputs(duty_a, duty_b, amb, dist), dt,
+                                    params.kernel_vector(),
                                     kernel_hysteresis(params.hysteresis), st, NO_FEATURES)
     phi = shaft_angle(params, ya, yb, transformation_cycles(ya), transformation_cycles(yb))
     phi = sensor_polynomial(params, phi)

@@ -54,10 +54,10 @@ class PlayHysteresis:
 
     def __init__(self, r: ArrayLike, lo: ArrayLike, hi: ArrayLike, w: ArrayLike,
                  k1: float = 0.0, y0: float = 0.0):
-        self.r = non_negative_array('r (play half-widths)', r)
-        self.lo = np.asarray(lo, dtype=float)
-        self.hi = np.asarray(hi, dtype=float)
-        self.w = finite_array('w (weights)', w, min_len=0)
+        self.r = kernels.kernel_array(non_negative_array('r (play half-widths)', r))
+        self.lo = kernels.kernel_array(lo)
+        self.hi = kernels.kernel_array(hi)
+        self.w = kernels.kernel_array(finite_array('w (weights)', w, min_len=0))
         same_length(r=self.r, lo=self.lo, hi=self.hi, w=self.w)
         if np.isnan(self.lo).any() or np.isnan(self.hi).any():
             raise ValueError('lo/hi (saturation bands) contain NaN')
@@ -108,15 +108,17 @@ class PlayHysteresis:
 
     def features(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
         """Return the element states over a batch, shape (n, N): least-squares regressors."""
-        u = finite_array('u', u)
-        s0 = self.initial_state(u[0]) if s0 is None else finite_array('s0', s0)
+        u = kernels.kernel_array(finite_array('u', u))
+        s0 = kernels.kernel_array(self.initial_state(u[0]) if s0 is None
+                                  else finite_array('s0', s0))
         out, _ = kernels.play_features(u, self.r, self.lo, self.hi, s0)
         return out
 
     def simulate(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
         """Return the output for an input sequence, from the reset state at u[0] (or s0)."""
-        u = finite_array('u', u)
-        s0 = self.initial_state(u[0]) if s0 is None else finite_array('s0', s0)
+        u = kernels.kernel_array(finite_array('u', u))
+        s0 = kernels.kernel_array(self.initial_state(u[0]) if s0 is None
+                                  else finite_array('s0', s0))
         y, _ = kernels.play_output(u, self.r, self.lo, self.hi, self.w, self.k1, self.y0, s0)
         return y
 

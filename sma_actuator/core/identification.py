@@ -366,8 +366,8 @@ class _Problem:
         ua, ub = np.empty(len(at)), np.empty(len(at))
         st = act.initial_state(params.with_changes(hysteresis=ref))
         da, db, amb = self.inputs(values or {})
-        ya, yb, _, _ = act.simulate_wires((da[:n], db[:n], amb[:n], np.zeros(n)), d.dt,
-                                          params.kernel_vector(),
+        inputs = act.kernel_inputs(da[:n], db[:n], amb[:n], np.zeros(n))
+        ya, yb, _, _ = act.simulate_wires(inputs, d.dt, params.kernel_vector(),
                                           (g.r, g.lo, g.hi, ref.w, ref.k1, ref.y0), st,
                                           (fa, fb, ua, ub, at.start, max(at.step, 1)))
         sb = params.stroke_ratio_b
@@ -400,7 +400,7 @@ class _Problem:
         X[:, -1] = 1.0
         if params.delay_s > 0:
             # act.delay_signal of every column, evaluated at the regression rows only
-            X = kernels.delayed_rows(X, np.arange(n)[rows], params.delay_s / d.dt)
+            X = kernels.delayed_rows(X, np.arange(n)[rows].copy(), params.delay_s / d.dt)
         return X, state_lo, state_hi
 
     def free_run_error(self, params: act.ActuatorParams, values: dict,
@@ -540,8 +540,8 @@ def narrow_bands(params: act.ActuatorParams, duty_a: np.ndarray, duty_b: np.ndar
     if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()) or n == 0:
         return params
     fa, fb = np.empty((n, h.n_operators)), np.empty((n, h.n_operators))
-    act.simulate_wires((np.asarray(duty_a, float), np.asarray(duty_b, float),
-                        np.asarray(ambient, float), np.zeros(n)), dt, params.kernel_vector(),
+    act.simulate_wires(act.kernel_inputs(duty_a, duty_b, ambient, np.zeros(n)), dt,
+                       params.kernel_vector(),
                        act.kernel_hysteresis(h), act.initial_state(params),
                        (fa, fb, np.empty(n), np.empty(n), 0, 1))
     lo, hi = _state_range(fa, fb)

@@ -35,6 +35,17 @@ from numba import njit
 import numpy as np
 
 
+def kernel_array(x: np.ndarray) -> np.ndarray:
+    """
+    Return `x` as a C-contiguous, writable float64 array (a copy only if it is not one).
+
+    numba compiles a kernel once per array type it is called with, and a strided view (a
+    CSV column, a decimated record) or a read-only one (a broadcast ambient, a bag's buffer)
+    is another type: every kernel argument passes through here, so each compiles once.
+    """
+    return np.require(x, dtype=np.float64, requirements=('C', 'W'))
+
+
 @njit(cache=True, fastmath=False)
 def play_features(u: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                   s0: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
