@@ -400,7 +400,7 @@ class _Problem:
         X[:, -1] = 1.0
         if params.delay_s > 0:
             # act.delay_signal of every column, evaluated at the regression rows only
-            X = kernels.delayed_rows(X, np.arange(n)[rows].copy(), params.delay_s / d.dt)
+            X = kernels.delayed_rows(X, np.arange(*rows.indices(n)), params.delay_s / d.dt)
         return X, state_lo, state_hi
 
     def free_run_error(self, params: act.ActuatorParams, values: dict,

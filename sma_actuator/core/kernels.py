@@ -41,7 +41,8 @@ def kernel_array(x: np.ndarray) -> np.ndarray:
 
     numba compiles a kernel once per array type it is called with, and a strided view (a
     CSV column, a decimated record) or a read-only one (a broadcast ambient, a bag's buffer)
-    is another type: every kernel argument passes through here, so each compiles once.
+    is another type: every input array that reaches a kernel from outside the package's own
+    allocations passes through here, so each kernel compiles once.
     """
     return np.require(x, dtype=np.float64, requirements=('C', 'W'))
 
