@@ -109,16 +109,16 @@ class PlayHysteresis:
     def features(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
         """Return the element states over a batch, shape (n, N): least-squares regressors."""
         u = kernels.kernel_array(finite_array('u', u))
-        s0 = kernels.kernel_array(self.initial_state(u[0]) if s0 is None
-                                  else finite_array('s0', s0))
+        s0 = (self.initial_state(u[0]) if s0 is None
+              else kernels.kernel_array(finite_array('s0', s0)))
         out, _ = kernels.play_features(u, self.r, self.lo, self.hi, s0)
         return out
 
     def simulate(self, u: ArrayLike, s0: Optional[ArrayLike] = None) -> np.ndarray:
         """Return the output for an input sequence, from the reset state at u[0] (or s0)."""
         u = kernels.kernel_array(finite_array('u', u))
-        s0 = kernels.kernel_array(self.initial_state(u[0]) if s0 is None
-                                  else finite_array('s0', s0))
+        s0 = (self.initial_state(u[0]) if s0 is None
+              else kernels.kernel_array(finite_array('s0', s0)))
         y, _ = kernels.play_output(u, self.r, self.lo, self.hi, self.w, self.k1, self.y0, s0)
         return y
 

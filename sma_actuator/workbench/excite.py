@@ -23,6 +23,7 @@ the `replay` node plays to `hardware_bridge` while `recorder` records the run
 """
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 import time
 from typing import Any, List, Mapping, Optional, Sequence, Tuple
@@ -54,6 +55,7 @@ def full_stroke_duty(params: Any, wire: int = 0) -> float:
     tau_s = params.tau_s * (params.tau_ratio_b if wire else 1.0)
     steps, dt_s = 1200, tau_s / 40.0
 
+    @functools.lru_cache(maxsize=None)   # brentq evaluates d = 1 again
     def shortfall(duty: float) -> float:
         duties = [np.zeros(steps), np.zeros(steps)]
         duties[wire] += duty
