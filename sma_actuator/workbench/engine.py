@@ -785,8 +785,10 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     end far from its best. Candidates judged against such a base are judged against the
     wrong reference, so diagnose starts again from the better fit. named: the entry of the
     effect named against the base; it has beaten its own counterfactual, so the better fit
-    must also beat it held out (the base without any effect predicting better than the
-    named effect: the gain was the base's poor minimum, not the effect).
+    must also beat it held out by `min_improvement`, the bar the effect cleared to be named
+    (the base without any effect predicting clearly better than the named effect: the gain
+    was the base's poor minimum, not the effect; near the noise floor a smaller held-out
+    difference is chance).
     """
     refits = [(c['base_refit'], c['effect']) for c in entries if c.get('base_refit') is not None]
     if not refits:
@@ -796,7 +798,8 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     v0, v1 = base.validation['nrmse'], refit.validation['nrmse']
     if t1 > (1.0 - min_improvement) * t0 or v1 > v0:
         return None
-    if named is not None and not v1 < named.get('validation_nrmse', -np.inf):
+    if named is not None and not v1 < (1.0 - min_improvement) * named.get(
+            'validation_nrmse', -np.inf):
         return None
     return refit, (f'the base model refitted from where the {name} refit ended fits better '
                    f'(training NRMSE {100 * base.train["nrmse"]:.2f} % -> '
