@@ -19,6 +19,7 @@ The adaptive hysteresis grid, per-wire fatigue identification, the drive-depende
 resistance and the counterfactual check (the base refitted on the candidate's grid).
 """
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -490,6 +491,30 @@ def test_an_effect_named_against_a_poor_base_yields_to_a_better_fit_of_the_base(
     assert diag.missing_effect is None and diag.baseline.effects == []
     assert 'refitted from where the latent_heat refit ended' in diag.refitted
     assert diag.baseline.validation['nrmse'] < named.candidates[0]['validation_nrmse']
+
+
+def stand_in_fit(train_nrmse, validation_nrmse):
+    """Return the scores `engine.better_base` reads of a fit (RMSE = NRMSE, span 1)."""
+    return SimpleNamespace(train={'rmse': train_nrmse, 'nrmse': train_nrmse},
+                           validation={'nrmse': validation_nrmse})
+
+
+def test_a_named_effect_yields_to_a_better_base_only_by_a_clear_held_out_margin():
+    # the 25 Hz record with convection and a current limit, round 2: a base refitted from a
+    # counterfactual fits training far better, and holds out about as well as convection
+    base, refit = stand_in_fit(0.0049, 0.0022), stand_in_fit(0.0018, 0.0012)
+    entries = [{'effect': 'sensor_nonlinearity', 'base_refit': refit},
+               {'effect': 'convection', 'validation_nrmse': 0.0013}]
+    bar = 1.0 - engine.MIN_IMPROVEMENT
+    assert engine.better_base(base, entries, engine.MIN_IMPROVEMENT)[0] is refit
+    for named_nrmse, replaced in ((0.0013, False), (1.01 * 0.0012 / bar, True)):
+        better = engine.better_base(base, entries, engine.MIN_IMPROVEMENT,
+                                    named={'effect': 'convection',
+                                           'validation_nrmse': named_nrmse})
+        assert (better is not None) == replaced
+    # a refit that fits training less than MIN_IMPROVEMENT better is no better fit at all
+    close = [{'effect': 'delay', 'base_refit': stand_in_fit(0.0049 * (bar + 0.01), 0.0012)}]
+    assert engine.better_base(base, close, engine.MIN_IMPROVEMENT) is None
 
 
 class DeadTime(Effect):
