@@ -767,7 +767,6 @@ def _write_report(args: argparse.Namespace, comparison: Any, title: str, data_li
 # ------------------------------------------------------------------------------ diagnose
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run `sma-model diagnose`: refit with each candidate effect, rank by held-out improvement."""
-    from .compare import compare
     from .engine import diagnose_rounds, fit_model
     from .report import check_report_dir
     catalog = setup_effects(args)
@@ -799,8 +798,20 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         profile |= _duty_levels(data, diags[0].baseline)
     finally:
         progress.close()
-    first = diags[0]
-    doc = first.to_json()
+    doc = _diagnosis_doc(args, diags, rounds, base, profile)
+    if args.report:
+        _write_diagnose_report(args, data, diags[0], doc, lead, loaded)
+    if args.json:
+        print_json(doc)
+    else:
+        _print_diagnosis(args, doc, diags[0], profile, catalog)
+    return 0
+
+
+def _diagnosis_doc(args: argparse.Namespace, diags: list, rounds: list, base: Any,
+                   profile: dict) -> dict:
+    """Return the JSON of a diagnosis: the first round's keys, then the rounds and final."""
+    doc = diags[0].to_json()
     doc['baseline'].update(profile)
     if args.rounds > 1:
         doc['rounds'] = rounds
@@ -809,41 +820,48 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                         'train_nrmse': base.train['nrmse']}
         if diags[-1].refitted and diags[-1].missing_effect is None:
             doc['final']['refitted'] = diags[-1].refitted
-    if args.report:
-        b0 = first.baseline
-        best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
-        pred0, alt_pred = b0.prediction, (best['fit'].prediction if best else None)
-        scored = _KINDS[data.kind].scored
-        view, pred0, sig, split = scored(data, pred0, b0.signals, b0.split)
-        alt = None if alt_pred is None else scored(data, alt_pred, {}, None)[1]
-        result = compare(view, pred0, sig, split=split)
-        alternative = (f'model + {best["effect"]}', alt) if best else None
-        model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.shown_values()}
-        _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
-                      '; '.join(data_lines(data) + lead_in_lines(lead, loaded)), model,
-                      doc, alternative, unit=unit_of(data))
-        if args.rounds > 1 and rounds:
-            from .report import save_rounds_plot
-            _note(args, f'rounds: {save_rounds_plot(args.report, doc)}')
-    if args.json:
-        print_json(doc)
-    else:
-        print('\n'.join(diagnosis_lines(doc, first.baseline.kind)))
-        val = first.baseline.validation or {}
-        if val.get('informative') is False:
-            print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
-                  'measured range, too little to rank effects reliably (hold out another '
-                  'record: give two or more records, or --validate-on)')
-        if profile.get('tau_profile', {}).get('identified') is False:
-            print(f'note: {profile["tau_profile"]["note"]}; a held-out error from a wrong τ '
-                  'is not a missing effect')
-        if profile.get('duty_levels', {}).get('one_level'):
-            laws = ', '.join(n for n, e in catalog.items() if e.heating_law)
-            print(f'note: {profile["duty_levels"]["note"]}; so no effect on the heating law '
-                  f'({laws}) is named here')
-        if args.rounds > 1:
-            print('\n'.join(rounds_lines(doc, args.rounds)))
-    return 0
+    return doc
+
+
+def _write_diagnose_report(args: argparse.Namespace, data: Any, first: Any, doc: dict,
+                           lead: Any, loaded: list) -> None:
+    """Write the HTML report: the base model, the named effect's fit and the rounds' plot."""
+    from .compare import compare
+    b0 = first.baseline
+    best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
+    pred0, alt_pred = b0.prediction, (best['fit'].prediction if best else None)
+    scored = _KINDS[data.kind].scored
+    view, pred0, sig, split = scored(data, pred0, b0.signals, b0.split)
+    alt = None if alt_pred is None else scored(data, alt_pred, {}, None)[1]
+    result = compare(view, pred0, sig, split=split)
+    alternative = (f'model + {best["effect"]}', alt) if best else None
+    model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.shown_values()}
+    _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
+                  '; '.join(data_lines(data) + lead_in_lines(lead, loaded)), model,
+                  doc, alternative, unit=unit_of(data))
+    if args.rounds > 1 and doc.get('rounds'):
+        from .report import save_rounds_plot
+        _note(args, f'rounds: {save_rounds_plot(args.report, doc)}')
+
+
+def _print_diagnosis(args: argparse.Namespace, doc: dict, first: Any, profile: dict,
+                     catalog: Mapping[str, Any]) -> None:
+    """Print the diagnosis as text, with a note for each reason not to trust its ranking."""
+    print('\n'.join(diagnosis_lines(doc, first.baseline.kind)))
+    val = first.baseline.validation or {}
+    if val.get('informative') is False:
+        print(f'note: the held-out part covers {100 * val["coverage"]:.0f} % of the '
+              'measured range, too little to rank effects reliably (hold out another '
+              'record: give two or more records, or --validate-on)')
+    if profile.get('tau_profile', {}).get('identified') is False:
+        print(f'note: {profile["tau_profile"]["note"]}; a held-out error from a wrong τ '
+              'is not a missing effect')
+    if profile.get('duty_levels', {}).get('one_level'):
+        laws = ', '.join(n for n, e in catalog.items() if e.heating_law)
+        print(f'note: {profile["duty_levels"]["note"]}; so no effect on the heating law '
+              f'({laws}) is named here')
+    if args.rounds > 1:
+        print('\n'.join(rounds_lines(doc, args.rounds)))
 
 
 def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
@@ -1060,6 +1078,19 @@ def _excite_design(args: argparse.Namespace) -> Tuple[float, Tuple[float, float]
 # ------------------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
     """Return the argparse parser of `sma-model` (one-line errors, exit code 2)."""
+    common = _common_options()
+    parser = OneLineParser(prog=PROG, description='Compare the SMA actuator model with '
+                           'measurements, find the missing physical effect, add it.')
+    sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND',
+                                parser_class=OneLineParser)
+    for add_command in (_add_fit, _add_compare, _add_diagnose, _add_batch, _add_effects,
+                        _add_excite):
+        add_command(sub, common)
+    return parser
+
+
+def _common_options() -> argparse.ArgumentParser:
+    """Return the parent parser of the options that fit, compare and diagnose share."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument('data', metavar='DATA', nargs='+',
                         help='CSVs (dynamic or static curves) or MCAP bags (file or '
@@ -1082,10 +1113,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
     common.add_argument('--max-rate', type=_positive_float, metavar='HZ',
                         default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
-    parser = OneLineParser(prog=PROG, description='Compare the SMA actuator model with '
-                           'measurements, find the missing physical effect, add it.')
-    sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND',
-                                parser_class=OneLineParser)
+    return common
+
+
+def _add_fit(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `fit`: fit a model to DATA, print scores, write it with --out."""
     fit = sub.add_parser('fit', parents=[common], help='fit a model, print scores',
                          description='Fit the base model plus effects to DATA.')
     fit.add_argument('--model', metavar='MODEL.yaml', help='effects (and kind) to start from')
@@ -1098,6 +1130,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help='processes for the fits of several records, each left out in turn '
                      '(default 0: every core)')
     fit.set_defaults(func=cmd_fit)
+
+
+def _add_compare(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `compare`: score a fitted model on DATA and say where it fails."""
     cmp_ = sub.add_parser('compare', parents=[common], help='where a fitted model fails',
                           description='Score a fitted model on DATA, break the error down '
                           'by regime and test the residual.')
@@ -1105,6 +1141,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help='fitted model (from fit --out)')
     cmp_.add_argument('--report', metavar='DIR', help='write an HTML report with figures')
     cmp_.set_defaults(func=cmd_compare)
+
+
+def _add_diagnose(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `diagnose`: rank the catalog effects by held-out error reduction."""
     dia = sub.add_parser('diagnose', parents=[common], help='find the missing effect',
                          description='Refit with each candidate effect and rank them by '
                          'held-out error reduction.')
@@ -1120,6 +1160,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help='add the missing effect, refit and diagnose again, up to N rounds, '
                      'stopping when nothing is significant (default 1)')
     dia.set_defaults(func=cmd_diagnose)
+
+
+def _add_batch(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `batch`: fit, compare and diagnose many records on Dask."""
     bat = sub.add_parser('batch', help='fit, compare and diagnose many records (Dask)',
                          description='Run fit, compare and diagnose on every record, on a '
                          'Dask cluster; write a table (Parquet, CSV) and an HTML index.')
@@ -1149,12 +1193,20 @@ def build_parser() -> argparse.ArgumentParser:
     bat.add_argument('--force', action='store_true', help='recompute finished records')
     bat.add_argument('--json', action='store_true', help='print a JSON summary')
     bat.set_defaults(func=cmd_batch, plugin=None)
+
+
+def _add_effects(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `effects`: list the effect catalog."""
     eff = sub.add_parser('effects', help='list the effect catalog (with plug-ins)',
                          description='List every effect: parameters, physics, signature.')
     eff.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
                      help='load user effects from a Python file or module (repeatable)')
     eff.add_argument('--json', action='store_true', help='print the catalog as JSON')
     eff.set_defaults(func=cmd_effects)
+
+
+def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add `excite`: write an identification excitation for a rig."""
     exc = sub.add_parser('excite', help='write an identification excitation for a rig',
                          description='Write the duty sequence of an identification record '
                          "in the rig's own time: holds of 0.75-2.5 tau at six duties from "
@@ -1180,7 +1232,6 @@ def build_parser() -> argparse.ArgumentParser:
                      help='CSV file, or bag directory for `replay`')
     exc.add_argument('--force', action='store_true', help='overwrite OUT')
     exc.set_defaults(func=cmd_excite)
-    return parser
 
 
 def _positive_float(text: str) -> float:
