@@ -155,6 +155,20 @@ def test_diagnose_names_a_hidden_delay_and_reports_it(tmp_path):
     assert 'Missing effect: <b>delay</b>' in page and (tmp_path / 'r' / 'time.png').exists()
 
 
+def test_diagnose_rounds_add_the_delay_and_report_the_error_falling(tmp_path):
+    data = write_record(tmp_path / 'delay.csv', n=800, seed=3, delay_s=0.4)
+    proc = run('diagnose', data, '--candidates', 'delay', '--rounds', '2', '--json',
+               '--report', tmp_path / 'r')
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(proc.stdout)
+    assert doc['missing_effect'] == 'delay'
+    assert [r['added'] for r in doc['rounds']] == ['delay']
+    assert doc['final']['effects'] == ['delay']
+    assert doc['final']['validation_nrmse'] == doc['rounds'][0]['validation_nrmse']
+    assert doc['final']['validation_nrmse'] < 0.5 * doc['baseline']['validation_nrmse']
+    assert 'rounds: ' in proc.stderr and (tmp_path / 'r' / 'rounds.png').stat().st_size > 0
+
+
 @pytest.mark.parametrize('hidden, says', [
     ({}, 'the model explains the data'),
     ({'delay_s': 0.4}, 'an effect the catalog does not hold, or one too weak to separate'),
