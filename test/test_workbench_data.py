@@ -307,3 +307,32 @@ def test_broken_bag_is_a_data_error_naming_the_file(tmp_path):
     bad.write_bytes(b'\x89MCAP0\r\n' + b'\x00' * 20)
     with pytest.raises(DataError, match='broken.mcap'):
         load_data(bad)
+
+
+def test_a_csv_cut_off_inside_its_last_row_keeps_the_complete_rows_with_a_note(dynamic_csv):
+    text = dynamic_csv.read_text()
+    rows = _lines(dynamic_csv)[3:]
+    whole = load_data(dynamic_csv)
+    before_last = text[:len(text) - len(rows[-1]) - 1]
+    # cut before the last field (an empty value), and after the first (too few fields)
+    for partial in (rows[-1].rsplit(',', 1)[0] + ',', rows[-1].split(',')[0] + ',0.1'):
+        dynamic_csv.write_text(before_last + partial)
+        notes = []
+        data = load_data(dynamic_csv, notes=notes)
+        assert len(data) == len(rows) - 1
+        np.testing.assert_array_equal(data.position, whole.position[:-1])
+        assert notes == [f'{dynamic_csv}: the file ends inside line {len(rows) + 3} (a log '
+                         f'stopped while it was written): that row is left out, '
+                         f'{len(rows) - 1} rows read']
+
+
+def test_a_short_last_row_that_ends_with_a_line_end_is_still_an_error(dynamic_csv):
+    # only a file that ends inside its last row was cut off; the same row ended is malformed
+    lines = _lines(dynamic_csv)
+    path = _rewrite(dynamic_csv, lines[:-1] + [lines[-1].rsplit(',', 2)[0]])
+    with pytest.raises(DataError, match=rf'line {len(lines)}: 3 field\(s\), the header has 5'):
+        load_data(path)
+    # and a malformed row before the cut one is an error too
+    path.write_text('\n'.join(lines[:5] + ['0.1,abc'] + lines[5:])[:-3])
+    with pytest.raises(DataError, match=r'line 6: 2 field\(s\)'):
+        load_data(path)

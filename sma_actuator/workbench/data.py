@@ -131,7 +131,8 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
     ``# ... position in mm``); default_unit: a CSV's unit when it names none ('' leaves
     that to the caller). notes: a list that receives a line when an unsteady record is
-    resampled. Raises `DataError` with a clear message on any problem.
+    resampled or a CSV's cut-off last row is left out. Raises `DataError` with a clear
+    message on any problem.
     """
     path = Path(path)
     if not path.exists():
@@ -144,7 +145,7 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     if path.is_dir():
         raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
                         'or an MCAP bag)')
-    header, rows, lines = read_csv_table(path)
+    header, rows, lines = read_csv_table(path, notes)
     header, named, scales = _units_from_header(path, header)
     for column, scale in scales.items():
         rows[:, header.index(column)] *= scale
@@ -173,13 +174,15 @@ def is_bag(path: PathLike) -> bool:
 
 
 # ------------------------------------------------------------------------------ CSV
-def read_csv_table(path: PathLike) -> tuple:
+def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
     """
     Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
 
     Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
     duplicated or empty column name, a row with the wrong number of fields, or a field
-    that is not a finite number.
+    that is not a finite number. One exception: a file that ends inside its last row (no
+    line end after it, as a log stopped while it was written) whose last row does not
+    parse loses that row only; `notes` receives a line saying so.
     """
     try:
         size = Path(path).stat().st_size
@@ -192,7 +195,8 @@ def read_csv_table(path: PathLike) -> tuple:
         raise DataError(f'{path}: not a text CSV file (it is not UTF-8)') from None
     except OSError as err:
         raise DataError(f'{path}: cannot read: {err.strerror}') from None
-    numbered = [(i + 1, line) for i, line in enumerate(text.splitlines())
+    all_lines = text.splitlines()
+    numbered = [(i + 1, line) for i, line in enumerate(all_lines)
                 if line.strip() and not line.lstrip().startswith('#')]
     if not numbered:
         raise DataError(f'{path}: empty file (no header row); {FORMATS_HELP}')
@@ -207,9 +211,20 @@ def read_csv_table(path: PathLike) -> tuple:
     _check_header(path, header_line, header)
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
+    # no line end after the file's last line: it was cut off, perhaps inside that row
+    cut_line = None if text.endswith(('\n', '\r')) else len(all_lines)
     for line_no, text_line in numbered[1:]:
-        rows.append(_parse_row(path, line_no, header,
-                               _csv_fields(path, line_no, text_line, delimiter)))
+        try:
+            rows.append(_parse_row(path, line_no, header,
+                                   _csv_fields(path, line_no, text_line, delimiter)))
+        except DataError:
+            if line_no != cut_line:
+                raise
+            if notes is not None:
+                notes.append(f'{path}: the file ends inside line {line_no} (a log stopped '
+                             f'while it was written): that row is left out, {len(rows)} '
+                             'rows read')
+            break
         lines.append(line_no)
         progress(len(rows))
     if not rows:
