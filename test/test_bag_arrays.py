@@ -176,6 +176,38 @@ def test_a_cut_recording_loads_what_was_recovered(tmp_path):
     np.testing.assert_allclose(a['position'], a['time'], atol=1e-9)
 
 
+def test_a_cut_recording_says_what_it_kept_and_lost_in_the_notes(tmp_path):
+    events = _events(range(0, 5001, 1), lambda t: t, [(0, (0.5, 0.0))])
+    path = _write(tmp_path / 'long', events, chunk_size_bytes=4096)
+    data = (path / 'long_0.mcap').read_bytes()
+    (path / 'long_0.mcap').write_bytes(data[:len(data) // 2])
+    notes = []
+    a = load_run(path, notes=notes)
+    assert len(notes) == 1 and notes[0].startswith(str(path / 'long_0.mcap'))
+    assert 'recording did not finish' in notes[0] and 'lost ' in notes[0]
+    notes = []
+    load_run(_write(tmp_path / 'whole', events), notes=notes, bridged_steps=2.5)
+    assert notes == [] and 0.5 < a['time'][-1] < 5.0
+
+
+def test_joint_state_gaps_beyond_the_bridged_steps_are_noted_not_dropped(tmp_path):
+    # 10 ms steps; one message dropped at 200 ms (a 20 ms step is bridged), none from 300 to
+    # 700 ms and from 800 to 850 ms
+    js_ms = [t for t in range(0, 1001, 10)
+             if t != 200 and not 300 < t < 700 and not 800 < t < 850]
+    path = _write(tmp_path / 'gaps', _events(js_ms, lambda t: 0.5 + 0.1 * t, DUTY))
+    notes = []
+    a = load_run(path, notes=notes, bridged_steps=2.5)
+    assert notes == [f'{path}: 2 gaps in the joint states (over 2.5 median steps of 0.01 s; '
+                     '0.450 s in all), the longest 0.400 s from 0.300 s after the first: the '
+                     'position there is interpolated, not measured']
+    np.testing.assert_allclose(a['time'], np.arange(101) * 0.01, atol=1e-12)
+    np.testing.assert_allclose(a['position'], 0.5 + 0.1 * a['time'], atol=1e-9)
+    quiet = []
+    load_run(path, notes=quiet, bridged_steps=50.0)
+    assert quiet == []
+
+
 @pytest.mark.parametrize('make, error, problem', [
     (lambda p: None, BagNotFoundError, 'no such file'),
     (lambda p: p.write_bytes(b''), TruncatedBagError, 'empty'),

@@ -302,6 +302,32 @@ def test_mcap_bag_loads_through_load_run(tmp_path):
     assert len(load_data(mcap, rate_hz=50)) == 51   # the file itself, resampled
 
 
+def test_a_bag_with_a_gap_in_its_joint_states_loads_with_a_note(tmp_path):
+    # as a CSV bridges a dropped sample and refuses a longer gap, a bag says where the
+    # position was interpolated over more than MAX_BRIDGED_STEPS median steps
+    from sma_actuator.bag.synthetic import write_demo_run
+    from sma_actuator.bag.reader import BagReader
+    from sma_actuator.bag.writer import BagWriter
+    bag = write_demo_run(tmp_path / 'demo', duration_s=2.0)
+    cut = tmp_path / 'cut'
+    reader = BagReader(bag)
+    t0 = next(reader.messages()).log_time_ns
+    with BagWriter(cut) as out:
+        for topic in reader.topics.values():
+            out.add_topic(topic.name, topic.type)
+        for msg in reader.messages():   # no joint states from 0.5 s to 1.5 s
+            if not (msg.topic.endswith('joint_states') and 0.5e9 < msg.log_time_ns - t0 < 1.5e9):
+                out.write(msg.topic, msg.data, msg.log_time_ns)
+    notes = []
+    data = load_data(cut, notes=notes)
+    assert len(data) == 201
+    assert len(notes) == 1 and notes[0].startswith(f'{cut}: a gap of 1.0') and (
+        'interpolated, not measured') in notes[0]
+    notes = []
+    load_data(bag, notes=notes)
+    assert notes == []
+
+
 def test_broken_bag_is_a_data_error_naming_the_file(tmp_path):
     bad = tmp_path / 'broken.mcap'
     bad.write_bytes(b'\x89MCAP0\r\n' + b'\x00' * 20)

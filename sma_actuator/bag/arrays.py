@@ -31,7 +31,7 @@ Messages are decoded from the definition stored in the bag (mcap-ros2-support), 
 without ROS installed and on bags recorded by rosbag2.
 """
 from pathlib import Path
-from typing import Dict, Optional, Union
+from typing import Dict, List, Optional, Union
 
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
@@ -194,9 +194,32 @@ def default_rate_hz(times_ns) -> float:
     return 1.0 / (float(np.median(steps)) * _NS)
 
 
+def gap_note(times_ns: np.ndarray, bridged_steps: float) -> Optional[str]:
+    """
+    Say where a series has gaps longer than `bridged_steps` median steps (None: none has).
+
+    On the grid of :func:`load_run` the position is interpolated across such a gap (messages
+    lost, a sensor that stopped publishing): that part of the record is not measured.
+    """
+    steps = np.diff(times_ns)   # times ascending, two distinct at least
+    median = float(np.median(steps[steps > 0]))
+    long = np.flatnonzero(steps > bridged_steps * median)
+    if long.size == 0:
+        return None
+    lengths = steps[long] * _NS
+    where = (times_ns[long[np.argmax(lengths)]] - times_ns[0]) * _NS
+    rule = f'over {bridged_steps:g} median steps of {median * _NS:.4g} s'
+    what = (f'a gap of {lengths[0]:.3f} s in the joint states ({rule})' if long.size == 1 else
+            f'{long.size} gaps in the joint states ({rule}; {lengths.sum():.3f} s in all), '
+            f'the longest {lengths.max():.3f} s')
+    return (f'{what} from {where:.3f} s after the first: the position there is interpolated, '
+            'not measured')
+
+
 def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
              topics: Optional[Dict[str, str]] = None,
-             namespace: Optional[str] = None) -> Dict[str, np.ndarray]:
+             namespace: Optional[str] = None, notes: Optional[List[str]] = None,
+             bridged_steps: Optional[float] = None) -> Dict[str, np.ndarray]:
     """
     Load a recorded run as arrays on a uniform time grid (see module doc for the rules).
 
@@ -206,6 +229,10 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
         ``ambient_temperature`` (e.g. ``{'joint_states': '/measured/joint_states'}``).
     :param namespace: The actuator's namespace (``/left``); default: found in the bag
         (:func:`bag_namespace`).
+    :param notes: A list that receives one line per recovered file (what a cut-off or
+        damaged file kept and lost, :class:`RecoveryReport`) and, with ``bridged_steps``, one
+        line on the joint-state gaps longer than that many median steps, whose position is
+        interpolated, not measured (:func:`gap_note`).
     :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
         ``position`` [rad], and when recorded ``ambient_temperature`` [degC], ``setpoint`` [rad].
     :raises BagError: (a ValueError) naming the file: missing, not MCAP, empty/truncated with
@@ -223,6 +250,11 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     js_t, js_pos = _sorted(*data['joint_states'])
     if np.unique(js_t).size < 2:
         raise MissingTopicError(path, 'needs at least two joint states at distinct times')
+    if notes is not None:
+        notes.extend(str(report) for report in reader.recoveries)
+        gaps = None if bridged_steps is None else gap_note(js_t, bridged_steps)
+        if gaps:
+            notes.append(f'{path}: {gaps}')
     rate = default_rate_hz(js_t) if rate_hz is None else float(rate_hz)
     if not np.isfinite(rate) or rate <= 0:
         raise ValueError(f'rate_hz must be a positive number, got {rate_hz!r}')

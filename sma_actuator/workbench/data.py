@@ -131,14 +131,15 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
     ``# ... position in mm``); default_unit: a CSV's unit when it names none ('' leaves
     that to the caller). notes: a list that receives a line when an unsteady record is
-    resampled or a CSV's cut-off last row is left out. Raises `DataError` with a clear
-    message on any problem.
+    resampled, a CSV's cut-off last row is left out, a bag was recovered from a cut-off or
+    damaged file or has gaps in its joint states (`load_bag`). Raises `DataError` with a
+    clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
         raise DataError(f'{path}: no such file or directory')
     if is_bag(path):
-        data = load_bag(path, rate_hz)
+        data = load_bag(path, rate_hz, notes)
         if position_unit:
             data.position_unit = parse_unit(position_unit, path)
         return data
@@ -488,16 +489,19 @@ def make_static(source: Any, u: np.ndarray, y: np.ndarray, curve: np.ndarray) ->
 
 
 # ------------------------------------------------------------------------------ bags
-def load_bag(path: PathLike, rate_hz: Optional[float] = None) -> DynamicData:
+def load_bag(path: PathLike, rate_hz: Optional[float] = None,
+             notes: Optional[list] = None) -> DynamicData:
     """
     `DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
 
     The setpoint before the first setpoint message (NaN in load_run) is filled with the
-    first setpoint; a bag without any setpoint message has none.
+    first setpoint; a bag without any setpoint message has none. notes: receives what a
+    cut-off or damaged file kept and lost, and the joint-state gaps the position is
+    interpolated across (longer than MAX_BRIDGED_STEPS median steps, as a CSV's gap).
     """
     try:
         from ..bag.arrays import load_run
-        arrays = load_run(path, rate_hz=rate_hz)
+        arrays = load_run(path, rate_hz=rate_hz, notes=notes, bridged_steps=MAX_BRIDGED_STEPS)
     except ImportError as err:
         raise DataError(f'{path}: cannot read MCAP bags here ({err})') from None
     except ValueError as err:   # BagError and friends name the file already
