@@ -182,12 +182,12 @@ def test_a_cut_recording_says_what_it_kept_and_lost_in_the_notes(tmp_path):
     data = (path / 'long_0.mcap').read_bytes()
     (path / 'long_0.mcap').write_bytes(data[:len(data) // 2])
     notes = []
-    a = load_run(path, notes=notes)
+    load_run(path, notes=notes)
     assert len(notes) == 1 and notes[0].startswith(str(path / 'long_0.mcap'))
     assert 'recording did not finish' in notes[0] and 'lost ' in notes[0]
     notes = []
     load_run(_write(tmp_path / 'whole', events), notes=notes, bridged_steps=2.5)
-    assert notes == [] and 0.5 < a['time'][-1] < 5.0
+    assert notes == []
 
 
 def test_joint_state_gaps_beyond_the_bridged_steps_are_noted_not_dropped(tmp_path):

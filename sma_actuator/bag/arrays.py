@@ -196,7 +196,7 @@ def default_rate_hz(times_ns) -> float:
 
 def gap_note(times_ns: np.ndarray, bridged_steps: float) -> Optional[str]:
     """
-    Say where a series has gaps longer than `bridged_steps` median steps (None: none has).
+    Say where joint-state times [ns] leave gaps over `bridged_steps` median steps, or None.
 
     On the grid of :func:`load_run` the position is interpolated across such a gap (messages
     lost, a sensor that stopped publishing): that part of the record is not measured.
