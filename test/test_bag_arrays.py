@@ -203,9 +203,12 @@ def test_joint_state_gaps_beyond_the_bridged_steps_are_noted_not_dropped(tmp_pat
                      'position there is interpolated, not measured']
     np.testing.assert_allclose(a['time'], np.arange(101) * 0.01, atol=1e-12)
     np.testing.assert_allclose(a['position'], 0.5 + 0.1 * a['time'], atol=1e-9)
+    ms = np.round(a['time'] * 1000)   # grid points strictly inside the two gaps
+    np.testing.assert_array_equal(a['position_measured'],
+                                  ~(((ms > 300) & (ms < 700)) | ((ms > 800) & (ms < 850))))
     quiet = []
-    load_run(path, notes=quiet, bridged_steps=50.0)
-    assert quiet == []
+    assert load_run(path, notes=quiet, bridged_steps=50.0)['position_measured'].all()
+    assert quiet == [] and 'position_measured' not in load_run(path)
 
 
 @pytest.mark.parametrize('make, error, problem', [

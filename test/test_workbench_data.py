@@ -13,6 +13,7 @@
 # limitations under the License.
 
 """Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
+from dataclasses import replace
 import warnings
 
 from conftest import real_data_path
@@ -302,30 +303,86 @@ def test_mcap_bag_loads_through_load_run(tmp_path):
     assert len(load_data(mcap, rate_hz=50)) == 51   # the file itself, resampled
 
 
-def test_a_bag_with_a_gap_in_its_joint_states_loads_with_a_note(tmp_path):
-    # as a CSV bridges a dropped sample and refuses a longer gap, a bag says where the
-    # position was interpolated over more than MAX_BRIDGED_STEPS median steps
-    from sma_actuator.bag.synthetic import write_demo_run
+def _without_joint_states(bag, out_dir, start_s, stop_s):
+    """Return a copy of `bag` without the joint states from start_s to stop_s [s] (open)."""
     from sma_actuator.bag.reader import BagReader
     from sma_actuator.bag.writer import BagWriter
-    bag = write_demo_run(tmp_path / 'demo', duration_s=2.0)
-    cut = tmp_path / 'cut'
     reader = BagReader(bag)
     t0 = next(reader.messages()).log_time_ns
-    with BagWriter(cut) as out:
+    with BagWriter(out_dir) as out:
         for topic in reader.topics.values():
             out.add_topic(topic.name, topic.type)
-        for msg in reader.messages():   # no joint states from 0.5 s to 1.5 s
-            if not (msg.topic.endswith('joint_states') and 0.5e9 < msg.log_time_ns - t0 < 1.5e9):
+        for msg in reader.messages():
+            if not (msg.topic.endswith('joint_states')
+                    and start_s * 1e9 < msg.log_time_ns - t0 < stop_s * 1e9):
                 out.write(msg.topic, msg.data, msg.log_time_ns)
+    return out_dir
+
+
+def test_a_bag_with_a_gap_in_its_joint_states_loads_with_a_note(tmp_path):
+    # as a CSV bridges a dropped sample and refuses a longer gap, a bag says where the
+    # position was interpolated over more than MAX_BRIDGED_STEPS median steps, and those
+    # samples are not scored
+    from sma_actuator.bag.synthetic import write_demo_run
+    bag = write_demo_run(tmp_path / 'demo', duration_s=2.0)
+    cut = _without_joint_states(bag, tmp_path / 'cut', 0.5, 1.5)
     notes = []
     data = load_data(cut, notes=notes)
     assert len(data) == 201
-    assert len(notes) == 1 and notes[0].startswith(f'{cut}: a gap of 1.0') and (
+    assert len(notes) == 2 and notes[0].startswith(f'{cut}: a gap of 1.0') and (
         'interpolated, not measured') in notes[0]
+    assert notes[1] == f'{cut}: the 99 samples in the gaps are simulated but neither fitted ' \
+        'nor scored'
+    gap = (data.time > 0.5 + 1e-9) & (data.time < 1.5 - 1e-9)   # 0.51 s to 1.49 s
+    np.testing.assert_array_equal(data.scored_mask(), ~gap)
     notes = []
-    load_data(bag, notes=notes)
+    assert load_data(bag, notes=notes).scored is None
     assert notes == []
+
+
+def _rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def test_a_bag_gap_is_simulated_but_neither_fitted_nor_scored(tmp_path):
+    # a 20 s stretch without joint states while the shaft moves: the straight line the
+    # arrays hold there is no measurement, and a fit through it misses the plant
+    from test_workbench_batch import _record, _write_bag
+    from sma_actuator.workbench.engine import fit_model, record_scores
+    from sma_actuator.workbench.records import join
+    full = load_data(_write_bag(tmp_path / 'full', _record('none', 5)))
+    cut = load_data(_without_joint_states(tmp_path / 'full', tmp_path / 'cut', 40.0, 60.0))
+    gap = ~cut.scored_mask()
+    assert gap.sum() == 200 and np.ptp(full.position[gap]) > 0.5   # rad: the shaft moved
+    fit = fit_model(join([('run', cut)]), [])
+    assert fit.train['nrmse'] < 0.002                        # at the 2 mrad noise
+    assert _rms(fit.prediction - full.position) < 0.01       # rad: the plant, in the gap too
+    pooled = record_scores(join([('run', cut)]), fit.prediction)[0]['scores']['all']
+    assert pooled['rmse'] == pytest.approx(_rms((fit.prediction - cut.position)[~gap]))
+    through = fit_model(join([('run', replace(cut, scored=None))]), [])   # the line as data
+    assert _rms(through.prediction - full.position) > 0.1
+
+
+def test_unmeasured_samples_stay_unmeasured_when_decimated_resampled_and_joined(tmp_path):
+    from sma_actuator.bag.synthetic import write_demo_run
+    from sma_actuator.workbench.records import at_fit_rate, join, segment_of, segment_view
+    cut = load_data(_without_joint_states(write_demo_run(tmp_path / 'demo', duration_s=4.0,
+                                                         joint_state_rate_hz=200.0),
+                                          tmp_path / 'cut', 1.0, 2.0))
+    slow, note = at_fit_rate(cut)   # 200 Hz -> 100 Hz: the mean of samples 2k - 1 and 2k
+    assert note.startswith('decimated from 200 Hz to 100 Hz')
+    measured = cut.scored_mask()
+    at = 2 * np.arange(len(slow))
+    both = measured[at] & measured[np.maximum(at - 1, 0)]
+    assert not both.all() and slow.scored_mask().sum() == both.sum() > len(slow) / 2
+    np.testing.assert_array_equal(slow.scored_mask(), both)
+    other = replace(load_data(write_demo_run(tmp_path / 'other', duration_s=2.0)), scored=None)
+    joined = join([('other', other), ('cut', cut)])   # cut is resampled to other's 100 Hz
+    a, b = segment_of(joined, 'cut')
+    view = segment_view(joined, a, b)
+    np.testing.assert_array_equal(view.scored_mask(), ~((view.time - view.time[0] > 1.0 + 1e-9)
+                                                        & (view.time - view.time[0] < 2.0 - 1e-9)))
+    assert segment_view(joined, *segment_of(joined, 'other')).scored is None
 
 
 def test_broken_bag_is_a_data_error_naming_the_file(tmp_path):

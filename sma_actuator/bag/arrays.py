@@ -194,6 +194,31 @@ def default_rate_hz(times_ns) -> float:
     return 1.0 / (float(np.median(steps)) * _NS)
 
 
+def long_gaps(times_ns: np.ndarray, bridged_steps: float) -> tuple:
+    """
+    Return (k, median step [ns]): the steps t[k] -> t[k + 1] over `bridged_steps` medians.
+
+    `times_ns` ascending, two distinct at least; a step longer than `bridged_steps` median
+    steps is a gap (messages lost, a sensor that stopped publishing), not a sample interval.
+    """
+    steps = np.diff(times_ns)
+    median = float(np.median(steps[steps > 0]))
+    return np.flatnonzero(steps > bridged_steps * median), median
+
+
+def unmeasured(times_ns: np.ndarray, grid_ns: np.ndarray, bridged_steps: float) -> np.ndarray:
+    """
+    Return the grid times [ns] that lie strictly inside a gap of `long_gaps` (True there).
+
+    The position interpolated there is not a measurement (a straight line across the gap).
+    """
+    k = np.searchsorted(times_ns, grid_ns, side='right') - 1   # last sample at or before
+    in_gap = np.zeros(times_ns.size, bool)
+    in_gap[long_gaps(times_ns, bridged_steps)[0]] = True
+    k = np.clip(k, 0, times_ns.size - 1)
+    return in_gap[k] & (grid_ns > times_ns[k])
+
+
 def gap_note(times_ns: np.ndarray, bridged_steps: float) -> Optional[str]:
     """
     Say where joint-state times [ns] leave gaps over `bridged_steps` median steps, or None.
@@ -201,12 +226,10 @@ def gap_note(times_ns: np.ndarray, bridged_steps: float) -> Optional[str]:
     On the grid of :func:`load_run` the position is interpolated across such a gap (messages
     lost, a sensor that stopped publishing): that part of the record is not measured.
     """
-    steps = np.diff(times_ns)   # times ascending, two distinct at least
-    median = float(np.median(steps[steps > 0]))
-    long = np.flatnonzero(steps > bridged_steps * median)
+    long, median = long_gaps(times_ns, bridged_steps)
     if long.size == 0:
         return None
-    lengths = steps[long] * _NS
+    lengths = np.diff(times_ns)[long] * _NS
     where = (times_ns[long[np.argmax(lengths)]] - times_ns[0]) * _NS
     rule = f'over {bridged_steps:g} median steps of {median * _NS:.4g} s'
     what = (f'a gap of {lengths[0]:.3f} s in the joint states ({rule})' if long.size == 1 else
@@ -233,8 +256,11 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
         damaged file kept and lost, :class:`RecoveryReport`) and, with ``bridged_steps``, one
         line on the joint-state gaps longer than that many median steps, whose position is
         interpolated, not measured (:func:`gap_note`).
+    :param bridged_steps: Joint-state steps longer than this many median steps are gaps
+        (:func:`long_gaps`); default: none are.
     :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
-        ``position`` [rad], and when recorded ``ambient_temperature`` [degC], ``setpoint`` [rad].
+        ``position`` [rad], and when recorded ``ambient_temperature`` [degC], ``setpoint`` [rad];
+        with ``bridged_steps``, ``position_measured`` (bool: False inside those gaps).
     :raises BagError: (a ValueError) naming the file: missing, not MCAP, empty/truncated with
         nothing recoverable, wrong or unknown types, missing required topics, undecodable data.
     """
@@ -275,6 +301,8 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     out = {'time': (grid - js_t[0]) * _NS,
            'duty_a': duty_ab[:, 0], 'duty_b': duty_ab[:, 1],
            'position': np.interp(grid, js_t, js_pos)}
+    if bridged_steps is not None:
+        out['position_measured'] = ~unmeasured(js_t, grid, bridged_steps)
     if 'ambient_temperature' in data:
         amb_t, amb = _sorted(*data['ambient_temperature'])
         out['ambient_temperature'] = zero_order_hold(amb_t, amb, grid, before=amb[0])

@@ -435,17 +435,20 @@ def resample_columns(cols: dict, period: float) -> dict:
     return out
 
 
-def make_dynamic(source: Any, cols: dict, unit: str = 'rad') -> DynamicData:
+def make_dynamic(source: Any, cols: dict, unit: str = 'rad',
+                 scored: Optional[np.ndarray] = None) -> DynamicData:
     """
     Return a `DynamicData` from a dict with the dynamic column names; errors name `source`.
 
     The layout is 'single' (one wire against a bias spring) when duty_b is always 0.
+    scored: the measured samples (None: all of them).
     """
     layout = 'single' if not np.any(cols['duty_b']) else 'antagonistic'
     try:
         return DynamicData(cols['time'], cols['duty_a'], cols['duty_b'], cols['position'],
                            ambient=cols.get('ambient_temperature'),
-                           setpoint=cols.get('setpoint'), position_unit=unit, layout=layout)
+                           setpoint=cols.get('setpoint'), position_unit=unit, layout=layout,
+                           scored=scored)
     except ValueError as err:
         raise DataError(f'{source}: {err}') from None
 
@@ -495,9 +498,10 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None,
     `DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
 
     The setpoint before the first setpoint message (NaN in load_run) is filled with the
-    first setpoint; a bag without any setpoint message has none. notes: receives what a
-    cut-off or damaged file kept and lost, and the joint-state gaps the position is
-    interpolated across (longer than MAX_BRIDGED_STEPS median steps, as a CSV's gap).
+    first setpoint; a bag without any setpoint message has none. Joint-state gaps longer
+    than MAX_BRIDGED_STEPS median steps (the CSV's bridging rule) are not measured: their
+    samples are simulated but neither fitted nor scored (`DynamicData.scored`). notes:
+    receives what a cut-off or damaged file kept and lost, and those gaps.
     """
     try:
         from ..bag.arrays import load_run
@@ -520,10 +524,14 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None,
         problem = limits.period_problem(float(arrays['time'][1] - arrays['time'][0]))
         if problem:
             raise DataError(f'{path}: resampled {problem}; choose --rate in that range')
-    if len(arrays['time']) < MIN_SAMPLES:
-        raise DataError(f'{path}: {len(arrays["time"])} samples after resampling; a dynamic '
-                        f'record needs at least {MIN_SAMPLES}')
-    return make_dynamic(path, arrays)
+    measured = arrays.pop('position_measured')
+    if np.count_nonzero(measured) < MIN_SAMPLES:
+        raise DataError(f'{path}: {np.count_nonzero(measured)} measured samples after '
+                        f'resampling; a dynamic record needs at least {MIN_SAMPLES}')
+    if notes is not None and not measured.all():
+        notes.append(f'{path}: the {np.count_nonzero(~measured)} samples in the gaps are '
+                     'simulated but neither fitted nor scored')
+    return make_dynamic(path, arrays, scored=None if measured.all() else measured)
 
 
 # ------------------------------------------------------------------------------ checks

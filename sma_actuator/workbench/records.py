@@ -198,13 +198,33 @@ def loop_prior(data: DynamicData, n_train: Optional[int] = None) -> Optional[flo
 
 
 def _resample(data: DynamicData, dt: float) -> DynamicData:
-    """Return `data` on a grid of step dt [s]: duties held, other signals interpolated."""
+    """
+    Return `data` on a grid of step dt [s]: duties held, other signals interpolated.
+
+    A new sample is measured (`DynamicData.scored`) when the two it lies between are.
+    """
     cols = resample_columns({'time': data.time, 'duty_a': data.duty_a, 'duty_b': data.duty_b,
                              'position': data.position, 'ambient': data.ambient,
-                             'setpoint': data.setpoint}, dt)
+                             'setpoint': data.setpoint, 'scored': _share(data.scored)}, dt)
     return DynamicData(cols['time'], cols['duty_a'], cols['duty_b'], cols['position'],
                        ambient=cols['ambient'], setpoint=cols['setpoint'],
-                       position_unit=data.position_unit, layout=data.layout)
+                       position_unit=data.position_unit, layout=data.layout,
+                       scored=_all_of(cols['scored']))
+
+
+def _share(scored: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """Return a scored mask as 1.0 / 0.0 (to average or interpolate), None as None."""
+    return None if scored is None else np.asarray(scored, float)
+
+
+def _all_of(share: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """Return where an averaged or interpolated `_share` is whole: every sample it spans."""
+    return None if share is None else _gaps_only(share > 1.0 - 1e-9)
+
+
+def _gaps_only(scored: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """Return a scored mask that leaves samples out, else None (every sample measured)."""
+    return None if scored is None or np.all(scored) else scored
 
 
 def decimate(data: DynamicData, factor: int) -> DynamicData:
@@ -214,8 +234,8 @@ def decimate(data: DynamicData, factor: int) -> DynamicData:
     A duty is the one in effect until the next sample, so the new duty is the mean over
     [t[k M], t[(k + 1) M]): the same heating energy (eq. 7's R i² is linear in the PWM
     duty). Position, ambient and setpoint are the means of the M samples centred on t[k M]:
-    measurement noise falls by √M and the reading does not lag. A last partial block is
-    dropped (under M samples).
+    measurement noise falls by √M and the reading does not lag; such a mean is measured
+    (`DynamicData.scored`) when all M are. A last partial block is dropped (under M samples).
     """
     m = int(factor)
     n = len(data) // m
@@ -229,7 +249,7 @@ def decimate(data: DynamicData, factor: int) -> DynamicData:
     return DynamicData(data.time[keep], block_mean(data.duty_a), block_mean(data.duty_b),
                        centred_mean(data.position), ambient=centred_mean(data.ambient),
                        setpoint=centred_mean(data.setpoint), position_unit=data.position_unit,
-                       layout=data.layout)
+                       layout=data.layout, scored=_all_of(centred_mean(_share(data.scored))))
 
 
 def at_fit_rate(data: Any, max_rate_hz: float = MAX_FIT_RATE_HZ) -> Tuple[Any, Optional[str]]:
@@ -319,7 +339,7 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
     if len(records) == 1 and not held_out and not lead_in:
         name, d = records[0]
         return DynamicData(d.time, d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
-                           d.position_unit, d.layout, ((name, 0, len(d)),), None, None)
+                           d.position_unit, d.layout, ((name, 0, len(d)),), d.scored, None)
     check_compatible(records)
     dt = records[0][1].dt
     order = ([r for r in records if r[0] not in held_out]
@@ -340,7 +360,7 @@ def join(records: list, held_out: tuple = (), notes: Optional[list] = None,
             parts.append(_lead_in(d, gap, lead_in.get(name)))
             at += len(parts[-1][0])
         parts.append((d.duty_a, d.duty_b, d.position, d.ambient, d.setpoint,
-                      np.ones(len(d), bool)))
+                      d.scored_mask()))
         segments.append((name, at, at + len(d)))
         at += len(d)
     cols = [np.concatenate([p[k] for p in parts]) if parts[0][k] is not None else None
@@ -428,7 +448,8 @@ def segment_view(data: DynamicData, a: int, b: int) -> DynamicData:
     def cut(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
         return None if x is None else x[a:b]
     return DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b], data.position[a:b],
-                       cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout)
+                       cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout,
+                       scored=_gaps_only(cut(data.scored)))
 
 
 def scored_view(data: DynamicData, prediction: np.ndarray, signals: dict) -> tuple:
