@@ -26,6 +26,8 @@ is the actuator's namespace, ``/sma`` by default, found in the bag):
 - ``setpoint`` [rad]: zero-order hold, NaN before the first setpoint;
 - ``ambient_temperature`` [degC]: zero-order hold, the first reading held backwards to the
   start (ambient changes slowly, and a NaN would stop the model).
+- ``position_measured`` (with ``bridged_steps``): False strictly inside a joint-state gap
+  longer than that many median steps, where ``position`` is a straight line, not a measurement.
 
 Messages are decoded from the definition stored in the bag (mcap-ros2-support), so this works
 without ROS installed and on bags recorded by rosbag2.
