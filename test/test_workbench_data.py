@@ -376,7 +376,7 @@ def test_unmeasured_samples_stay_unmeasured_when_decimated_resampled_and_joined(
     both = measured[at] & measured[np.maximum(at - 1, 0)]
     assert not both.all() and slow.scored_mask().sum() == both.sum() > len(slow) / 2
     np.testing.assert_array_equal(slow.scored_mask(), both)
-    other = replace(load_data(write_demo_run(tmp_path / 'other', duration_s=2.0)), scored=None)
+    other = load_data(write_demo_run(tmp_path / 'other', duration_s=2.0))   # no gap
     joined = join([('other', other), ('cut', cut)])   # cut is resampled to other's 100 Hz
     a, b = segment_of(joined, 'cut')
     view = segment_view(joined, a, b)
