@@ -18,12 +18,17 @@ Error breakdown by regime, residual correlation tests and the HTML report.
 Predictions are made by hand (measured minus a known error), so each test knows where the
 error is and checks that the breakdown and the tests find it there.
 """
+import re
+
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData, scores
 from sma_actuator.workbench.compare import (compare, cross_correlation, loop_masks,
                                             residual_tests, reversals)
-from sma_actuator.workbench.report import ReportError, write_report
+from sma_actuator.workbench.engine import Diagnosis, fit_model, part_scores
+from sma_actuator.workbench.records import join
+from sma_actuator.workbench.report import (plot_time, ReportError, write_diagnosis_report,
+                                           write_report)
 
 DT = 0.05
 
@@ -209,6 +214,52 @@ def test_report_writes_html_and_pngs_and_refuses_to_overwrite(tmp_path):
     assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
     write_report(out, res, 'forced', force=True)
     assert 'forced' in index.read_text()
+
+
+def _gapped(n=400, gap=(150, 200)):
+    """Return a record whose position was not measured over `gap` (lost joint states)."""
+    data = _record(n)
+    data.scored = np.ones(n, bool)
+    data.scored[gap[0]:gap[1]] = False
+    return data
+
+
+def test_a_gap_in_a_record_is_neither_scored_nor_drawn_and_keeps_its_time(tmp_path):
+    data = _gapped()
+    pred = data.position + 0.01
+    pred[~data.scored] += 5.0       # the straight line through the gap is no measurement
+    res = compare(data, pred)
+    assert res.measured.size == 350 and res.scores['all']['rmse'] == pytest.approx(0.01)
+    # the record's events keep their time: the axis steps over the 2.5 s not measured
+    np.testing.assert_allclose(res.axis, data.time[data.scored] - data.time[0])
+    measured_line = plot_time(res).axes[0].lines[0]
+    assert np.isnan(measured_line.get_ydata()).sum() == 1       # the line breaks at the gap
+    # a prediction at every sample of the record is drawn at the compared samples
+    write_report(tmp_path / 'r', res, 'gap', alternative=('model + delay', pred - 0.01))
+    assert (tmp_path / 'r' / 'time.png').is_file()
+
+
+def test_joined_records_follow_each_other_and_a_gap_keeps_its_length():
+    first, second = _gapped(), _record(300, seed=1)
+    data = join([('first', first), ('second', second)])
+    res = compare(data, data.position)
+    assert res.measured.size == 350 + 300
+    steps = np.round(np.diff(res.axis) / DT).astype(int)
+    # the rest between the records takes no time on the plot; the gap inside one does
+    assert steps.tolist() == [1] * 149 + [51] + [1] * (350 + 300 - 151)
+
+
+def test_a_diagnosis_report_scores_only_what_the_fit_was_scored_on(tmp_path):
+    """`sma-model batch` writes its reports here: a gap is left out as the fit left it out."""
+    data = _gapped()
+    data.position[~data.scored] += 1.0      # what the gap holds is no measurement
+    fit = fit_model(data)
+    index = write_diagnosis_report(tmp_path / 'r', data, Diagnosis(fit, [], None), 'batch',
+                                   'one record')
+    rmse = part_scores(data, fit.prediction, data.scored)['rmse']
+    assert rmse < 0.1
+    row = re.search(r'<td class="l">all</td><td>[^<]*</td><td>([^<]*)</td>', index.read_text())
+    assert row and float(row.group(1)) == pytest.approx(rmse, rel=1e-3)
 
 
 def test_static_report_draws_the_curves(tmp_path):

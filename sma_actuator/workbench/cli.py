@@ -297,14 +297,6 @@ class _DynamicKind:
         return rows
 
     @staticmethod
-    def scored(data: DynamicData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
-               split: Optional[Split]) -> tuple:
-        """Return (data, prediction, signals, split) with the rest gaps between records cut."""
-        from .records import scored_view
-        view, pred, sig = scored_view(data, prediction, signals)
-        return view, pred, sig, data.scored_split(split)
-
-    @staticmethod
     def json(data: DynamicData, records: List[Dict[str, Any]]) -> Dict[str, Any]:
         """Return the records' scores and the rig settings for `compare --json`."""
         return {'records': records} | data.rig()
@@ -324,12 +316,6 @@ class _StaticKind:
                 role: Optional[str] = None) -> List[Dict[str, Any]]:
         """Return no per-record scores (the curves are one file)."""
         return []
-
-    @staticmethod
-    def scored(data: StaticData, prediction: np.ndarray, signals: Dict[str, np.ndarray],
-               split: Optional[Split]) -> tuple:
-        """Return (data, prediction, signals, split) as they are: every point is measured."""
-        return data, prediction, signals, split
 
     @staticmethod
     def json(data: StaticData, records: List[Dict[str, Any]]) -> Dict[str, Any]:
@@ -560,17 +546,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
     mark_warm(records, lead)
     mark_untared(records, fit.untared)
     _note_start_offsets(args, data, records)
-    view, pred, sig, split = kind.scored(data, fit.prediction, model_signals(fit, data),
-                                         Split(0) if len(records) > 1 else None)
-    result = compare(view, pred, sig, split=split)
+    result = compare(data, fit.prediction, model_signals(fit, data),
+                     split=Split(0) if len(records) > 1 else None)
     travel = model_travel(fit.params, data)
     if travel:
         _note_quiet_records(args, data, travel)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data, COMPARED)
     if args.report:
-        _write_report(args, result, title, '; '.join(lines + led_lines), spec,
-                      unit=unit_of(data))
+        _write_report(args, result, title, '; '.join(lines + led_lines), spec)
     if args.json:
         doc = {'data': str(args.data[0]) if len(all_data(args)) == 1 else all_data(args),
                'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
@@ -582,10 +566,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     else:
         print('\n'.join(lines))
         print(f'model: {model_line(spec["effects"], spec.get("kind") or "modified")}')
-        unit = unit_of(data)
         for r in records if len(records) > 1 else []:
-            print(score_line(r['data'], r['scores']['all'], unit, 0))
-        result.unit = unit
+            print(score_line(r['data'], r['scores']['all'], result.unit, 0))
         print('\n'.join(summary_lines(result)))
     return 0
 
@@ -753,14 +735,11 @@ def check_rig(spec: Mapping[str, Any], data: Any, source: str) -> None:
 
 
 def _write_report(args: argparse.Namespace, comparison: Any, title: str, data_line: str,
-                  model: Mapping[str, Any], diagnosis: Optional[Dict[str, Any]] = None,
-                  alternative: Optional[Tuple[str, np.ndarray]] = None,
-                  unit: str = '') -> None:
+                  model: Mapping[str, Any]) -> None:
     """Write the HTML report of --report and name its index on the note stream."""
     from .report import write_report
-    comparison.unit = unit
     index = write_report(args.report, comparison, title, data_line=data_line, model=model,
-                         diagnosis=diagnosis, alternative=alternative, force=args.force)
+                         force=args.force)
     _note(args, f'report: {index}')
 
 
@@ -826,21 +805,13 @@ def _diagnosis_doc(args: argparse.Namespace, diags: list, rounds: list, base: An
 def _write_diagnose_report(args: argparse.Namespace, data: Any, first: Any, doc: dict,
                            lead: Any, loaded: list) -> None:
     """Write the HTML report: the base model, the named effect's fit and the rounds' plot."""
-    from .compare import compare
-    b0 = first.baseline
-    best = next((c for c in first.candidates if c['effect'] == first.missing_effect), None)
-    pred0, alt_pred = b0.prediction, (best['fit'].prediction if best else None)
-    scored = _KINDS[data.kind].scored
-    view, pred0, sig, split = scored(data, pred0, b0.signals, b0.split)
-    alt = None if alt_pred is None else scored(data, alt_pred, {}, None)[1]
-    result = compare(view, pred0, sig, split=split)
-    alternative = (f'model + {best["effect"]}', alt) if best else None
-    model = {'effects': b0.effects, 'kind': b0.kind, 'parameters': b0.shown_values()}
-    _write_report(args, result, f'{PROG} diagnose: {" ".join(all_data(args))}',
-                  '; '.join(data_lines(data) + lead_in_lines(lead, loaded)), model,
-                  doc, alternative, unit=unit_of(data))
+    from .report import save_rounds_plot, write_diagnosis_report
+    index = write_diagnosis_report(args.report, data, first,
+                                   f'{PROG} diagnose: {" ".join(all_data(args))}',
+                                   '; '.join(data_lines(data) + lead_in_lines(lead, loaded)),
+                                   force=args.force, doc=doc)
+    _note(args, f'report: {index}')
     if args.rounds > 1 and doc.get('rounds'):
-        from .report import save_rounds_plot
         _note(args, f'rounds: {save_rounds_plot(args.report, doc)}')
 
 

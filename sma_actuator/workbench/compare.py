@@ -36,6 +36,11 @@ Regimes (dynamic record), each a partition of the samples:
 Static curves use ``thermal`` (input rising = heating), ``direction``, ``loops`` (a curve is
 major if its input spans >= 90 % of the full input range), ``travel`` and ``curves``.
 
+Only measured samples are compared (`DynamicData.scored`): the rests between joined records
+and a bag's gaps in its joint states are cut out. The records then follow each other on
+one time axis, while a gap inside a record keeps its length on the plotted axis
+(`Comparison.axis`; `Comparison.kept` marks the compared samples of the record).
+
 Residual tests: the sample autocorrelation of e at lags 1..L and its cross-correlation
 with each signal u at lags −L..L, r(k) = Σ ẽ(t) ũ(t − k) / N on standardised signals
 (dynamic: duties, model temperatures, ambient, position, end proximity |y − mid| / half
@@ -86,6 +91,7 @@ class Comparison:
     unit: str = ''                  # unit of the measured output ('' if not known)
     figures: tuple = ()             # (file, caption) of the data kind's own report figures
     axis_label: str = ''            # label of the sample axis
+    kept: np.ndarray = None         # the record's samples compared (None: all of them)
 
     @property
     def residual(self) -> np.ndarray:
@@ -120,14 +126,22 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
     data: DynamicData or StaticData. prediction: the model output at every sample (a
     `ModelFit.prediction`). signals: model signals (dict with 'theta_a', 'theta_b' [°C]).
     split: where validation starts (default: the data's `default_split`, 70 % of the
-    record or the odd curves).
+    record or the odd curves). Unmeasured samples (`DynamicData.scored`) are left out of
+    everything (`measured_view`); the axis keeps a gap inside a record (`plot_axis`).
     """
-    y = np.asarray(data.output, float)
     y_hat = np.asarray(prediction, float)
-    if y_hat.shape != y.shape:
-        raise ValueError(f'prediction has {y_hat.size} samples, the record {y.size}')
+    if y_hat.shape != np.shape(data.output):
+        raise ValueError(f'prediction has {y_hat.size} samples, the record {len(data.output)}')
+    kept = measured_samples(data)
+    if kept is not None:
+        gapped = plot_axis(data, kept)
+        split = data.scored_split(split)
+        data, y_hat, signals = measured_view(data, kept, y_hat, signals or {})
+    y = np.asarray(data.output, float)
     train = ~data.held_out(split)
     axis, masks, tests, plane = _VIEWS[data.kind](data, y, y_hat, signals or {}, split)
+    if kept is not None:
+        axis = gapped
     span = float(np.ptp(y))
     # every part is normalised by the range over the whole record set (a quiet window
     # would otherwise look like a huge relative error), and says how much of it it covers
@@ -137,7 +151,47 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
     rows = breakdown(y - y_hat, masks, span)
     return Comparison(data.kind, y, y_hat, _finite(sc), rows,
                       concentrations(rows, sc['all']['rmse']), tests, axis, train, plane,
-                      figures=data.figures, axis_label=data.axis_label)
+                      unit=getattr(data, 'position_unit', '') or '', figures=data.figures,
+                      axis_label=data.axis_label, kept=kept)
+
+
+def measured_samples(data: Any) -> Optional[np.ndarray]:
+    """Return the mask of the measured samples of `data` if some are not, else None."""
+    scored = getattr(data, 'scored', None)
+    return None if scored is None or np.all(scored) else np.asarray(scored, bool)
+
+
+def measured_view(data: DynamicData, kept: np.ndarray, prediction: np.ndarray,
+                  signals: dict) -> tuple:
+    """
+    Return (data, prediction, signals) cut to the `kept` samples, on one uniform time axis.
+
+    The regimes, rates and residual tests then see the records one after the other, with
+    neither the rests between them nor a bag's gaps.
+    """
+    def cut(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
+        return None if x is None else np.asarray(x)[kept]
+    n = int(kept.sum())
+    view = DynamicData(data.time[0] + np.arange(n) * data.dt, cut(data.duty_a),
+                       cut(data.duty_b), cut(data.position), cut(data.ambient),
+                       cut(data.setpoint), data.position_unit, data.layout)
+    sig = {k: (view.time if k == 'time' else cut(v)) for k, v in signals.items()}
+    return view, cut(prediction), sig
+
+
+def plot_axis(data: DynamicData, kept: np.ndarray) -> np.ndarray:
+    """
+    Return the time [s] from the start at which each kept sample is plotted.
+
+    t_k = dt × (number of samples before k that are kept or lie inside a record): the rests
+    between joined records take no time on the plot, a gap inside a record (a bag's lost
+    joint states) takes its own, so the time of every record's events reads as recorded.
+    """
+    inside = np.zeros(len(kept), bool)
+    for _, start, stop in data.segments or (('', 0, len(kept)),):
+        inside[start:stop] = True
+    counted = np.cumsum(kept | inside) - 1
+    return counted[kept] * data.dt
 
 
 def _dynamic_view(data: DynamicData, y: np.ndarray, y_hat: np.ndarray, signals: dict,

@@ -450,24 +450,3 @@ def segment_view(data: DynamicData, a: int, b: int) -> DynamicData:
     return DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b], data.position[a:b],
                        cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout,
                        scored=_gaps_only(cut(data.scored)))
-
-
-def scored_view(data: DynamicData, prediction: np.ndarray, signals: dict) -> tuple:
-    """
-    Return (data, prediction, signals) with the rest gaps of joined `data` cut out.
-
-    The records then follow each other on one continuous time axis (for the regime
-    breakdown, residual tests and plots); data without gaps is returned as it is.
-    """
-    if data.scored is None:
-        return data, prediction, signals
-    keep = np.asarray(data.scored, bool)
-
-    def cut(x: Optional[np.ndarray]) -> Optional[np.ndarray]:
-        return None if x is None else np.asarray(x)[keep]
-    n = int(keep.sum())
-    view = DynamicData(data.time[0] + np.arange(n) * data.dt, cut(data.duty_a),
-                       cut(data.duty_b), cut(data.position), cut(data.ambient),
-                       cut(data.setpoint), data.position_unit, data.layout)
-    sig = {k: (view.time if k == 'time' else cut(v)) for k, v in (signals or {}).items()}
-    return view, cut(prediction), sig

@@ -43,6 +43,7 @@ PathLike = Union[str, os.PathLike]
 REPORT_FILES = ('index.html', 'time.png', 'curves.png', 'residual.png', 'hysteresis.png',
                 'regimes.png', 'correlation.png')
 DPI = 90
+GAP_STEPS = 1.5     # a step of the plotted time axis over this many samples is a gap
 MAX_CROSS_PANELS = 8
 
 
@@ -73,11 +74,14 @@ def write_report(directory: PathLike, comparison: Comparison, title: str, *,
     comparison: `compare.Comparison`. model: {'effects', 'kind', 'parameters'} shown in the
     summary. diagnosis: `diagnose(...).to_json()` dict, shown as a ranked table.
     alternative: (label, prediction over the record) drawn next to the model, e.g. the
-    model with the missing effect added. force: overwrite an existing report.
+    model with the missing effect added (at every sample of the record, as the
+    comparison's data). force: overwrite an existing report.
     """
     check_report_dir(directory, force)
     directory = Path(directory)
     directory.mkdir(exist_ok=True)
+    if alternative is not None and comparison.kept is not None:
+        alternative = (alternative[0], np.asarray(alternative[1])[comparison.kept])
     # the data kind names its own figures (`DynamicData.figures`, `StaticData.figures`)
     figures = [(name, caption, _PLOTS[name](comparison, alternative))
                for name, caption in comparison.figures]
@@ -94,12 +98,14 @@ def write_report(directory: PathLike, comparison: Comparison, title: str, *,
 
 
 def write_diagnosis_report(directory: PathLike, data: Any, diagnosis: Any, title: str,
-                           data_line: str, force: bool = False) -> Path:
+                           data_line: str, force: bool = False,
+                           doc: Optional[dict] = None) -> Path:
     """
     Write the report of a `engine.Diagnosis` on `data`; returns the path of index.html.
 
     The base model is compared with the data, and the model with the missing effect added
-    (if one was named) is drawn beside it.
+    (if one was named) is drawn beside it. doc: the diagnosis as shown (default
+    `diagnosis.to_json()`; `sma-model diagnose` adds its rounds).
     """
     from .compare import compare
     base = diagnosis.baseline
@@ -109,7 +115,8 @@ def write_diagnosis_report(directory: PathLike, data: Any, diagnosis: Any, title
     result = compare(data, base.prediction, base.signals, split=base.split)
     model = {'effects': base.effects, 'kind': base.kind, 'parameters': base.shown_values()}
     return write_report(directory, result, title, data_line=data_line, model=model,
-                        diagnosis=diagnosis.to_json(), alternative=alternative, force=force)
+                        diagnosis=diagnosis.to_json() if doc is None else doc,
+                        alternative=alternative, force=force)
 
 
 def save(fig: Figure, path: PathLike) -> None:
@@ -164,6 +171,30 @@ def _mark_split(ax: Any, comparison: Comparison) -> None:
             color='0.3')
 
 
+def _gaps(comparison: Comparison) -> np.ndarray:
+    """Return the indices where the plotted axis jumps over a gap inside a record."""
+    x = comparison.axis
+    if comparison.kept is None or len(x) < 2:
+        return np.zeros(0, int)
+    steps = np.diff(x)
+    return np.flatnonzero(steps > GAP_STEPS * np.median(steps)) + 1
+
+
+def _broken(gaps: np.ndarray, *arrays: np.ndarray) -> tuple:
+    """Return the arrays with a NaN before each index in `gaps`: the line breaks there."""
+    return tuple(np.insert(np.asarray(a, float), gaps, np.nan) for a in arrays)
+
+
+def _mark_gaps(ax: Any, comparison: Comparison, gaps: np.ndarray) -> None:
+    """Shade the stretches of the time axis where the record was not measured."""
+    x = comparison.axis
+    for k in gaps:
+        ax.axvspan(x[k - 1], x[k], color='tab:orange', alpha=0.15, lw=0, zorder=0)
+    if gaps.size:
+        ax.text(x[gaps[0] - 1], 0.0, ' not measured', transform=ax.get_xaxis_transform(),
+                va='bottom', fontsize=8, color='tab:orange')
+
+
 def _label(name: str, comparison: Comparison) -> str:
     """Return an axis label with the output's unit, 'position [mm]' (no unit if unknown)."""
     unit = getattr(comparison, 'unit', '')
@@ -174,13 +205,16 @@ def plot_time(comparison: Comparison, alternative: Optional[tuple] = None) -> Fi
     """Measured and model position over time [s], validation part shaded."""
     fig, axes = _figure()
     ax = axes[0, 0]
-    t = comparison.axis
-    ax.plot(t, comparison.measured, color='k', lw=0.8, label='measured')
-    ax.plot(t, comparison.predicted, color='tab:red', lw=0.9, label='model')
+    gaps = _gaps(comparison)
+    t, measured, predicted = _broken(gaps, comparison.axis, comparison.measured,
+                                     comparison.predicted)
+    ax.plot(t, measured, color='k', lw=0.8, label='measured')
+    ax.plot(t, predicted, color='tab:red', lw=0.9, label='model')
     if alternative is not None:
         label, pred = alternative
-        ax.plot(t, pred, color='tab:blue', lw=0.9, label=label)
+        ax.plot(t, *_broken(gaps, pred), color='tab:blue', lw=0.9, label=label)
     _mark_split(ax, comparison)
+    _mark_gaps(ax, comparison, gaps)
     ax.set(xlabel='time [s]', ylabel=_label('position', comparison))
     ax.legend(loc='lower right', fontsize=8)
     return fig
@@ -190,9 +224,11 @@ def plot_residual(comparison: Comparison) -> Figure:
     """Residual over time (or over the sample index for static curves)."""
     fig, axes = _figure(h=3)
     ax = axes[0, 0]
-    ax.plot(comparison.axis, comparison.residual, color='tab:purple', lw=0.7)
+    gaps = _gaps(comparison)
+    ax.plot(*_broken(gaps, comparison.axis, comparison.residual), color='tab:purple', lw=0.7)
     ax.axhline(0, color='0.5', lw=0.8)
     _mark_split(ax, comparison)
+    _mark_gaps(ax, comparison, gaps)
     ax.set(xlabel=comparison.axis_label, ylabel=_label('measured − model', comparison))
     return fig
 
@@ -206,8 +242,10 @@ def plot_hysteresis(comparison: Comparison) -> Figure:
         x, xlabel = sig['theta_a'] - sig['theta_b'], 'model wire temperature θa − θb [°C]'
     else:
         x, xlabel = sig['duty_diff'], 'duty_a − duty_b'
-    ax.plot(x, comparison.measured, color='k', lw=0.5, alpha=0.7, label='measured')
-    ax.plot(x, comparison.predicted, color='tab:red', lw=0.6, alpha=0.8, label='model')
+    x, measured, predicted = _broken(_gaps(comparison), x, comparison.measured,
+                                     comparison.predicted)
+    ax.plot(x, measured, color='k', lw=0.5, alpha=0.7, label='measured')
+    ax.plot(x, predicted, color='tab:red', lw=0.6, alpha=0.8, label='model')
     ax.set(xlabel=xlabel, ylabel=_label('position', comparison))
     ax.legend(fontsize=8)
     return fig
@@ -323,7 +361,8 @@ def _score_row(part: str, s: dict) -> list:
 
 def _scores_html(comparison: Comparison) -> str:
     rows = [_score_row(part, s) for part, s in comparison.scores.items() if s]
-    return _table(['part', 'NRMSE', 'RMSE', 'fit %', 'max error'], rows)
+    return _table(['part', 'NRMSE', _label('RMSE', comparison), 'fit %',
+                   _label('max error', comparison)], rows)
 
 
 def _model_html(model: Optional[dict]) -> str:
@@ -345,8 +384,9 @@ def _regimes_html(comparison: Comparison) -> str:
         rows = [[r['label'], r['samples'], _pct(r['fraction']), _pct(r['nrmse']), _f(r['rmse']),
                  _f(r['bias']), _pct(r['error_share'])] for r in items]
         out.append(f'<h3>{html.escape(group)}</h3>')
-        out.append(_table(['regime', 'samples', 'share of samples', 'NRMSE', 'RMSE',
-                           'mean error', 'share of squared error'], rows,
+        out.append(_table(['regime', 'samples', 'share of samples', 'NRMSE',
+                           _label('RMSE', comparison), _label('mean error', comparison),
+                           'share of squared error'], rows,
                           hot=[r in comparison.concentrated for r in items]))
     return ''.join(out)
 
