@@ -58,6 +58,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
 from .engine import part_scores
+from .records import partly_measured
 from ..core.datakinds import DynamicData, Split, StaticData
 
 Z99 = 2.576
@@ -132,7 +133,7 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
     y_hat = np.asarray(prediction, float)
     if y_hat.shape != np.shape(data.output):
         raise ValueError(f'prediction has {y_hat.size} samples, the record {len(data.output)}')
-    kept = measured_samples(data)
+    kept = partly_measured(getattr(data, 'scored', None))
     if kept is not None:
         gapped = plot_axis(data, kept)
         split = data.scored_split(split)
@@ -153,12 +154,6 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
                       concentrations(rows, sc['all']['rmse']), tests, axis, train, plane,
                       unit=getattr(data, 'position_unit', '') or '', figures=data.figures,
                       axis_label=data.axis_label, kept=kept)
-
-
-def measured_samples(data: Any) -> Optional[np.ndarray]:
-    """Return the mask of the measured samples of `data` if some are not, else None."""
-    scored = getattr(data, 'scored', None)
-    return None if scored is None or np.all(scored) else np.asarray(scored, bool)
 
 
 def measured_view(data: DynamicData, kept: np.ndarray, prediction: np.ndarray,

@@ -219,12 +219,12 @@ def _share(scored: Optional[np.ndarray]) -> Optional[np.ndarray]:
 
 def _all_of(share: Optional[np.ndarray]) -> Optional[np.ndarray]:
     """Return where an averaged or interpolated `_share` is whole: every sample it spans."""
-    return None if share is None else _gaps_only(share > 1.0 - 1e-9)
+    return None if share is None else partly_measured(share > 1.0 - 1e-9)
 
 
-def _gaps_only(scored: Optional[np.ndarray]) -> Optional[np.ndarray]:
+def partly_measured(scored: Optional[np.ndarray]) -> Optional[np.ndarray]:
     """Return a scored mask that leaves samples out, else None (every sample measured)."""
-    return None if scored is None or np.all(scored) else scored
+    return None if scored is None or np.all(scored) else np.asarray(scored, bool)
 
 
 def decimate(data: DynamicData, factor: int) -> DynamicData:
@@ -449,4 +449,4 @@ def segment_view(data: DynamicData, a: int, b: int) -> DynamicData:
         return None if x is None else x[a:b]
     return DynamicData(data.time[a:b], data.duty_a[a:b], data.duty_b[a:b], data.position[a:b],
                        cut(data.ambient), cut(data.setpoint), data.position_unit, data.layout,
-                       scored=_gaps_only(cut(data.scored)))
+                       scored=partly_measured(cut(data.scored)))
