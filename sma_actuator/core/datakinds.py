@@ -83,6 +83,11 @@ class _Data:
     #: several files of this kind can be joined into one data set
     joinable: ClassVar[bool] = False
 
+    @property
+    def output_unit(self) -> str:
+        """Return the unit of the measured output, for what a person reads ('' if not known)."""
+        return ''
+
     def rig(self) -> dict:
         """Return the rig settings a model fitted on this data must share ({} for none)."""
         return {}
@@ -222,6 +227,11 @@ class DynamicData(_Data):
     def output(self) -> np.ndarray:
         """Return the measured position [position_unit]."""
         return self.position
+
+    @property
+    def output_unit(self) -> str:
+        """Return the position unit as read from the data ('' if not known)."""
+        return self.position_unit or ''
 
     def scored_mask(self) -> np.ndarray:
         """Return the samples that are measured (not the rest gaps between records)."""

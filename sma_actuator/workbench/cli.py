@@ -425,7 +425,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
             print('fitted: ' + ', '.join(f'{k} = {v:.4g}' for k, v in fit.shown_values().items()))
-        unit = unit_of(data)
+        unit = data.output_unit
         for r in records if len(records) > 1 else []:
             print(score_line(f'{r["data"]} ({r["role"]})', r['scores']['all'], unit, 0,
                              r['role'] != 'train'))
@@ -485,11 +485,6 @@ def _fit_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]], effect
         _note(args, line)
     fit = fit_model(data, effects=effects, kind=kind, progress=progress)
     return data, fit, per_record(fit, data)
-
-
-def unit_of(data: Any) -> str:
-    """Return the output unit of `data` ('' for static curves, whose unit is not known)."""
-    return getattr(data, 'position_unit', '') or ''
 
 
 def per_record(fit: Any, data: Any) -> List[Dict[str, Any]]:
@@ -671,7 +666,7 @@ def _note_apart_rests(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
     rests = start_rests(loaded)
     if len(rests) < 2:
         return
-    span, unit = data.span(), unit_of(data)
+    span, unit = data.span(), data.output_unit
     low, high = min(rests, key=rests.get), max(rests, key=rests.get)
     if rests[high] - rests[low] > UNTARED_SHARE * span:
         _note(args, f'note: the records start at rests {rests[high] - rests[low]:.4g} {unit} '
@@ -691,7 +686,7 @@ def _note_quiet_records(args: argparse.Namespace, data: Any, travel: float) -> N
     from .engine import MIN_COVERAGE
     moved = data.span()
     if moved < MIN_COVERAGE * travel:
-        unit = unit_of(data)
+        unit = data.output_unit
         _note(args, f'note: the compared records move {moved:.4g} {unit}, '
                     f"{100 * moved / travel:.0f} % of the model's travel ({travel:.4g} {unit}): "
                     'their NRMSE, over that range, says little; read the RMSE')
@@ -717,7 +712,7 @@ def _note_start_offsets(args: argparse.Namespace, data: Any,
     Those are the records `records.untared_offsets` finds read by an untared sensor (one
     led in warm or cooling does not start at rest).
     """
-    unit = unit_of(data)
+    unit = data.output_unit
     for r in records:
         if r.get('untared'):
             _note(args, f'note: {r["data"]} starts at rest {r["start_offset"]:+.4g} {unit} from '

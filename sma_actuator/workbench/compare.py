@@ -152,7 +152,7 @@ def compare(data: Any, prediction: np.ndarray, signals: Optional[dict] = None,
     rows = breakdown(y - y_hat, masks, span)
     return Comparison(data.kind, y, y_hat, _finite(sc), rows,
                       concentrations(rows, sc['all']['rmse']), tests, axis, train, plane,
-                      unit=getattr(data, 'position_unit', '') or '', figures=data.figures,
+                      unit=data.output_unit, figures=data.figures,
                       axis_label=data.axis_label, kept=kept)
 
 
