@@ -203,10 +203,12 @@ def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
      r'line 5: 4 field\(s\), the header has 5'),
     (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'abc', 1)] + ls[7:],
      r"line 7, column 'position': 'abc' is not a number"),
-    (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'nan', 1)] + ls[7:],
-     r"line 7, column 'position': nan \(NaN"),
-    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:3] + [''] + ls[6].split(',')[4:])] + ls[7:],
-     r"line 7, column 'position': empty value"),
+    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:1] + ['nan'] + ls[6].split(',')[2:])]
+     + ls[7:], r"line 7, column 'duty_a': nan \(NaN"),
+    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:2] + [''] + ls[6].split(',')[3:])] + ls[7:],
+     r"line 7, column 'duty_b': empty value"),
+    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:3] + ['inf'] + ls[6].split(',')[4:])]
+     + ls[7:], r"line 7, column 'position': inf \(NaN or infinite"),
     (lambda ls: ls[:10] + [ls[9]] + ls[11:],
      r"line 11, column 'time': 0.3 repeats 0.3 on line 10"),
     (lambda ls: ls[:10] + [ls[11], ls[10]] + ls[12:],
@@ -319,6 +321,61 @@ def _without_joint_states(bag, out_dir, start_s, stop_s):
     return out_dir
 
 
+def _blank_positions(path, rows, token):
+    """Rewrite data rows `rows` (0-based) of a CSV with `token` in its position field."""
+    lines = _lines(path)
+    first = next(k for k, line in enumerate(lines) if line.startswith('time'))
+    for k in rows:
+        fields = lines[first + 1 + k].split(',')
+        fields[3] = token
+        lines[first + 1 + k] = ','.join(fields)
+    return _rewrite(path, lines)
+
+
+def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scored(tmp_path):
+    # a logger writes the duties it commanded and NaN or nothing for a reading it missed:
+    # one missing reading is bridged as a dropped sample is, two or more are a gap (a bag's
+    # rule), and the samples before the first reading are not measured either
+    t, da, db, pos = _dynamic_rows(n=80)
+    path = _write(tmp_path / 'r.csv', 'time,duty_a,duty_b,position',
+                  np.column_stack([t, da, db, pos]), comments=['# a run'])
+    whole = load_data(path)
+    _blank_positions(path, [10], 'nan')
+    _blank_positions(path, range(30, 40), '')
+    _blank_positions(path, range(3), 'NaN')
+    notes = []
+    data = load_data(path, notes=notes)
+    np.testing.assert_array_equal(data.duty_a, whole.duty_a)
+    assert np.all(np.isfinite(data.position))
+    assert data.position[10] == pytest.approx(0.5 * (pos[9] + pos[11]), abs=1e-6)
+    lost = np.zeros(80, bool)
+    lost[[0, 1, 2]] = lost[30:40] = True
+    np.testing.assert_array_equal(data.scored_mask(), ~lost)
+    assert notes == [f'{path}: 14 row(s) without a position (NaN or empty; the first on line '
+                     '3): interpolated from the rows around them',
+                     f'{path}: the 13 samples in gaps of the position (over 2.5 median steps, '
+                     'or before its first or after its last reading) are simulated but '
+                     'neither fitted nor scored']
+    _blank_positions(path, range(80 - 4), '')
+    with pytest.raises(DataError, match=r'r.csv: 4 row\(s\) with a position; a dynamic '
+                                        'record needs at least 10'):
+        load_data(path)
+
+
+def test_a_csv_gap_in_the_positions_is_scored_as_the_same_gap_in_a_bag(tmp_path):
+    # one rule for a reading the sensor did not deliver, whichever file holds the record
+    from test_workbench_batch import _record, _write_bag, _write_csv
+    rec = _record('none', 5)
+    _write_bag(tmp_path / 'full', rec)
+    bag = load_data(_without_joint_states(tmp_path / 'full', tmp_path / 'cut', 40.0, 60.0))
+    gap = ~bag.scored_mask()
+    assert gap.sum() == 200
+    _write_csv(tmp_path / 'r.csv', rec)
+    csv = load_data(_blank_positions(tmp_path / 'r.csv', np.flatnonzero(gap), 'nan'))
+    np.testing.assert_array_equal(csv.scored_mask(), bag.scored_mask())
+    np.testing.assert_allclose(csv.position, bag.position, atol=1e-5)
+
+
 def test_a_bag_with_a_gap_in_its_joint_states_loads_with_a_note(tmp_path):
     # as a CSV bridges a dropped sample and refuses a longer gap, a bag says where the
     # position was interpolated over more than MAX_BRIDGED_STEPS median steps, and those
@@ -407,6 +464,21 @@ def test_a_csv_cut_off_inside_its_last_row_keeps_the_complete_rows_with_a_note(d
         assert notes == [f'{dynamic_csv}: the file ends inside line {len(rows) + 3} (a log '
                          f'stopped while it was written): that row is left out, '
                          f'{len(rows) - 1} rows read']
+
+
+def test_a_csv_cut_off_inside_its_last_position_leaves_that_row_out(tmp_path):
+    # the position is the last field of a logger's row: an empty one there is the cut,
+    # not a reading the sensor missed
+    t, da, db, pos = _dynamic_rows()
+    path = _write(tmp_path / 'r.csv', 'time,duty_a,duty_b,position',
+                  np.column_stack([t, da, db, pos]))
+    text = path.read_text()
+    path.write_text(text[:text.rindex(',') + 1])
+    notes = []
+    data = load_data(path, notes=notes)
+    assert len(data) == len(t) - 1 and data.scored is None
+    assert notes == [f'{path}: the file ends inside line {len(t) + 1} (a log stopped while it '
+                     f'was written): that row is left out, {len(t) - 1} rows read']
 
 
 def test_a_short_last_row_that_ends_with_a_line_end_is_still_an_error(dynamic_csv):

@@ -24,6 +24,9 @@ separated by commas, or by semicolons or tabs when the header row has no comma):
   time strictly increasing, in s (or the unit of a ``time[ms]`` header); a record whose
   steps vary by more than 1 % (clock jitter, rounded stamps, one dropped sample) is
   resampled to its mean step (`steady_columns`); a longer gap is an error;
+  a row whose position is empty or NaN (a reading the sensor did not deliver) keeps its
+  duties: the position is interpolated there and, over more than one row, neither fitted
+  nor scored, as in a bag's gap (`fill_missing_positions`, `measured_on_grid`);
   duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
   comment (``# ... position in mm``) or the caller names (default rad), ambient
   temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
@@ -90,6 +93,9 @@ MCAP_MAGIC = b'\x89MCAP'
 # an unsteady record is resampled only if no step exceeds this many mean steps (one
 # dropped sample is bridged, a longer gap is not invented)
 MAX_BRIDGED_STEPS = 2.5
+# columns whose empty or NaN fields are missing readings, not malformed rows: a position
+# the sensor did not deliver while the duties, commands, are known
+MAY_MISS = ('position',)
 
 PathLike = Union[str, os.PathLike]
 
@@ -181,9 +187,10 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
 
     Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
     duplicated or empty column name, a row with the wrong number of fields, or a field
-    that is not a finite number. One exception: a file that ends inside its last row (no
-    line end after it, as a log stopped while it was written) whose last row does not
-    parse loses that row only; `notes` receives a line saying so.
+    that is not a finite number; an empty or NaN position is a missing reading (NaN,
+    `MAY_MISS`). One exception: a file that ends inside its last row (no line end after it,
+    as a log stopped while it was written) whose last row does not parse, or lacks a
+    value, loses that row only; `notes` receives a line saying so.
     """
     try:
         size = Path(path).stat().st_size
@@ -210,14 +217,17 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
     header = [h.strip().lower()
               for h in _csv_fields(path, header_line, header_text, delimiter)]
     _check_header(path, header_line, header)
+    may_miss = {h for h in header if (_unit_in_name(h) or (h,))[0] in MAY_MISS}
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
     # no line end after the file's last line: it was cut off, perhaps inside that row
     cut_line = None if text.endswith(('\n', '\r')) else len(all_lines)
     for line_no, text_line in numbered[1:]:
         try:
+            # a missing value on the cut-off line is where the log stopped, not a reading
             rows.append(_parse_row(path, line_no, header,
-                                   _csv_fields(path, line_no, text_line, delimiter)))
+                                   _csv_fields(path, line_no, text_line, delimiter),
+                                   may_miss if line_no != cut_line else frozenset()))
         except DataError:
             if line_no != cut_line:
                 raise
@@ -260,14 +270,22 @@ def _is_number(text: str) -> bool:
     return limits.is_number(text)
 
 
-def _parse_row(path: PathLike, line_no: int, header: list, fields: list) -> list:
-    """Return the finite numbers of one CSV row; `DataError` naming line and column."""
+def _parse_row(path: PathLike, line_no: int, header: list, fields: list,
+               may_miss: frozenset = frozenset()) -> list:
+    """
+    Return the finite numbers of one CSV row; `DataError` naming line and column.
+
+    A field of a column in `may_miss` that is empty or NaN is a missing value: NaN.
+    """
     if len(fields) != len(header):
         raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
                         f'{len(header)} ({",".join(header)})')
     values = []
     for name, field in zip(header, fields):
         text = field.strip()
+        if name in may_miss and (not text or text.lower() == 'nan'):
+            values.append(np.nan)
+            continue
         if not text:
             raise DataError(f"{path}: line {line_no}, column '{name}': empty value")
         try:
@@ -359,10 +377,63 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
                             'outside [0, 1] (duty is a fraction; name a percentage: duty_a[%])')
+    measured_time = fill_missing_positions(path, cols, lines, notes)
     cols, note = steady_columns(path, cols, lines)
     if note and notes is not None:
         notes.append(f'{path}: {note}')
-    return make_dynamic(path, cols, unit)
+    scored = None if measured_time is None else measured_on_grid(measured_time, cols['time'])
+    if scored is not None and scored.all():
+        scored = None
+    if scored is not None and notes is not None:
+        notes.append(f'{path}: the {np.count_nonzero(~scored)} samples in gaps of the position '
+                     f'(over {MAX_BRIDGED_STEPS:g} median steps, or before its first or after '
+                     'its last reading) are simulated but neither fitted nor scored')
+    return make_dynamic(path, cols, unit, scored=scored)
+
+
+def fill_missing_positions(path: PathLike, cols: dict, lines: np.ndarray,
+                           notes: Optional[list] = None) -> Optional[np.ndarray]:
+    """
+    Interpolate the positions a CSV lacks (NaN) in `cols`; return the measured times [s].
+
+    None when every row has a position. The duties of such rows are known, so the model
+    runs through them, as through a bag's gap (`load_bag`); which of them are scored is
+    `measured_on_grid`'s. A record needs MIN_SAMPLES rows with a position.
+    """
+    position, time = cols['position'], cols['time']
+    measured = np.isfinite(position)
+    if measured.all():
+        return None
+    count = int(np.count_nonzero(measured))
+    if count < MIN_SAMPLES:
+        raise DataError(f'{path}: {count} row(s) with a position; a dynamic record needs at '
+                        f'least {MIN_SAMPLES}')
+    cols['position'] = np.interp(time, time[measured], position[measured])
+    if notes is not None:
+        notes.append(f'{path}: {position.size - count} row(s) without a position (NaN or '
+                     f'empty; the first on line {lines[np.argmin(measured)]}): interpolated '
+                     'from the rows around them')
+    return time[measured]
+
+
+def measured_on_grid(measured_time: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """
+    Return which times of `grid` [s] have a measured position (True), given its times [s].
+
+    The bag's rule (`bag.arrays.unmeasured`): strictly inside a gap of more than
+    MAX_BRIDGED_STEPS median steps between measured positions the interpolated position is
+    no measurement; one missing reading is bridged. Before the first measured position and
+    after the last there is none either.
+    """
+    from ..bag.arrays import unmeasured
+
+    def ns(t: np.ndarray) -> np.ndarray:
+        return np.round((t - measured_time[0]) * 1e9).astype(np.int64)
+
+    # a resampled grid may end a rounding error after the last time
+    slack = 1e-6 * float(np.median(np.diff(measured_time)))
+    inside = (grid >= measured_time[0] - slack) & (grid <= measured_time[-1] + slack)
+    return inside & ~unmeasured(ns(measured_time), ns(grid), MAX_BRIDGED_STEPS)
 
 
 def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> Tuple[np.ndarray, float]:
