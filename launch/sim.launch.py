@@ -15,6 +15,7 @@
 Launch the simulated closed loop: plant_sim, controller, setpoint; recorder with record:=true.
 
     ros2 launch sma_actuator sim.launch.py namespace:=left profile:=step record:=true
+    ros2 launch sma_actuator sim.launch.py model_file:=m.yaml plant_model_file:=m.yaml
 
 With use_sim_time:=true (the default) the plant owns the time: it steps in lockstep with the
 controller (each step waits for the duty reply to the last joint state) and publishes
@@ -30,7 +31,8 @@ def _nodes(context):
     sim = sl.flag(context, 'use_sim_time')
     plant = sl.node(context, 'plant_sim', {
         'accelerated': sim, 'lockstep': sim,
-        'real_time_factor': float(sl.arg(context, 'real_time_factor'))})
+        'real_time_factor': float(sl.arg(context, 'real_time_factor')),
+        'model_file': sl.arg(context, 'plant_model_file')})
     return [plant, sl.controller(context), sl.setpoint(context), *sl.recorder(context)]
 
 
@@ -41,5 +43,8 @@ def generate_launch_description():
         DeclareLaunchArgument('real_time_factor', default_value='1.0', description=(
             'Sim seconds per wall second with use_sim_time (an upper bound: lockstep waits '
             'for the controller).')),
+        DeclareLaunchArgument('plant_model_file', default_value='', description=(
+            "The simulated plant's model file (sma-model fit --out: the fitted rig); empty: "
+            'from the params files (config/plant_sim.yaml, the neutral plant).')),
         OpaqueFunction(function=_nodes),
     ])

@@ -47,6 +47,9 @@ def common_arguments(use_sim_time: str = 'false') -> List[DeclareLaunchArgument]
         DeclareLaunchArgument('profile', default_value='', choices=['', *PROFILES],
                               description=(
             f'Setpoint profile ({", ".join(PROFILES)}); empty: from the params files.')),
+        DeclareLaunchArgument('model_file', default_value='', description=(
+            "The controller's model file (sma-model fit --out: the fitted rig); empty: from "
+            'the params files (config/controller_model.yaml).')),
         DeclareLaunchArgument('params_file', default_value='', description=(
             'Extra ROS parameter YAML applied to every node after its installed '
             'config/<node>.yaml (sections /** or /**/<node>); empty: none.')),
@@ -98,8 +101,9 @@ def node(context: LaunchContext, executable: str, overrides: Optional[Dict[str, 
 
 
 def controller(context: LaunchContext) -> Node:
-    """Return the controller Node (mode from the `mode` argument)."""
-    return node(context, 'controller', {'mode': arg(context, 'mode')})
+    """Return the controller Node (mode and model file from the `mode`, `model_file` args)."""
+    return node(context, 'controller', {'mode': arg(context, 'mode'),
+                                        'model_file': arg(context, 'model_file')})
 
 
 def setpoint(context: LaunchContext) -> Node:

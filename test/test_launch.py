@@ -170,11 +170,13 @@ def run_launch(file, arguments, domain_id, namespaces, extra_check=None, recorde
         executor = SingleThreadedExecutor(context=watcher.context)
         executor.add_node(watcher.node)
         deadline = time.monotonic() + BOUND_S
-        while not watcher.done() and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.1)
-        if extra_check and watcher.done():
-            extra['result'] = extra_check(watcher.node)
-        service.shutdown()
+        try:
+            while not watcher.done() and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.1)
+            if extra_check and watcher.done():
+                extra['result'] = extra_check(watcher.node)
+        finally:   # a failing check must not leave the launch running
+            service.shutdown()
 
     thread = threading.Thread(target=watch, daemon=True)
     thread.start()
@@ -187,13 +189,37 @@ def run_launch(file, arguments, domain_id, namespaces, extra_check=None, recorde
     return watcher, exits, extra.get('result')
 
 
+def _model_files(node):
+    """Return {node: its model_file parameter} of the controller and plant in /sma."""
+    from rcl_interfaces.srv import GetParameters
+    from rclpy.executors import SingleThreadedExecutor
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    out = {}
+    for name in ('controller', 'plant_sim'):
+        client = node.create_client(GetParameters, f'/sma/{name}/get_parameters')
+        if client.wait_for_service(timeout_sec=GRAPH_NAMES_S):
+            future = client.call_async(GetParameters.Request(names=['model_file']))
+            executor.spin_until_future_complete(future, timeout_sec=GRAPH_NAMES_S)
+            if future.done():
+                out[name] = future.result().values[0].string_value
+        node.destroy_client(client)
+    executor.remove_node(node)
+    return out
+
+
 def test_sim_launch_closes_the_loop_records_and_stops_cleanly(tmp_path, ros_domain_id):
+    # a rig's fitted model (here a copy of the controller's default) reaches both nodes
     from sma_actuator.bag.arrays import load_run
     bag = tmp_path / 'bag'
-    watcher, exits, _ = run_launch('sim.launch.py', [{
+    model = tmp_path / 'rig.yaml'
+    model.write_text((ROOT / 'config' / 'controller_model.yaml').read_text())
+    watcher, exits, model_files = run_launch('sim.launch.py', [{
         'params_file': _step_params(tmp_path, {'sma': STEP_RAD}), 'mode': 'pi',
-        'record': 'true', 'bag_path': str(bag), 'real_time_factor': '5.0'}],
-        ros_domain_id, ['sma'], recorded=RECORDED)
+        'record': 'true', 'bag_path': str(bag), 'real_time_factor': '5.0',
+        'model_file': str(model), 'plant_model_file': str(model)}],
+        ros_domain_id, ['sma'], extra_check=_model_files, recorded=RECORDED)
+    assert model_files == {'controller': str(model), 'plant_sim': str(model)}
     assert watcher.reached == {'sma': True}, watcher.positions['sma'][-5:]
     assert all(watcher.recorded[t] >= n for t, n in RECORDED.items()), watcher.recorded
     assert sorted(exits) == [('controller', 0), ('plant_sim', 0), ('recorder', 0),
