@@ -342,7 +342,7 @@ def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scor
     whole = load_data(path)
     _blank_positions(path, [10], 'nan')
     _blank_positions(path, range(30, 40), '')
-    _blank_positions(path, range(3), 'NaN')
+    _blank_positions(path, range(3), '-nan')   # as C's printf writes it
     notes = []
     data = load_data(path, notes=notes)
     np.testing.assert_array_equal(data.duty_a, whole.duty_a)
@@ -352,7 +352,7 @@ def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scor
     lost[[0, 1, 2]] = lost[30:40] = True
     np.testing.assert_array_equal(data.scored_mask(), ~lost)
     assert notes == [f'{path}: 14 row(s) without a position (NaN or empty; the first on line '
-                     '3): interpolated from the rows around them',
+                     '3): interpolated from the rows around them, held at the ends',
                      f'{path}: the 13 samples in gaps of the position (over 2.5 median steps, '
                      'or before its first or after its last reading) are simulated but '
                      'neither fitted nor scored']

@@ -283,7 +283,7 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list,
     values = []
     for name, field in zip(header, fields):
         text = field.strip()
-        if name in may_miss and (not text or text.lower() == 'nan'):
+        if not text and name in may_miss:
             values.append(np.nan)
             continue
         if not text:
@@ -293,6 +293,9 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list,
         except ValueError:
             raise DataError(f"{path}: line {line_no}, column '{name}': {text[:40]!r} is not a "
                             'number (write plain ASCII decimals such as 1.5 or 2e-3)') from None
+        if np.isnan(value) and name in may_miss:
+            values.append(np.nan)
+            continue
         if not np.isfinite(value):
             raise DataError(f"{path}: line {line_no}, column '{name}': {text} (NaN or "
                             'infinite values are not allowed; drop or fill the row)')
@@ -412,7 +415,7 @@ def fill_missing_positions(path: PathLike, cols: dict, lines: np.ndarray,
     if notes is not None:
         notes.append(f'{path}: {position.size - count} row(s) without a position (NaN or '
                      f'empty; the first on line {lines[np.argmin(measured)]}): interpolated '
-                     'from the rows around them')
+                     'from the rows around them, held at the ends')
     return time[measured]
 
 
