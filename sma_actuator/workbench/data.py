@@ -384,13 +384,16 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
     cols, note = steady_columns(path, cols, lines)
     if note and notes is not None:
         notes.append(f'{path}: {note}')
-    scored = None if measured_time is None else measured_on_grid(measured_time, cols['time'])
-    if scored is not None and scored.all():
-        scored = None
-    if scored is not None and notes is not None:
-        notes.append(f'{path}: the {np.count_nonzero(~scored)} samples in gaps of the position '
-                     f'(over {MAX_BRIDGED_STEPS:g} median steps, or before its first or after '
-                     'its last reading) are simulated but neither fitted nor scored')
+    scored = None
+    if measured_time is not None:
+        scored = measured_on_grid(measured_time, cols['time'])
+        if scored.all():
+            scored = None
+        elif notes is not None:
+            notes.append(f'{path}: the {np.count_nonzero(~scored)} samples in gaps of the '
+                         f'position (over {MAX_BRIDGED_STEPS:g} median steps, or before its '
+                         'first or after its last reading) are simulated but neither fitted '
+                         'nor scored')
     return make_dynamic(path, cols, unit, scored=scored)
 
 
