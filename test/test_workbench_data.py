@@ -203,10 +203,12 @@ def test_static_input_output_without_curve_is_one_training_curve(tmp_path):
      r'line 5: 4 field\(s\), the header has 5'),
     (lambda ls: ls[:6] + [ls[6].replace(ls[6].split(',')[3], 'abc', 1)] + ls[7:],
      r"line 7, column 'position': 'abc' is not a number"),
-    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:1] + ['nan'] + ls[6].split(',')[2:])]
-     + ls[7:], r"line 7, column 'duty_a': nan \(NaN"),
-    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:2] + [''] + ls[6].split(',')[3:])] + ls[7:],
-     r"line 7, column 'duty_b': empty value"),
+    (lambda ls: ls[:6] + [','.join(['nan'] + ls[6].split(',')[1:])] + ls[7:],
+     r"line 7, column 'time': nan \(NaN"),
+    (lambda ls: ls[:6] + [','.join([''] + ls[6].split(',')[1:])] + ls[7:],
+     r"line 7, column 'time': empty value"),
+    (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:1] + ['inf'] + ls[6].split(',')[2:])]
+     + ls[7:], r"line 7, column 'duty_a': inf \(NaN or infinite"),
     (lambda ls: ls[:6] + [','.join(ls[6].split(',')[:3] + ['inf'] + ls[6].split(',')[4:])]
      + ls[7:], r"line 7, column 'position': inf \(NaN or infinite"),
     (lambda ls: ls[:10] + [ls[9]] + ls[11:],
@@ -360,6 +362,46 @@ def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scor
     with pytest.raises(DataError, match=r'r.csv: 4 row\(s\) with a position; a dynamic '
                                         'record needs at least 10'):
         load_data(path)
+
+
+def test_signals_logged_only_when_they_change_are_held_as_a_bag_holds_them(tmp_path):
+    # a logger that writes a command only when it changes, or streams of several rates
+    # merged on one time column, leaves the other rows empty: each row holds the value
+    # above it, a duty is 0 before its first value and ambient and setpoint take their first
+    t, _, _, pos = _dynamic_rows(n=60)
+    duty = np.repeat([0.0, 0.3, 0.7, 0.2], 15)
+    ambient = np.repeat([21.5, 22.0, 22.5], 20)
+    setpoint = np.repeat([0.1, -0.2, 0.4], 20)
+    header = 'time,duty_a,duty_b,position,ambient_temperature,setpoint'
+    table = np.column_stack([t, duty, np.zeros(60), pos, ambient, setpoint])
+    whole = load_data(_write(tmp_path / 'whole.csv', header, table))
+    sparse = [line.split(',') for line in _lines(tmp_path / 'whole.csv')]
+    for k, fields in enumerate(sparse[1:]):
+        logged_duty = k == 15 or k == 30 or k == 45     # the changes only: 0 is never written
+        fields[1] = fields[1] if logged_duty else ''
+        fields[2] = ''                                  # a second wire that is not there
+        fields[4] = fields[4] if k % 10 == 0 and k else 'nan'   # a slow sensor, from row 10
+        fields[5] = fields[5] if k in (2, 20, 40) else ''
+    notes = []
+    data = load_data(_rewrite(tmp_path / 'sparse.csv', [','.join(f) for f in sparse]),
+                     notes=notes)
+    for name in ('duty_a', 'duty_b', 'position', 'ambient', 'setpoint'):
+        np.testing.assert_array_equal(getattr(data, name), getattr(whole, name), err_msg=name)
+    assert data.layout == 'single' and data.scored is None
+    path = tmp_path / 'sparse.csv'
+    assert notes == [
+        f'{path}: duty_a is empty or NaN on 57 row(s) (the first on line 2): held from the '
+        'last value above it (0 before the first)',
+        f'{path}: duty_b holds no value: 0 throughout',
+        f'{path}: ambient_temperature is empty or NaN on 55 row(s) (the first on line 2): '
+        'held from the last value above it (the first value before the first)',
+        f'{path}: setpoint is empty or NaN on 57 row(s) (the first on line 2): held from the '
+        'last value above it (the first value before the first)']
+    for fields in sparse[1:]:
+        fields[5] = 'nan'
+    notes = []
+    assert load_data(_rewrite(path, [','.join(f) for f in sparse]), notes=notes).setpoint is None
+    assert notes[-1] == f'{path}: setpoint holds no value: left out'
 
 
 def test_a_csv_gap_in_the_positions_is_scored_as_the_same_gap_in_a_bag(tmp_path):

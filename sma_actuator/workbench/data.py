@@ -26,7 +26,8 @@ separated by commas, or by semicolons or tabs when the header row has no comma):
   resampled to its mean step (`steady_columns`); a longer gap is an error;
   a row whose position is empty or NaN (a reading the sensor did not deliver) keeps its
   duties: the position is interpolated there and, over more than one row, neither fitted
-  nor scored, as in a bag's gap (`fill_missing_positions`, `measured_on_grid`);
+  nor scored, as in a bag's gap (`fill_missing_positions`, `measured_on_grid`); an
+  empty or NaN duty, ambient or setpoint holds the value above it (`hold_missing_signals`);
   duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
   comment (``# ... position in mm``) or the caller names (default rad), ambient
   temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
@@ -93,9 +94,14 @@ MCAP_MAGIC = b'\x89MCAP'
 # an unsteady record is resampled only if no step exceeds this many mean steps (one
 # dropped sample is bridged, a longer gap is not invented)
 MAX_BRIDGED_STEPS = 2.5
-# columns whose empty or NaN fields are missing readings, not malformed rows: a position
-# the sensor did not deliver while the duties, commands, are known
-MAY_MISS = ('position',)
+#: signals a logger may leave empty or NaN between their samples (written only when they
+#: change, or streams of several rates merged on one time column) -> the value before the
+#: first sample: each holds its last value, as a bag's duty, ambient and setpoint do
+#: (`bag.arrays.load_run`, `load_bag`); None holds the first value backwards
+HELD_SIGNALS = {'duty_a': 0.0, 'duty_b': 0.0, 'ambient_temperature': None, 'setpoint': None}
+# columns whose empty or NaN fields are missing values, not malformed rows: a position the
+# sensor did not deliver (interpolated) and the held signals (a one-wire `duty` is duty_a)
+MAY_MISS = ('position', SINGLE_DUTY, *HELD_SIGNALS)
 
 PathLike = Union[str, os.PathLike]
 
@@ -137,9 +143,9 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     position_unit: overrides the unit the data names (header ``position[mm]``, a comment
     ``# ... position in mm``); default_unit: a CSV's unit when it names none ('' leaves
     that to the caller). notes: a list that receives a line when an unsteady record is
-    resampled, a CSV's cut-off last row is left out, a bag was recovered from a cut-off or
-    damaged file or has gaps in its joint states (`load_bag`). Raises `DataError` with a
-    clear message on any problem.
+    resampled, a CSV's missing values are filled or its cut-off last row is left out, a
+    bag was recovered from a cut-off or damaged file or has gaps in its joint states
+    (`load_bag`). Raises `DataError` with a clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
@@ -187,10 +193,10 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
 
     Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
     duplicated or empty column name, a row with the wrong number of fields, or a field
-    that is not a finite number; an empty or NaN position is a missing reading (NaN,
-    `MAY_MISS`). One exception: a file that ends inside its last row (no line end after it,
-    as a log stopped while it was written) whose last row does not parse, or lacks a
-    value, loses that row only; `notes` receives a line saying so.
+    that is not a finite number; an empty or NaN position, duty, ambient or setpoint is a
+    missing value (NaN, `MAY_MISS`). One exception: a file that ends inside its last row
+    (no line end after it, as a log stopped while it was written) whose last row does not
+    parse, or lacks a value, loses that row only; `notes` receives a line saying so.
     """
     try:
         size = Path(path).stat().st_size
@@ -369,6 +375,7 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
     saying so.
     """
     cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
+    hold_missing_signals(path, cols, lines, notes)
     if 'duty_b' not in cols:   # one wire against a bias spring
         cols['duty_b'] = np.zeros(len(rows))
     if len(rows) < MIN_SAMPLES:
@@ -395,6 +402,42 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
                          'first or after its last reading) are simulated but neither fitted '
                          'nor scored')
     return make_dynamic(path, cols, unit, scored=scored)
+
+
+def hold_missing_signals(path: PathLike, cols: dict, lines: np.ndarray,
+                         notes: Optional[list] = None) -> None:
+    """
+    Fill the empty (NaN) rows of the duties, ambient and setpoint in `cols` by holding.
+
+    Each row takes the signal's last value on a row before it (zero-order hold, as a
+    controller holds a command and `load_bag` the bag's topics); before its first value a
+    duty is 0 (a record starts at rest) and ambient and setpoint take that first value
+    (`HELD_SIGNALS`). A column without any value is a duty of 0 throughout, or no ambient
+    or setpoint at all. notes receives one line per column filled.
+    """
+    from ..bag.arrays import zero_order_hold
+
+    rows = np.arange(len(cols['time']))
+    for name, before in HELD_SIGNALS.items():
+        values = cols.get(name)
+        if values is None or not np.isnan(values).any():
+            continue
+        known = np.isfinite(values)
+        if not known.any() and before is None:
+            del cols[name]
+            text = 'holds no value: left out'
+        elif not known.any():
+            cols[name] = np.full(rows.size, before)
+            text = f'holds no value: {before:g} throughout'
+        else:
+            start = values[known][0] if before is None else before
+            cols[name] = zero_order_hold(rows[known], values[known], rows, before=start)
+            text = (f'is empty or NaN on {np.count_nonzero(~known)} row(s) (the first on line '
+                    f'{lines[np.argmin(known)]}): held from the last value above it ('
+                    + ('the first value' if before is None else f'{before:g}')
+                    + ' before the first)')
+        if notes is not None:
+            notes.append(f'{path}: {name} {text}')
 
 
 def fill_missing_positions(path: PathLike, cols: dict, lines: np.ndarray,
