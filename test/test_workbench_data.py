@@ -20,7 +20,8 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import check_excitation, DataError, describe, load_data
+from sma_actuator.workbench.data import (check_excitation, DataError, describe, load_data,
+                                         parse_column_map)
 
 REAL = real_data_path()
 
@@ -402,6 +403,55 @@ def test_signals_logged_only_when_they_change_are_held_as_a_bag_holds_them(tmp_p
     notes = []
     assert load_data(_rewrite(path, [','.join(f) for f in sparse]), notes=notes).setpoint is None
     assert notes[-1] == f'{path}: setpoint holds no value: left out'
+
+
+def test_columns_the_formats_do_not_name_are_neither_read_nor_checked(dynamic_csv):
+    # a pandas index (no name), a logger's state text, two unnamed columns: only the
+    # formats' columns are parsed, so none of them is an error
+    whole = load_data(dynamic_csv)
+    lines = _lines(dynamic_csv)
+    head = lines.index(next(x for x in lines if x.startswith('time')))
+    extra = [f'{k - head - 1},' if k > head else ',' for k in range(len(lines))]
+    lines = [x if k < head else extra[k] + x + (',state,,' if k == head else ',HEAT ON,,x')
+             for k, x in enumerate(lines)]
+    data = load_data(_rewrite(dynamic_csv, lines))
+    for name in ('time', 'duty_a', 'duty_b', 'position', 'ambient'):
+        np.testing.assert_array_equal(getattr(data, name), getattr(whole, name), err_msg=name)
+
+
+def test_a_column_map_reads_a_csv_by_its_own_column_names(tmp_path):
+    # a PlotJuggler export: time in ns since the epoch, topic paths as names, each stream's
+    # fields empty on the other's rows
+    t, da, db, pos = _dynamic_rows()
+    header = '__time,/sma/duty/data[0],/sma/duty/data[1],/sma/joint_states/shaft/position'
+    stamps = np.round(t * 1e9).astype(np.int64) + 1_766_147_454_000_000_000
+    rows = [f'{s},{a:.6g},{b:.6g},{y:.6g}' for s, a, b, y in zip(stamps, da, db, pos)]
+    rows[5] = rows[5].rsplit(',', 1)[0] + ','   # a duty message alone on its row
+    rows[6] = ','.join(rows[6].split(',')[:1] + ['', ''] + rows[6].split(',')[3:])
+    path = _rewrite(tmp_path / 'pj.csv', [header] + rows)
+    renames = parse_column_map(['time[ns]=__time', ' duty_a = /SMA/duty/data[0]',
+                                'duty_b=/sma/duty/data[1]',
+                                'position[mm]=/sma/joint_states/shaft/position'])
+    loaded = load_data(path, renames=renames, notes=[])
+    np.testing.assert_allclose(loaded.time - loaded.time[0], t, atol=1e-6)
+    np.testing.assert_allclose(loaded.duty_a[[5, 6]], [da[5], da[5]], atol=1e-6)
+    assert loaded.position[5] == pytest.approx(0.5 * (pos[4] + pos[6]), abs=1e-6)
+    assert loaded.position_unit == 'mm'
+    with pytest.raises(DataError, match=r'cannot tell the data kind .* a column named '
+                                        'otherwise: --column NAME=HEADER'):
+        load_data(path)
+    with pytest.raises(DataError, match=r'missing column\(s\) duty_a, position .* a column '
+                                        'named otherwise: --column NAME=HEADER'):
+        load_data(path, renames=parse_column_map(['time[ns]=__time']))
+    with pytest.raises(ValueError, match=r"'POT' is given twice \(case is ignored\)"):
+        parse_column_map(['position=pot', 'setpoint=POT'])
+
+
+@pytest.mark.parametrize('pair', ['speed=x', 'position', 'position=', '=pot',
+                                  'position[mm=pot'])
+def test_a_malformed_column_pair_is_refused(pair):
+    with pytest.raises(ValueError, match='is not NAME=HEADER with NAME one of time, duty_a'):
+        parse_column_map([pair])
 
 
 def test_a_csv_gap_in_the_positions_is_scored_as_the_same_gap_in_a_bag(tmp_path):

@@ -95,6 +95,35 @@ def assert_one_line_error(code, err, *fragments):
         assert f in lines[0], lines[0]
 
 
+def test_a_csv_with_its_own_column_names_is_read_through_column(tmp_path, capsys):
+    # a logger's own names (time in ns since the epoch, `pwm`, `pot`) and a pandas index
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, '--out', out)[0] == 0
+    rows = np.loadtxt(a, delimiter=',', skiprows=1)
+    own = tmp_path / 'own.csv'
+    own.write_text(',__time,pwm,pot\n' + ''.join(
+        f'{k},{1_766_147_454_000_000_000 + round(t * 1e9)},{d:.6f},{y:.6f}\n'
+        for k, (t, d, y) in enumerate(rows)))
+    code, text, err = run(capsys, 'compare', '--model', out, a, '--json')
+    assert code == 0, err
+    expected = json.loads(text)['scores']['all']
+    code, text, err = run(capsys, 'compare', '--model', out, own, '--json', '--column',
+                          'time[ns]=__time', '--column', 'duty=PWM', '--column',
+                          'position[mm]=pot')
+    assert code == 0, err
+    got = json.loads(text)
+    assert got['position_unit'] == 'mm'
+    assert got['scores']['all']['nrmse'] == pytest.approx(expected['nrmse'], rel=1e-3)
+    code, _, err = run(capsys, 'compare', '--model', out, own)
+    assert_one_line_error(code, err, 'cannot tell the data kind from the header , __time, pwm, '
+                          'pot', '--column NAME=HEADER')
+    with pytest.raises(SystemExit) as stop:   # argparse's own exit
+        run(capsys, 'compare', '--model', out, own, '--column', 'pwm')
+    assert_one_line_error(stop.value.code, capsys.readouterr().err,
+                          "argument --column: 'pwm' is not NAME=HEADER")
+
+
 def test_a_record_without_a_unit_takes_the_unit_of_the_model_or_of_the_other_records(
         tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)

@@ -172,7 +172,7 @@ def load_checked_records(args: argparse.Namespace,
     the model file `spec` (--model) or the one unit the other records name
     (`adopt_stated_unit`).
     """
-    from .data import check_excitation, load_data
+    from .data import check_excitation, load_data, parse_column_map
     from .records import at_fit_rate
     paths = all_data(args)
     seen = {}
@@ -182,11 +182,16 @@ def load_checked_records(args: argparse.Namespace,
             raise UsageError(f'{path}: the same record as {seen[key]}; give each record once')
         seen[key] = path
     unit = getattr(args, 'position_unit', None)
+    try:
+        renames = parse_column_map(getattr(args, 'column', []))
+    except ValueError as err:
+        raise UsageError(f'--column: {err}') from None
     loaded = []
     for path in paths:
         notes = []
         d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
-                                        notes=notes, default_unit=''), args.max_rate)
+                                        notes=notes, default_unit='', renames=renames),
+                              args.max_rate)
         for line in notes + ([f'{path}: {note}'] if note else []):
             _note(args, line)
         check_excitation(d, path, to_fit=getattr(args, 'command', '') != 'compare')
@@ -1071,6 +1076,11 @@ def _common_options() -> argparse.ArgumentParser:
     common.add_argument('--position-unit', metavar='UNIT',
                         help='unit of position and setpoint (default: from the header, e.g. '
                         'position[mm], or a "# ... position in mm" comment; else rad)')
+    common.add_argument('--column', action='append', type=_column_pair, default=[],
+                        metavar='NAME=HEADER',
+                        help="read a CSV's column HEADER as NAME, e.g. position[mm]=pot_mm, "
+                        'time[ns]=__time (repeatable; NAME: time, duty_a, duty_b, duty, '
+                        'position, ambient_temperature, setpoint)')
     common.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
                         help='load user effects from a Python file or module (repeatable)')
     common.add_argument('--json', action='store_true', help='print the result as JSON')
@@ -1198,6 +1208,16 @@ def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
                      help='CSV file, or bag directory for `replay`')
     exc.add_argument('--force', action='store_true', help='overwrite OUT')
     exc.set_defaults(func=cmd_excite)
+
+
+def _column_pair(text: str) -> str:
+    """Check one ``NAME=HEADER`` of --column (argparse type)."""
+    from .data import parse_column_map
+    try:
+        parse_column_map([text])
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
 
 
 def _positive_float(text: str) -> float:

@@ -45,7 +45,7 @@ import csv
 import os
 from pathlib import Path
 import re
-from typing import Any, Optional, Tuple, Union
+from typing import Any, Dict, Iterable, Optional, Tuple, Union
 
 import numpy as np
 
@@ -65,7 +65,7 @@ _UNIT_IN_NAME = re.compile(r'^(time|position|setpoint|duty_a|duty_b|duty|ambient
 # a unit as a name suffix: position_mm, time_ms (only units these columns know)
 _UNIT_SUFFIX = re.compile(r'^(time|position|setpoint)_([a-zµ]+)$')
 #: time units a header may name -> seconds per unit
-TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6}
+TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6, 'ns': 1e-9}
 #: duty units a header may name -> fraction per unit
 DUTY_UNITS = {'-': 1.0, '1': 1.0, 'fraction': 1.0, '%': 0.01}
 #: ambient temperature units a header may name (the model works in °C)
@@ -85,8 +85,12 @@ FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
                 '[,ambient_temperature][,setpoint] (one wire: time,duty_a,position or '
                 'time,duty,position); a static CSV input,output[,curve] or '
                 'curve,voltage,deflection')
+COLUMN_HINT = 'fit, compare and diagnose read a column named otherwise: --column NAME=HEADER'
 # a one-wire record may name its duty column plainly
 SINGLE_DUTY = 'duty'
+#: every column name the formats know (`--column NAME=HEADER` may give any of them)
+COLUMN_NAMES = (*DYNAMIC_REQUIRED, *DYNAMIC_OPTIONAL, SINGLE_DUTY, 'curve',
+                *dict.fromkeys(name for layout in STATIC_LAYOUTS for name in layout))
 # a curve id is a label of a loop: far beyond any real count, and still an int64 when cast
 MAX_CURVE_ID = 10**9
 MIN_SAMPLES = 10
@@ -135,7 +139,7 @@ def comment_unit(path: PathLike) -> Optional[str]:
 
 def load_data(path: PathLike, rate_hz: Optional[float] = None,
               position_unit: Optional[str] = None, notes: Optional[list] = None,
-              default_unit: str = 'rad') -> Any:
+              default_unit: str = 'rad', renames: Optional[Dict[str, str]] = None) -> Any:
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
@@ -145,7 +149,8 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     that to the caller). notes: a list that receives a line when an unsteady record is
     resampled, a CSV's missing values are filled or its cut-off last row is left out, a
     bag was recovered from a cut-off or damaged file or has gaps in its joint states
-    (`load_bag`). Raises `DataError` with a clear message on any problem.
+    (`load_bag`). renames: a CSV's own column names -> the formats' names
+    (`parse_column_map`). Raises `DataError` with a clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
@@ -158,7 +163,7 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     if path.is_dir():
         raise DataError(f'{path}: is a directory without an .mcap file (expected a CSV file '
                         'or an MCAP bag)')
-    header, rows, lines = read_csv_table(path, notes)
+    header, rows, lines = read_csv_table(path, notes, renames)
     header, named, scales = _units_from_header(path, header)
     for column, scale in scales.items():
         rows[:, header.index(column)] *= scale
@@ -169,7 +174,7 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
         return static_from_table(path, header, rows, lines)
     raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
-                    f'{FORMATS_HELP}')
+                    f'{FORMATS_HELP}; {COLUMN_HINT}')
 
 
 def is_bag(path: PathLike) -> bool:
@@ -187,14 +192,39 @@ def is_bag(path: PathLike) -> bool:
 
 
 # ------------------------------------------------------------------------------ CSV
-def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
+def parse_column_map(pairs: Iterable[str]) -> Dict[str, str]:
+    """
+    Return {header name: column name} from ``NAME=HEADER`` texts (``--column``).
+
+    NAME is one of `COLUMN_NAMES`, with a unit if it takes one (``position[mm]``); HEADER is
+    a file's own name for it (compared without case). ValueError names a malformed pair.
+    """
+    renames = {}
+    for pair in pairs:
+        name, sep, source = (part.strip() for part in pair.partition('='))
+        column = (_unit_in_name(name.lower()) or (name.lower(),))[0]
+        if not sep or not source or column not in COLUMN_NAMES:
+            raise ValueError(f'{pair!r} is not NAME=HEADER with NAME one of '
+                             f'{", ".join(COLUMN_NAMES)} (a unit may follow: position[mm])')
+        if source.lower() in renames:
+            raise ValueError(f'{source!r} is given twice (case is ignored)')
+        renames[source.lower()] = name.lower()
+    return renames
+
+
+def read_csv_table(path: PathLike, notes: Optional[list] = None,
+                   renames: Optional[Dict[str, str]] = None) -> tuple:
     """
     Parse a numeric CSV: (header names lower-cased, float rows (n, m), file line numbers).
 
-    Skips '#' comment lines and blank lines. Raises `DataError` for an empty file, a
-    duplicated or empty column name, a row with the wrong number of fields, or a field
-    that is not a finite number; an empty or NaN position, duty, ambient or setpoint is a
-    missing value (NaN, `MAY_MISS`). One exception: a file that ends inside its last row
+    renames: {header name: column name} (`parse_column_map`): the file's own names of the
+    columns, read as the formats' names.
+
+    Skips '#' comment lines and blank lines. Only the columns of the formats
+    (`COLUMN_NAMES`) are read; the others are NaN. Raises `DataError` for an empty file, a
+    column of the formats named twice, a row with the wrong number of fields, or a field
+    read that is not a finite number; an empty or NaN position, duty, ambient or setpoint
+    is a missing value (NaN, `MAY_MISS`). One exception: a file that ends inside its last row
     (no line end after it, as a log stopped while it was written) whose last row does not
     parse, or lacks a value, loses that row only; `notes` receives a line saying so.
     """
@@ -222,8 +252,11 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
         (d for d in OTHER_DELIMITERS if d in header_text), ',')
     header = [h.strip().lower()
               for h in _csv_fields(path, header_line, header_text, delimiter)]
+    header = [(renames or {}).get(h, h) for h in header]
     _check_header(path, header_line, header)
-    may_miss = {h for h in header if (_unit_in_name(h) or (h,))[0] in MAY_MISS}
+    # other columns (a pandas index, a logger's state text) are neither read nor checked
+    read = {h for h in header if _base_name(h) in COLUMN_NAMES}
+    may_miss = {h for h in read if _base_name(h) in MAY_MISS}
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
     # no line end after the file's last line: it was cut off, perhaps inside that row
@@ -232,7 +265,7 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None) -> tuple:
         try:
             # a missing value on the cut-off line is where the log stopped, not a reading
             rows.append(_parse_row(path, line_no, header,
-                                   _csv_fields(path, line_no, text_line, delimiter),
+                                   _csv_fields(path, line_no, text_line, delimiter), read,
                                    may_miss if line_no != cut_line else frozenset()))
         except DataError:
             if line_no != cut_line:
@@ -257,16 +290,19 @@ def _csv_fields(path: PathLike, line_no: int, text: str, delimiter: str = ',') -
         raise DataError(f'{path}: line {line_no}: not a valid CSV row ({err})') from None
 
 
+def _base_name(name: str) -> str:
+    """Return a header name without its unit (``position[mm]`` -> ``position``)."""
+    return (_unit_in_name(name) or (name,))[0]
+
+
 def _check_header(path: PathLike, line_no: int, header: list) -> None:
-    """Raise `DataError` for an empty, numeric or repeated column name."""
-    if any(not h for h in header):
-        raise DataError(f'{path}: line {line_no}: empty column name in the header')
-    if all(_is_number(h) for h in header):
+    """Raise `DataError` for a numeric header or a column of the formats named twice."""
+    if all(_is_number(h) for h in header if h):
         raise DataError(f'{path}: line {line_no}: the first row holds numbers, not column '
                         f'names; {FORMATS_HELP}')
     seen = set()
     for h in header:
-        if h in seen:
+        if h in seen and _base_name(h) in COLUMN_NAMES:
             raise DataError(f"{path}: line {line_no}: column '{h}' appears twice in the header")
         seen.add(h)
 
@@ -276,12 +312,13 @@ def _is_number(text: str) -> bool:
     return limits.is_number(text)
 
 
-def _parse_row(path: PathLike, line_no: int, header: list, fields: list,
+def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: set,
                may_miss: frozenset = frozenset()) -> list:
     """
     Return the finite numbers of one CSV row; `DataError` naming line and column.
 
-    A field of a column in `may_miss` that is empty or NaN is a missing value: NaN.
+    Only the columns in `read` are parsed; the others are NaN. A field of a column in
+    `may_miss` that is empty or NaN is a missing value: NaN.
     """
     if len(fields) != len(header):
         raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
@@ -289,6 +326,9 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list,
     values = []
     for name, field in zip(header, fields):
         text = field.strip()
+        if name not in read:
+            values.append(np.nan)
+            continue
         if not text and name in may_miss:
             values.append(np.nan)
             continue
@@ -315,7 +355,7 @@ def _columns(path: PathLike, header: list, rows: np.ndarray, needed: tuple,
     missing = [c for c in needed if c not in header]
     if missing:
         raise DataError(f'{path}: missing column(s) {", ".join(missing)} (found '
-                        f'{", ".join(header)}); {FORMATS_HELP}')
+                        f'{", ".join(header)}); {FORMATS_HELP}; {COLUMN_HINT}')
     return {c: rows[:, header.index(c)] for c in (*needed, *optional) if c in header}
 
 
