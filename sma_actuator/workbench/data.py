@@ -202,8 +202,7 @@ def parse_column_map(pairs: Iterable[str]) -> Dict[str, str]:
     renames = {}
     for pair in pairs:
         name, sep, source = (part.strip() for part in pair.partition('='))
-        column = (_unit_in_name(name.lower()) or (name.lower(),))[0]
-        if not sep or not source or column not in COLUMN_NAMES:
+        if not sep or not source or _base_name(name.lower()) not in COLUMN_NAMES:
             raise ValueError(f'{pair!r} is not NAME=HEADER with NAME one of '
                              f'{", ".join(COLUMN_NAMES)} (a unit may follow: position[mm])')
         if source.lower() in renames:
