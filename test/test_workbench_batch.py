@@ -253,7 +253,11 @@ def test_missing_data_and_bad_options_are_one_line_errors(fleet, tmp_path, capsy
     for argv in (['batch', str(tmp_path / 'nothing*.csv'), '--out', str(tmp_path / 'o')],
                  ['batch', str(root), '--out', str(root / 'none_00.csv')],
                  ['batch', str(root), '--out', str(tmp_path / 'o'), '--rounds', '0'],
-                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--candidates', 'bogus']):
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--candidates', 'bogus'],
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--position-unit', 'ft'],
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--column', 'pos=pot'],
+                 ['batch', str(root), '--out', str(tmp_path / 'o'), '--column', 'duty_a=p',
+                  '--column', 'duty_b=P']):
         assert _exit_code(argv) == cli.EXIT_BAD_INPUT
         err = capsys.readouterr().err
         assert err.count('\n') == 1 and err.startswith('sma-model'), err
@@ -289,3 +293,70 @@ def test_a_fitted_model_is_compared_with_every_record(fleet, scheduler, tmp_path
     assert rows['delay_00.csv']['reference_nrmse'] < 0.02
     assert rows['none_00.csv']['reference_nrmse'] > 5 * rows['delay_00.csv']['reference_nrmse']
     assert rows['delay_00.csv']['base_effects'] == 'delay'
+
+
+@pytest.mark.slow
+def test_a_loggers_own_columns_unit_and_layout_are_read_as_fit_reads_them(scheduler, tmp_path):
+    root = tmp_path / 'logs'
+    root.mkdir()
+    rec = _record('delay', 9)
+    # the logger's own names: stamps in ms, a state text, the position in mm named nowhere
+    # and duty_a logged only where it changes
+    changes = np.r_[True, np.diff(rec['duty_a']) != 0]
+    with open(root / 'logger.csv', 'w') as fh:
+        fh.write('t_ms,pwm_a,pwm_b,pot,state\n')
+        for t, da, db, pos, logged in zip(*(rec[c] for c in COLUMNS), changes):
+            fh.write(f'{t * 1e3:.1f},{f"{da:.6g}" if logged else ""},{db:.6g},{pos:.6g},HEAT\n')
+    reading = ['--column', 'time[ms]=t_ms', '--column', 'duty_a=PWM_A', '--column',
+               'duty_b=pwm_b', '--column', 'position=pot', '--position-unit', 'mm']
+    out = tmp_path / 'out'
+    assert cli.main(['batch', str(root), '--out', str(out), '--candidates', 'delay',
+                     '--no-reports', '--scheduler', scheduler] + reading) == 0
+    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert row['error'] is None and row['position_unit'] == 'mm'
+    assert row['named_effect'] == 'delay' and 0.6 < row['param.delay_s'] < 1.0
+    assert row['duration_s'] == pytest.approx(DURATION_S, abs=0.2)
+    assert 'param.stroke_mm' in row and 'param.stroke_rad' not in row
+    # what fit would print about the reading is the record's note
+    held = np.count_nonzero(~changes)
+    assert row['notes'].startswith(f'duty_a is empty or NaN on {held} row(s)'), row['notes']
+    assert str(root) not in row['notes']
+
+    # a record that names no unit takes the unit of the fitted model it is compared with
+    model = tmp_path / 'mm.yaml'
+    assert cli.main(['fit', str(root / 'logger.csv'), '--add', 'delay', '--out', str(model)]
+                    + reading) == 0
+    _write_csv(root / 'plain.csv', _record('delay', 10))
+    rad = _record('delay', 11)
+    np.savetxt(root / 'in_rad.csv', np.column_stack([rad[c] for c in COLUMNS]), delimiter=',',
+               header='time,duty_a,duty_b,position[rad]', comments='', fmt='%.6g')
+    out = tmp_path / 'compared'
+    assert cli.main(['batch', str(root / 'plain.csv'), str(root / 'in_rad.csv'), '--out',
+                     str(out), '--model', str(model), '--candidates', 'delay', '--no-reports',
+                     '--scheduler', scheduler]) == 0
+    rows = {_name(r['record']): r for r in pq.read_table(out / 'batch.parquet').to_pylist()}
+    assert rows['plain.csv']['position_unit'] == 'mm'
+    assert rows['plain.csv']['reference_nrmse'] < 0.02 and rows['plain.csv']['notes'] is None
+    # a record of another unit is not compared with the model (no NRMSE across units)
+    assert rows['in_rad.csv']['position_unit'] == 'rad'
+    assert rows['in_rad.csv']['reference_nrmse'] is None
+    assert rows['in_rad.csv']['error'] is None
+
+    # --layout single on records that heat wire b: each is an error row, in one line
+    out = tmp_path / 'single'
+    assert cli.main(['batch', str(root / 'plain.csv'), '--layout', 'single', '--out', str(out),
+                     '--candidates', 'delay', '--no-reports', '--scheduler', scheduler]) == 0
+    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert '--layout single, but duty_b is used' in row['error']
+
+
+def test_reading_options_enter_the_fingerprint_only_when_set():
+    # results written before the reading options existed resume: their fingerprint is kept
+    assert batch.BatchOptions().fingerprint() == '02c4a91c80f9'
+    assert batch.BatchOptions(effects=('delay',), rounds=2,
+                              reference={'a': 1}).fingerprint() == 'b27508fdbac1'
+    changed = [batch.BatchOptions(position_unit='mm'), batch.BatchOptions(layout='single'),
+               batch.BatchOptions(default_unit='mm'),
+               batch.BatchOptions(columns=('position=pot',))]
+    prints = {o.fingerprint() for o in changed} | {batch.BatchOptions().fingerprint()}
+    assert len(prints) == len(changed) + 1

@@ -81,7 +81,10 @@ def single_wire_csv(path, n=500, seed=0, zero=0.0, header='time,duty_a,position[
 
 def run(capsys, *args):
     """Run `sma-model` in this process; returns (exit code, stdout, stderr)."""
-    code = cli.main([str(a) for a in args])
+    try:
+        code = cli.main([str(a) for a in args])
+    except SystemExit as stop:   # an option argparse refuses, as the console script exits
+        code = stop.code
     out, err = capsys.readouterr()
     return code, out, err
 

@@ -41,7 +41,7 @@ import os
 from pathlib import Path
 import sys
 import time
-from typing import (Any, Iterable, Iterator, List, Optional, TextIO, Tuple, TYPE_CHECKING,
+from typing import (Any, Iterable, Iterator, List, Optional, TextIO, TYPE_CHECKING,
                     Union)
 
 from .limits import MAX_FIT_RATE_HZ
@@ -58,7 +58,7 @@ RECORD_SUFFIXES = ('.csv', '.mcap')
 BASE_PARAMETERS = ('stroke_rad', 'offset_rad')
 RECORD_COLUMNS = ('samples', 'duration_s', 'rate_hz', 'layout', 'position_unit',
                   'reference_nrmse', 'lead_in_duty_a', 'lead_in_duty_b',
-                  'lead_in_first_duties_s')
+                  'lead_in_first_duties_s', 'notes')
 
 
 class BatchError(ValueError):
@@ -77,10 +77,30 @@ class BatchOptions:
     max_rate_hz: float = MAX_FIT_RATE_HZ   # faster records are decimated to this rate [Hz]
     reports: bool = True         # write an HTML report per record
     reference: dict = None       # a fitted model (from fit --out) compared with every record
+    position_unit: str = None    # overrides the unit the records name (--position-unit)
+    default_unit: str = 'rad'    # the unit of a record that names none (the model's, else rad)
+    layout: str = None           # 'single' | 'antagonistic' (None: from each record's duties)
+    columns: tuple = ()          # a CSV's own column names, 'NAME=HEADER' texts (--column)
 
     def fingerprint(self) -> str:
-        """Return a short hash of the options; a result made with other options is recomputed."""
-        return hashlib.sha1(json.dumps(asdict(self), sort_keys=True).encode()).hexdigest()[:12]
+        """
+        Return a short hash of the options; a result made with other options is recomputed.
+
+        The reading options at their defaults are left out, so results written before
+        those options existed still match.
+        """
+        doc = {k: v for k, v in asdict(self).items()
+               if k not in READING_DEFAULTS or v != READING_DEFAULTS[k]}
+        return hashlib.sha1(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:12]
+
+    def reading(self) -> tuple:
+        """Return how a record is read, hashable (the cache key of `_load`)."""
+        return (self.rate_hz, self.max_rate_hz, self.position_unit, self.default_unit,
+                self.layout, tuple(self.columns))
+
+
+READING_DEFAULTS = {'position_unit': None, 'default_unit': 'rad', 'layout': None,
+                    'columns': ()}
 
 
 # ------------------------------------------------------------------------------ records
@@ -139,24 +159,43 @@ def file_fingerprint(path: Union[str, Path]) -> str:
 
 # ------------------------------------------------------------------------------ worker tasks
 @lru_cache(maxsize=4)
-def _load(path: str, rates: Tuple[Optional[float], float], stamp: str,
-          lead: tuple = ()) -> Union[DynamicData, StaticData]:
+def _read(path: str, reading: tuple, stamp: str) -> tuple:
     """
-    Load and check one record on a worker.
+    Read and check one record on a worker, as `sma-model fit` reads it: (data, notes).
 
     Cached, since every candidate task of a record reads it; `stamp` is the file
-    fingerprint, so a changed file is read again. rates: (the bags' resampling rate or None,
-    the fitting rate's limit) [Hz] (`records.at_fit_rate`). lead: the record's lead-in as
-    `lead_items` gives it (() for none): the record read (cached too) is joined with it.
+    fingerprint, so a changed file is read again. reading: `BatchOptions.reading` (the
+    bags' resampling rate [Hz] or None, the fitting rate's limit [Hz]
+    (`records.at_fit_rate`), the position unit, the unit of a record that names none, the
+    layout, the --column texts). notes: the lines `fit` prints about the reading (values
+    held or bridged, a clock resampled, a bag recovered, a record decimated), without the
+    record's path.
     """
-    from .data import check_excitation, load_data
-    from .records import at_fit_rate, join
-    if lead:
-        return join([(path, _load(path, rates, stamp))], **_lead_options(lead))
-    rate_hz, max_rate_hz = rates
-    data, _ = at_fit_rate(load_data(path, rate_hz=rate_hz), max_rate_hz)
+    from .data import apply_layout, check_excitation, load_data, parse_column_map
+    from .records import at_fit_rate
+    rate_hz, max_rate_hz, unit, default_unit, layout, columns = reading
+    notes = []
+    data, note = at_fit_rate(load_data(path, rate_hz=rate_hz, position_unit=unit,
+                                       default_unit=default_unit, notes=notes,
+                                       renames=parse_column_map(columns)), max_rate_hz)
     check_excitation(data, path)
-    return data
+    apply_layout(data, layout, path)
+    notes += [note] if note else []
+    return data, tuple(n[len(path) + 2:] if n.startswith(f'{path}: ') else n for n in notes)
+
+
+@lru_cache(maxsize=4)
+def _load(path: str, reading: tuple, stamp: str,
+          lead: tuple = ()) -> Union[DynamicData, StaticData]:
+    """
+    Return the record read by `_read`, led in as `lead` says.
+
+    lead: the record's lead-in as `lead_items` gives it (() for none): the record read is
+    joined with it (cached too).
+    """
+    from .records import join
+    data = _read(path, reading, stamp)[0]
+    return join([(path, data)], **_lead_options(lead)) if lead else data
 
 
 def lead_items(lead: dict) -> tuple:
@@ -186,15 +225,16 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     from .engine import diagnose_rounds
     from .report import write_diagnosis_report
     started = time.perf_counter()
-    rates = (options.rate_hz, options.max_rate_hz)
-    data, base, lead = _fit_led(path, rates, stamp, options)
-    record = dict(data.columns(), **lead_columns(path, lead))
+    reading = options.reading()
+    data, base, lead = _fit_led(path, reading, stamp, options)
+    record = dict(data.columns(), **lead_columns(path, lead),
+                  notes='; '.join(_read(path, reading, stamp)[1]) or None)
     if options.reference is not None:
         record['reference_nrmse'] = compare_reference(options.reference, data)
     base_seconds = time.perf_counter() - started
     # the worker's thread is handed back while this task waits for its refits
     with worker_client() as client:
-        mapper = partial(_judge_on_cluster, client, path, stamp, rates, lead_items(lead))
+        mapper = partial(_judge_on_cluster, client, path, stamp, reading, lead_items(lead))
         diags, _, final = diagnose_rounds(data, base, options.rounds,
                                           candidates=_candidates(options), mapper=mapper)
     rounds = [round_summary(diag, record, base_seconds if i == 0 else 0.0)
@@ -207,15 +247,15 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     return {'rounds': rounds, 'parameters': final_parameters(final)}
 
 
-def _fit_led(path: str, rates: tuple, stamp: str, options: BatchOptions) -> tuple:
+def _fit_led(path: str, reading: tuple, stamp: str, options: BatchOptions) -> tuple:
     """Return (data, base fit, lead) of the record, led in if it does not start at rest."""
     from .engine import fit_model
     from .leadins import refit_led
-    data = _load(path, rates, stamp)
+    data = _load(path, reading, stamp)
     base = fit_model(data, effects=tuple(options.effects), kind=options.kind)
 
     def refit(**lead: Any) -> tuple:
-        led = _load(path, rates, stamp, lead_items(lead))
+        led = _load(path, reading, stamp, lead_items(lead))
         return led, fit_model(led, effects=tuple(options.effects), kind=options.kind)
     led, lead = refit_led(base, data, [(path, data)], refit)
     return led + (lead,) if led else (data, base, {})
@@ -228,7 +268,7 @@ def lead_columns(path: str, lead: dict) -> dict:
             'lead_in_first_duties_s': first_s}
 
 
-def _judge_on_cluster(client: Client, path: str, stamp: str, rates: tuple, lead: tuple,
+def _judge_on_cluster(client: Client, path: str, stamp: str, reading: tuple, lead: tuple,
                       tasks: list) -> Iterator[dict]:
     """
     Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
@@ -237,21 +277,28 @@ def _judge_on_cluster(client: Client, path: str, stamp: str, rates: tuple, lead:
     leads it in as `lead` (`lead_items`) says.
     """
     from dask.distributed import as_completed
-    futures = [client.submit(task_candidate, path, stamp, rates, task[1:], lead, pure=False)
+    futures = [client.submit(task_candidate, path, stamp, reading, task[1:], lead, pure=False)
                for task in tasks]
     for fut in as_completed(futures):
         yield fut.result()
 
 
-def task_candidate(path: str, stamp: str, rates: tuple, task: tuple, lead: tuple = ()) -> dict:
+def task_candidate(path: str, stamp: str, reading: tuple, task: tuple,
+                   lead: tuple = ()) -> dict:
     """Run one `engine.judge_candidate` task (without its data) on the record at `path`."""
     from .engine import judge_candidate
-    return judge_candidate((_load(path, rates, stamp, lead),) + tuple(task))
+    return judge_candidate((_load(path, reading, stamp, lead),) + tuple(task))
 
 
-def compare_reference(spec: dict, data: Any) -> float:
-    """Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record."""
+def compare_reference(spec: dict, data: Any) -> Optional[float]:
+    """
+    Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record.
+
+    None for a record of another rig: its position unit or layout is not the model's.
+    """
     from .engine import load_fit
+    if any(spec.get(key) not in (None, value) for key, value in data.rig().items()):
+        return None
     return float(load_fit(spec, data=data).validation['nrmse'])
 
 

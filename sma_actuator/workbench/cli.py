@@ -172,7 +172,7 @@ def load_checked_records(args: argparse.Namespace,
     the model file `spec` (--model) or the one unit the other records name
     (`adopt_stated_unit`).
     """
-    from .data import check_excitation, load_data, parse_column_map
+    from .data import apply_layout, check_excitation, load_data
     from .records import at_fit_rate
     paths = all_data(args)
     seen = {}
@@ -182,10 +182,7 @@ def load_checked_records(args: argparse.Namespace,
             raise UsageError(f'{path}: the same record as {seen[key]}; give each record once')
         seen[key] = path
     unit = getattr(args, 'position_unit', None)
-    try:
-        renames = parse_column_map(getattr(args, 'column', []))
-    except ValueError as err:
-        raise UsageError(f'--column: {err}') from None
+    renames = _column_renames(args)
     loaded = []
     for path in paths:
         notes = []
@@ -208,15 +205,19 @@ def load_checked_records(args: argparse.Namespace,
             raise UsageError(f'{loaded[1][0]}: give {first.noun} as one file (curve ids in a '
                              'curve column)')
         return loaded
-    layout = getattr(args, 'layout', None)
     for path, d in loaded:
-        if layout == 'single' and np.any(d.duty_b):
-            raise UsageError(f'{path}: --layout single, but duty_b is used (up to '
-                             f'{np.max(d.duty_b):.3g})')
-        if layout:
-            d.layout = layout
+        apply_layout(d, getattr(args, 'layout', None), path)
     adopt_stated_unit(args, loaded, (spec or {}).get('position_unit'))
     return loaded
+
+
+def _column_renames(args: argparse.Namespace) -> Dict[str, str]:
+    """Return the --column map {header: column name}; UsageError for a header given twice."""
+    from .data import parse_column_map
+    try:
+        return parse_column_map(getattr(args, 'column', []))
+    except ValueError as err:
+        raise UsageError(f'--column: {err}') from None
 
 
 def adopt_stated_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
@@ -925,6 +926,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
     if args.candidates:
         check_effect_names(args.candidates, catalog, '--candidates')
+    _column_renames(args)
     paths = find_records(args.data)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -937,7 +939,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
                            candidates=tuple(args.candidates) if args.candidates else None,
                            rounds=args.rounds, rate_hz=args.rate, max_rate_hz=args.max_rate,
                            reports=not args.no_reports,
-                           reference=json_safe(spec) if is_fitted(spec) else None)
+                           reference=json_safe(spec) if is_fitted(spec) else None,
+                           position_unit=args.position_unit,
+                           default_unit=spec.get('position_unit') or 'rad',
+                           layout=args.layout, columns=tuple(args.column))
     _note(args, f'batch: {len(paths)} records -> {out}')
     results = []
     client = start_client(args.scheduler, args.workers)
@@ -1062,7 +1067,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _common_options() -> argparse.ArgumentParser:
     """Return the parent parser of the options that fit, compare and diagnose share."""
-    common = argparse.ArgumentParser(add_help=False)
+    common = argparse.ArgumentParser(add_help=False, parents=[_reading_options()])
     common.add_argument('data', metavar='DATA', nargs='+',
                         help='CSVs (dynamic or static curves) or MCAP bags (file or '
                         'directory); several dynamic records of one rig are fitted together')
@@ -1070,26 +1075,32 @@ def _common_options() -> argparse.ArgumentParser:
                         help='hold these records out for validation (default: fit: each of '
                         'several records left out in turn, the model written fitted on all; '
                         'diagnose: the last record; one record: the last 30 %% of time)')
-    common.add_argument('--layout', choices=('single', 'antagonistic'),
-                        help='rig layout (default: from the data; single = one wire against '
-                        'a bias spring, duty_b absent or always 0)')
-    common.add_argument('--position-unit', metavar='UNIT',
-                        help='unit of position and setpoint (default: from the header, e.g. '
-                        'position[mm], or a "# ... position in mm" comment; else rad)')
-    common.add_argument('--column', action='append', type=_column_pair, default=[],
-                        metavar='NAME=HEADER',
-                        help="read a CSV's column HEADER as NAME, e.g. position[mm]=pot_mm, "
-                        'time[ns]=__time (repeatable; NAME: time, duty_a, duty_b, duty, '
-                        'position, ambient_temperature, setpoint)')
     common.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
                         help='load user effects from a Python file or module (repeatable)')
     common.add_argument('--json', action='store_true', help='print the result as JSON')
     common.add_argument('--force', action='store_true', help='overwrite existing output files')
-    common.add_argument('--rate', type=_positive_float, metavar='HZ',
-                        help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
-    common.add_argument('--max-rate', type=_positive_float, metavar='HZ',
-                        default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
     return common
+
+
+def _reading_options() -> argparse.ArgumentParser:
+    """Return the parent parser of how records are read (fit, compare, diagnose, batch)."""
+    reading = argparse.ArgumentParser(add_help=False)
+    reading.add_argument('--layout', choices=('single', 'antagonistic'),
+                         help='rig layout (default: from the data; single = one wire against '
+                         'a bias spring, duty_b absent or always 0)')
+    reading.add_argument('--position-unit', type=_position_unit, metavar='UNIT',
+                         help='unit of position and setpoint (default: from the header, e.g. '
+                         'position[mm], or a "# ... position in mm" comment; else rad)')
+    reading.add_argument('--column', action='append', type=_column_pair, default=[],
+                         metavar='NAME=HEADER',
+                         help="read a CSV's column HEADER as NAME, e.g. position[mm]=pot_mm, "
+                         'time[ns]=__time (repeatable; NAME: time, duty_a, duty_b, duty, '
+                         'position, ambient_temperature, setpoint)')
+    reading.add_argument('--rate', type=_positive_float, metavar='HZ',
+                         help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
+    reading.add_argument('--max-rate', type=_positive_float, metavar='HZ',
+                         default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
+    return reading
 
 
 def _add_fit(sub: Any, common: argparse.ArgumentParser) -> None:
@@ -1140,7 +1151,8 @@ def _add_diagnose(sub: Any, common: argparse.ArgumentParser) -> None:
 
 def _add_batch(sub: Any, common: argparse.ArgumentParser) -> None:
     """Add `batch`: fit, compare and diagnose many records on Dask."""
-    bat = sub.add_parser('batch', help='fit, compare and diagnose many records (Dask)',
+    bat = sub.add_parser('batch', parents=[_reading_options()],
+                         help='fit, compare and diagnose many records (Dask)',
                          description='Run fit, compare and diagnose on every record, on a '
                          'Dask cluster; write a table (Parquet, CSV) and an HTML index.')
     bat.add_argument('data', nargs='+', metavar='DATA',
@@ -1161,10 +1173,6 @@ def _add_batch(sub: Any, common: argparse.ArgumentParser) -> None:
                      '(default: a local cluster on every core)')
     bat.add_argument('--workers', type=_positive_int, metavar='N',
                      help='local cluster size in processes (default: every core)')
-    bat.add_argument('--rate', type=_positive_float, metavar='HZ',
-                     help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
-    bat.add_argument('--max-rate', type=_positive_float, metavar='HZ',
-                     default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
     bat.add_argument('--no-reports', action='store_true', help='skip the per-record reports')
     bat.add_argument('--force', action='store_true', help='recompute finished records')
     bat.add_argument('--json', action='store_true', help='print a JSON summary')
@@ -1218,6 +1226,15 @@ def _column_pair(text: str) -> str:
     except ValueError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
     return text
+
+
+def _position_unit(text: str) -> str:
+    """Return the canonical spelling of a position unit (argparse type)."""
+    from .data import parse_unit
+    try:
+        return parse_unit(text, '--position-unit')
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err).partition(': ')[2]) from None
 
 
 def _positive_float(text: str) -> float:

@@ -177,6 +177,21 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
                     f'{FORMATS_HELP}; {COLUMN_HINT}')
 
 
+def apply_layout(data: Any, layout: Optional[str], source: Any) -> None:
+    """
+    Set a dynamic record's rig layout to `layout` ('single' | 'antagonistic'; None: keep).
+
+    Records are 'single' when duty_b is always 0 (`make_dynamic`); 'antagonistic' fits such
+    a record as a pair whose wire b stays cold. DataError if 'single' meets a duty_b in use.
+    """
+    if not layout or not data.joinable:
+        return
+    if layout == 'single' and np.any(data.duty_b):
+        raise DataError(f'{source}: --layout single, but duty_b is used (up to '
+                        f'{np.max(data.duty_b):.3g})')
+    data.layout = layout
+
+
 def is_bag(path: PathLike) -> bool:
     """Return True if `path` is an MCAP file (suffix or magic bytes) or a folder with one."""
     path = Path(path)

@@ -37,9 +37,9 @@ COLUMNS = ('record', 'layout', 'samples', 'duration_s', 'rate_hz', 'position_uni
            'base_effects', 'base_train_nrmse', 'base_validation_nrmse',
            'noise_floor_nrmse', 'named_effect',
            'improvement', 'effects_added', 'final_validation_nrmse', 'task_time_s',
-           'wall_time_s', 'report', 'error')
+           'wall_time_s', 'report', 'notes', 'error')
 TEXT_COLUMNS = ('record', 'layout', 'position_unit', 'base_effects', 'named_effect',
-                'effects_added', 'report', 'error')
+                'effects_added', 'report', 'notes', 'error')
 INTEGER_COLUMNS = ('samples',)
 PARAMETER_PREFIX = 'param.'
 
@@ -150,7 +150,7 @@ def write_index(out_dir: Union[str, Path], results: Sequence[Dict[str, Any]],
     if plot:
         parts.append(f'<h2>Fitted parameters</h2><img src="{plot.name}" alt="parameter spread">')
     head = ('record', 'layout', 'samples', 'base validation NRMSE', 'effects named',
-            'final validation NRMSE', 'time [s]', 'report / error')
+            'final validation NRMSE', 'time [s]', 'notes', 'report / error')
     parts.append('<h2>Records</h2><table><tr>' + ''.join(f'<th>{h}</th>' for h in head)
                  + '</tr>')
     for r in rows:
@@ -159,7 +159,8 @@ def write_index(out_dir: Union[str, Path], results: Sequence[Dict[str, Any]],
         cells = (esc(Path(r['record']).name), esc(r['layout'] or ''), r['samples'] or '',
                  _pct(r['base_validation_nrmse']), esc(r['effects_added'] or ''),
                  _pct(r['final_validation_nrmse']),
-                 '' if r['task_time_s'] is None else f'{r["task_time_s"]:.1f}', last)
+                 '' if r['task_time_s'] is None else f'{r["task_time_s"]:.1f}',
+                 esc(r['notes'] or ''), last)
         cls = ' class="err"' if r['error'] else ''
         parts.append(f'<tr{cls}>' + ''.join(f'<td>{c}</td>' for c in cells) + '</tr>')
     parts.append('</table>')
