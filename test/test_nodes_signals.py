@@ -26,6 +26,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from sma_actuator.nodes import common as c, ros_console
 from std_msgs.msg import Float64MultiArray
+from support.stopping import stopped_cleanly
 
 
 @pytest.fixture
@@ -71,6 +72,24 @@ def test_a_process_hung_after_its_stop_signal_dumps_its_stacks_and_exits_1(sig):
     assert time.monotonic() - t0 >= 0.5           # not before its grace
     assert 'Timeout (0:00:00.500000)!' in err      # faulthandler's dump of every thread
     assert 'File "<string>", line 9 in <module>' in err   # where the main thread hangs
+
+
+@pytest.mark.parametrize('hung_in', ['destroy_node', 'spin_once'])
+def test_only_a_hang_inside_rclpy_destroy_node_counts_as_a_clean_stop(tmp_path, hung_in):
+    # the stop grace's own dump (faulthandler) of a process blocked in rclpy's node.py
+    (tmp_path / 'rclpy').mkdir()
+    (tmp_path / 'rclpy' / '__init__.py').write_text('')
+    (tmp_path / 'rclpy' / 'node.py').write_text(f'import time\n\n\ndef {hung_in}():\n'
+                                                '    time.sleep(30)\n')
+    script = ('import faulthandler, sys\nsys.path.insert(0, sys.argv[1])\n'
+              'faulthandler.dump_traceback_later(0.5, exit=True)\n'
+              f'from rclpy.node import {hung_in}\n{hung_in}()\n')
+    done = subprocess.run([sys.executable, '-c', script, str(tmp_path)], capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 1 and 'Timeout (0:00:00.500000)!' in done.stderr, done.stderr
+    assert stopped_cleanly(done.returncode, done.stderr) == (hung_in == 'destroy_node')
+    assert not stopped_cleanly(1, 'Traceback (most recent call last):\n')
+    assert stopped_cleanly(0, '')
 
 
 def test_a_process_that_stops_within_its_grace_exits_normally():
@@ -160,7 +179,7 @@ def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_t
             js_pub.publish(js)
             executor.spin_once(timeout_sec=0.001)
         _, err = proc.communicate(timeout=NOTICE_S)
-        assert proc.returncode == 0, err
+        assert stopped_cleanly(proc.returncode, err), err
         assert 'Traceback' not in err
         assert spin_until(executor, lambda: duties[-1] == [0.0, 0.0])   # its last word
     finally:
