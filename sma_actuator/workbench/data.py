@@ -85,7 +85,8 @@ FORMATS_HELP = ('a dynamic CSV needs columns time,duty_a,duty_b,position'
                 '[,ambient_temperature][,setpoint] (one wire: time,duty_a,position or '
                 'time,duty,position); a static CSV input,output[,curve] or '
                 'curve,voltage,deflection')
-COLUMN_HINT = 'fit, compare and diagnose read a column named otherwise: --column NAME=HEADER'
+COLUMN_HINT = ('fit, compare, diagnose and batch read a column named otherwise: '
+               '--column NAME=HEADER')
 # a one-wire record may name its duty column plainly
 SINGLE_DUTY = 'duty'
 #: every column name the formats know (`--column NAME=HEADER` may give any of them)
