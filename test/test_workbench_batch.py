@@ -350,6 +350,19 @@ def test_a_loggers_own_columns_unit_and_layout_are_read_as_fit_reads_them(schedu
     assert '--layout single, but duty_b is used' in row['error']
 
 
+def test_a_records_glitches_are_bridged_as_fit_bridges_them_unless_kept(tmp_path):
+    rec = _record('none', 5)
+    rec['position'][400] += 3.0   # rad: one sample far off
+    path = str(tmp_path / 'glitch.csv')
+    _write_csv(path, rec)
+    data, notes = batch._read(path, batch.BatchOptions().reading(), 'stamp')
+    assert not data.scored_mask()[400] and data.scored_mask().sum() == len(data) - 1
+    assert len(notes) == 1 and notes[0].startswith('1 position sample(s) (the first at 40.000 s)')
+    data, notes = batch._read(path, batch.BatchOptions(keep_glitches=True).reading(), 'stamp')
+    assert data.scored is None and notes == ()
+    assert data.position[400] == pytest.approx(rec['position'][400], abs=1e-5)
+
+
 def test_reading_options_enter_the_fingerprint_only_when_set():
     # results written before the reading options existed resume: their fingerprint is kept
     assert batch.BatchOptions().fingerprint() == '02c4a91c80f9'
@@ -357,6 +370,7 @@ def test_reading_options_enter_the_fingerprint_only_when_set():
                               reference={'a': 1}).fingerprint() == 'b27508fdbac1'
     changed = [batch.BatchOptions(position_unit='mm'), batch.BatchOptions(layout='single'),
                batch.BatchOptions(default_unit='mm'),
-               batch.BatchOptions(columns=('position=pot',))]
+               batch.BatchOptions(columns=('position=pot',)),
+               batch.BatchOptions(keep_glitches=True)]
     prints = {o.fingerprint() for o in changed} | {batch.BatchOptions().fingerprint()}
     assert len(prints) == len(changed) + 1

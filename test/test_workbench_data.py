@@ -14,6 +14,8 @@
 
 """Workbench DATA loading: CSV (dynamic, static), MCAP bags, and clear errors on bad input."""
 from dataclasses import replace
+import json
+from pathlib import Path
 import warnings
 
 from conftest import real_data_path
@@ -583,3 +585,92 @@ def test_a_short_last_row_that_ends_with_a_line_end_is_still_an_error(dynamic_cs
     path.write_text('\n'.join(lines[:5] + ['0.1,abc'] + lines[5:])[:-3])
     with pytest.raises(DataError, match=r'line 6: 2 field\(s\)'):
         load_data(path)
+
+
+def _glitch_rows(n, runs):
+    """Return a mask of `runs` ((first row, samples), ...) in n rows."""
+    mask = np.zeros(n, bool)
+    for first, samples in runs:
+        mask[first:first + samples] = True
+    return mask
+
+
+def test_a_few_samples_jumping_away_and_back_are_glitches_and_a_wires_moves_are_not():
+    # the package's plant (steps, reversals, 1 mrad noise, ADC steps) at 10 and 100 Hz
+    # holds no glitch; runs of 1 to 3 samples lifted or dropped by 60 % of its range are
+    # found exactly, and 4 samples off are a move, not a glitch
+    from support import plant_records
+    from sma_actuator.workbench.glitches import glitch_mask
+    for rate_hz in (10.0, 100.0):
+        y = plant_records.simulate('none', 0, duration_s=120.0, rate_hz=rate_hz, seed=3)
+        y = np.asarray(y['position'], float)
+        assert not glitch_mask(y)[0].any()
+        runs = [(int(f * y.size), samples) for f, samples in
+                ((0.2, 1), (0.4, 2), (0.6, 3), (0.8, 4))]
+        lifted = y + np.ptp(y) * 0.6 * np.where(np.arange(y.size) < y.size // 2, 1, -1) * \
+            _glitch_rows(y.size, runs)
+        found, clearance = glitch_mask(lifted)
+        np.testing.assert_array_equal(found, _glitch_rows(y.size, runs[:3]))
+        assert 0 < clearance < 0.5 * np.ptp(y)
+
+
+def _with_position_offsets(source, path, offsets):
+    """Copy CSV `source` to `path` with {data row: added position} (comments kept)."""
+    lines = _lines(source)
+    first = next(k for k, line in enumerate(lines) if line.startswith('time'))
+    for row, offset in offsets.items():
+        fields = lines[first + 1 + row].split(',')
+        fields[3] = f'{float(fields[3]) + offset:.4f}'
+        lines[first + 1 + row] = ','.join(fields)
+    return _rewrite(path, lines)
+
+
+WIRE_STEP = Path(REAL).parent / 'spring_biased_wire' / 'step_a.csv'
+
+
+@pytest.mark.skipif(not WIRE_STEP.is_file(), reason='shared data not found')
+def test_sensor_glitches_in_a_measured_record_are_bridged_and_neither_fitted_nor_scored(
+        tmp_path, capsys):
+    # a wiper that lifts off its track: eight single samples 12 mm up and one pair 5 mm down
+    # in the measured wire's step record. They are bridged from the samples around them, are
+    # not scored, and the record fits and scores as the clean one does
+    from sma_actuator.workbench import cli
+    rows = [516, 900, 1300, 1801, 2222, 3000, 3900, 4700]
+    offsets = dict.fromkeys(rows, 12.0)
+    offsets.update({2500: -5.0, 2501: -5.0})
+    path = _with_position_offsets(WIRE_STEP, tmp_path / 'step_glitches.csv', offsets)
+    notes = []
+    data, clean = load_data(path, notes=notes), load_data(WIRE_STEP)
+    glitch = np.zeros(len(clean), bool)
+    glitch[list(offsets)] = True
+    np.testing.assert_array_equal(data.scored_mask(), ~glitch)
+    np.testing.assert_allclose(data.position, clean.position, atol=0.05)   # mm
+    assert data.span() == clean.span()
+    assert notes == [f'{path}: 10 position sample(s) (the first at 5.160 s) jump away by over '
+                     "9.9 % of the record's range and back within 3 samples: read as sensor "
+                     'glitches, bridged, neither fitted nor scored (--keep-glitches reads '
+                     'them as measured)']
+    kept = load_data(path, notes=notes, keep_glitches=True)
+    assert kept.scored is None and len(notes) == 1
+    np.testing.assert_allclose(kept.position[glitch] - clean.position[glitch],
+                               [offsets[row] for row in sorted(offsets)], atol=1e-9)
+    scores = []
+    for args in ([path], [WIRE_STEP], [path, '--keep-glitches']):
+        assert cli.main(['fit', *map(str, args), '--json']) == 0
+        scores.append(json.loads(capsys.readouterr().out))
+    for part in ('train', 'validation'):
+        assert scores[0][part]['nrmse'] == pytest.approx(scores[1][part]['nrmse'], abs=2e-4)
+    assert scores[2]['train']['rmse'] > 2 * scores[1]['train']['rmse']   # read as measured
+
+
+def test_a_glitch_in_a_bags_joint_states_is_bridged_as_in_a_csv(tmp_path):
+    from test_workbench_batch import _record, _write_bag
+    rec = _record('none', 5)
+    rec['position'][[300, 301]] += 3.0   # rad: two joint states far off
+    notes = []
+    data = load_data(_write_bag(tmp_path / 'glitch', rec), notes=notes)
+    lost = np.zeros(len(data), bool)
+    lost[[300, 301]] = True
+    np.testing.assert_array_equal(data.scored_mask(), ~lost)
+    assert np.abs(data.position[lost] - rec['position'][lost] + 3.0).max() < 0.05   # rad
+    assert len(notes) == 1 and 'read as sensor glitches' in notes[0]

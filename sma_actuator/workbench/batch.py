@@ -81,6 +81,7 @@ class BatchOptions:
     default_unit: str = 'rad'    # the unit of a record that names none (the model's, else rad)
     layout: str = None           # 'single' | 'antagonistic' (None: from each record's duties)
     columns: tuple = ()          # a CSV's own column names, 'NAME=HEADER' texts (--column)
+    keep_glitches: bool = False  # read sensor glitches as measured (--keep-glitches)
 
     def fingerprint(self) -> str:
         """
@@ -96,11 +97,11 @@ class BatchOptions:
     def reading(self) -> tuple:
         """Return how a record is read, hashable (the cache key of `_load`)."""
         return (self.rate_hz, self.max_rate_hz, self.position_unit, self.default_unit,
-                self.layout, tuple(self.columns))
+                self.layout, tuple(self.columns), self.keep_glitches)
 
 
 READING_DEFAULTS = {'position_unit': None, 'default_unit': 'rad', 'layout': None,
-                    'columns': ()}
+                    'columns': (), 'keep_glitches': False}
 
 
 # ------------------------------------------------------------------------------ records
@@ -167,17 +168,18 @@ def _read(path: str, reading: tuple, stamp: str) -> tuple:
     fingerprint, so a changed file is read again. reading: `BatchOptions.reading` (the
     bags' resampling rate [Hz] or None, the fitting rate's limit [Hz]
     (`records.at_fit_rate`), the position unit, the unit of a record that names none, the
-    layout, the --column texts). notes: the lines `fit` prints about the reading (values
-    held or bridged, a clock resampled, a bag recovered, a record decimated), without the
-    record's path.
+    layout, the --column texts, whether glitches are kept). notes: the lines `fit` prints
+    about the reading (values held or bridged, a clock resampled, a bag recovered, a record
+    decimated, glitches bridged), without the record's path.
     """
     from .data import apply_layout, check_excitation, load_data, parse_column_map
     from .records import at_fit_rate
-    rate_hz, max_rate_hz, unit, default_unit, layout, columns = reading
+    rate_hz, max_rate_hz, unit, default_unit, layout, columns, keep_glitches = reading
     notes = []
     data, note = at_fit_rate(load_data(path, rate_hz=rate_hz, position_unit=unit,
                                        default_unit=default_unit, notes=notes,
-                                       renames=parse_column_map(columns)), max_rate_hz)
+                                       renames=parse_column_map(columns),
+                                       keep_glitches=keep_glitches), max_rate_hz)
     check_excitation(data, path)
     apply_layout(data, layout, path)
     notes += [note] if note else []

@@ -187,8 +187,8 @@ def load_checked_records(args: argparse.Namespace,
     for path in paths:
         notes = []
         d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
-                                        notes=notes, default_unit='', renames=renames),
-                              args.max_rate)
+                                        notes=notes, default_unit='', renames=renames,
+                                        keep_glitches=args.keep_glitches), args.max_rate)
         for line in notes + ([f'{path}: {note}'] if note else []):
             _note(args, line)
         check_excitation(d, path, to_fit=getattr(args, 'command', '') != 'compare')
@@ -942,7 +942,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
                            reference=json_safe(spec) if is_fitted(spec) else None,
                            position_unit=args.position_unit,
                            default_unit=spec.get('position_unit') or 'rad',
-                           layout=args.layout, columns=tuple(args.column))
+                           layout=args.layout, columns=tuple(args.column),
+                           keep_glitches=args.keep_glitches)
     _note(args, f'batch: {len(paths)} records -> {out}')
     results = []
     client = start_client(args.scheduler, args.workers)
@@ -1100,6 +1101,9 @@ def _reading_options() -> argparse.ArgumentParser:
                          help='resampling rate for MCAP bags [Hz] (default: joint-state rate)')
     reading.add_argument('--max-rate', type=_positive_float, metavar='HZ',
                          default=MAX_FIT_RATE_HZ, help=MAX_RATE_HELP)
+    reading.add_argument('--keep-glitches', action='store_true',
+                         help='read positions that jump away and back within 3 samples as '
+                         'measured (default: bridged as sensor glitches, not scored)')
     return reading
 
 

@@ -50,6 +50,7 @@ from typing import Any, Dict, Iterable, Optional, Tuple, Union
 import numpy as np
 
 from . import limits
+from .glitches import glitch_mask, MAX_GLITCH_SAMPLES
 from ..core.datakinds import DynamicData, StaticData, uniform_steps
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
@@ -140,7 +141,8 @@ def comment_unit(path: PathLike) -> Optional[str]:
 
 def load_data(path: PathLike, rate_hz: Optional[float] = None,
               position_unit: Optional[str] = None, notes: Optional[list] = None,
-              default_unit: str = 'rad', renames: Optional[Dict[str, str]] = None) -> Any:
+              default_unit: str = 'rad', renames: Optional[Dict[str, str]] = None,
+              keep_glitches: bool = False) -> Any:
     """
     Load DATA from `path`: a `DynamicData` (dynamic CSV or bag) or a `StaticData`.
 
@@ -151,13 +153,15 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     resampled, a CSV's missing values are filled or its cut-off last row is left out, a
     bag was recovered from a cut-off or damaged file or has gaps in its joint states
     (`load_bag`). renames: a CSV's own column names -> the formats' names
-    (`parse_column_map`). Raises `DataError` with a clear message on any problem.
+    (`parse_column_map`). keep_glitches: read a dynamic record's sensor glitches as
+    measured positions (`leave_out_glitches` bridges them by default). Raises `DataError`
+    with a clear message on any problem.
     """
     path = Path(path)
     if not path.exists():
         raise DataError(f'{path}: no such file or directory')
     if is_bag(path):
-        data = load_bag(path, rate_hz, notes)
+        data = load_bag(path, rate_hz, notes, keep_glitches)
         if position_unit:
             data.position_unit = parse_unit(position_unit, path)
         return data
@@ -171,7 +175,8 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     if 'time' in header:
         unit = position_unit or named or comment_unit(path)
         return dynamic_from_table(path, header, rows, lines,
-                                  parse_unit(unit, path) if unit else default_unit, notes)
+                                  parse_unit(unit, path) if unit else default_unit, notes,
+                                  keep_glitches)
     if any(name in header for layout in STATIC_LAYOUTS for name in layout):
         return static_from_table(path, header, rows, lines)
     raise DataError(f'{path}: cannot tell the data kind from the header {", ".join(header)}; '
@@ -422,12 +427,13 @@ def _units_from_header(path: PathLike, header: list) -> tuple:
 
 
 def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np.ndarray,
-                       unit: str = 'rad', notes: Optional[list] = None) -> DynamicData:
+                       unit: str = 'rad', notes: Optional[list] = None,
+                       keep_glitches: bool = False) -> DynamicData:
     """
     `DynamicData` from a parsed dynamic CSV, after time and duty checks naming the line.
 
-    An unsteady time column is resampled (`steady_columns`); notes receives the line
-    saying so.
+    An unsteady time column is resampled (`steady_columns`) and sensor glitches are
+    bridged unless kept (`leave_out_glitches`); notes receives the lines saying so.
     """
     cols = _columns(path, header, rows, DYNAMIC_REQUIRED, DYNAMIC_OPTIONAL)
     hold_missing_signals(path, cols, lines, notes)
@@ -456,7 +462,34 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
                          f'position (over {MAX_BRIDGED_STEPS:g} median steps, or before its '
                          'first or after its last reading) are simulated but neither fitted '
                          'nor scored')
+    if not keep_glitches:
+        scored = leave_out_glitches(path, cols, scored, notes)
     return make_dynamic(path, cols, unit, scored=scored)
+
+
+def leave_out_glitches(source: Any, cols: dict, scored: Optional[np.ndarray],
+                       notes: Optional[list] = None) -> Optional[np.ndarray]:
+    """
+    Bridge the position's sensor glitches in `cols` (`glitches.glitch_mask`); return `scored`.
+
+    Each glitch sample takes the position interpolated from the samples around it and is
+    neither fitted nor scored (False in the returned mask). notes receives a line with
+    their number, the first one's time [s] and the clearance in % of the record's range
+    (its unit may be settled only later, beside the other records).
+    """
+    glitch, clearance = glitch_mask(cols['position'])
+    if not glitch.any():
+        return scored
+    time, keep = cols['time'], ~glitch
+    cols['position'] = np.interp(time, time[keep], cols['position'][keep])
+    if notes is not None:
+        share = 100 * clearance / max(float(np.ptp(cols['position'])), clearance)
+        notes.append(f'{source}: {np.count_nonzero(glitch)} position sample(s) (the first at '
+                     f'{time[np.argmax(glitch)]:.3f} s) jump away by over {share:.2g} % of '
+                     f"the record's range and back within {MAX_GLITCH_SAMPLES} samples: read "
+                     'as sensor glitches, bridged, neither fitted nor scored '
+                     '(--keep-glitches reads them as measured)')
+    return keep if scored is None else scored & keep
 
 
 def hold_missing_signals(path: PathLike, cols: dict, lines: np.ndarray,
@@ -668,15 +701,16 @@ def make_static(source: Any, u: np.ndarray, y: np.ndarray, curve: np.ndarray) ->
 
 # ------------------------------------------------------------------------------ bags
 def load_bag(path: PathLike, rate_hz: Optional[float] = None,
-             notes: Optional[list] = None) -> DynamicData:
+             notes: Optional[list] = None, keep_glitches: bool = False) -> DynamicData:
     """
     `DynamicData` from an MCAP bag via `sma_actuator.bag.arrays.load_run`.
 
     The setpoint before the first setpoint message (NaN in load_run) is filled with the
     first setpoint; a bag without any setpoint message has none. Joint-state gaps longer
     than MAX_BRIDGED_STEPS median steps (the CSV's bridging rule) are not measured: their
-    samples are simulated but neither fitted nor scored (`DynamicData.scored`). notes:
-    receives what a cut-off or damaged file kept and lost, and those gaps.
+    samples are simulated but neither fitted nor scored (`DynamicData.scored`), and so are
+    sensor glitches unless kept (`leave_out_glitches`). notes: receives what a cut-off or
+    damaged file kept and lost, those gaps and the glitches.
     """
     try:
         from ..bag.arrays import load_run
@@ -706,7 +740,10 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None,
     if notes is not None and not measured.all():
         notes.append(f'{path}: the {np.count_nonzero(~measured)} samples in the gaps are '
                      'simulated but neither fitted nor scored')
-    return make_dynamic(path, arrays, scored=None if measured.all() else measured)
+    scored = None if measured.all() else measured
+    if not keep_glitches:
+        scored = leave_out_glitches(path, arrays, scored, notes)
+    return make_dynamic(path, arrays, scored=scored)
 
 
 # ------------------------------------------------------------------------------ checks
