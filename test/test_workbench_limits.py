@@ -52,6 +52,28 @@ def test_a_sample_period_outside_the_limits_is_one_line(tmp_path, step):
     assert code == 2 and len(lines) == 1 and 'sample period' in lines[0], lines
 
 
+@pytest.mark.parametrize('step', [1, 5, 10])
+def test_a_time_column_counting_whole_numbers_without_a_unit_must_name_it(tmp_path, step):
+    # a logger's millis() at 1 kHz to 100 Hz read as seconds is a 1 to 0.1 Hz record, and a
+    # fit of it ends at the time constant's bound: the unit is asked for, not guessed
+    path = _csv(tmp_path / 'x.csv', 20, step=step)
+    code, lines = _main(['fit', str(path)])
+    assert code == 2 and len(lines) == 1, lines
+    assert f"column 'time' counts whole numbers {step} apart: " in lines[0]
+    assert 'time[ms] or time[s]' in lines[0]
+    renamed = data.load_data(path, renames=data.parse_column_map(['time[ms]=time']))
+    assert renamed.dt == pytest.approx(step / 1000)
+    named = path.read_text().replace('time,', 'time[s],', 1)
+    assert data.load_data(_write(tmp_path / 's.csv', named)).dt == pytest.approx(step)
+    # seconds that are not all whole numbers are seconds
+    assert data.load_data(_csv(tmp_path / 'h.csv', 20, step=step - 0.5)).dt == step - 0.5
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
+
+
 @pytest.mark.parametrize('rate', ['1e308', '1e-300', '5e4', '１'])
 def test_rate_outside_the_limits_is_one_line(tmp_path, rate):
     code, lines = _main(['fit', str(_csv(tmp_path / 'x.csv', 20)), '--rate', rate])

@@ -100,6 +100,8 @@ MCAP_MAGIC = b'\x89MCAP'
 # an unsteady record is resampled only if no step exceeds this many mean steps (one
 # dropped sample is bridged, a longer gap is not invented)
 MAX_BRIDGED_STEPS = 2.5
+# a time column without a unit, of whole numbers at least this far apart, may count ms [s]
+COUNTER_MIN_STEP_S = 1.0
 #: signals a logger may leave empty or NaN between their samples (written only when they
 #: change, or streams of several rates merged on one time column) -> the value before the
 #: first sample: each holds its last value, as a bag's duty, ambient and setpoint do
@@ -173,6 +175,8 @@ def load_data(path: PathLike, rate_hz: Optional[float] = None,
     for column, scale in scales.items():
         rows[:, header.index(column)] *= scale
     if 'time' in header:
+        if 'time' not in scales:
+            check_time_unit(path, rows[:, header.index('time')])
         unit = position_unit or named or comment_unit(path)
         return dynamic_from_table(path, header, rows, lines,
                                   parse_unit(unit, path) if unit else default_unit, notes,
@@ -571,6 +575,27 @@ def measured_on_grid(measured_time: np.ndarray, grid: np.ndarray) -> np.ndarray:
     slack = 1e-6 * float(np.median(np.diff(measured_time)))
     inside = (grid >= measured_time[0] - slack) & (grid <= measured_time[-1] + slack)
     return inside & ~unmeasured(ns(measured_time), ns(grid), MAX_BRIDGED_STEPS)
+
+
+def check_time_unit(path: PathLike, time: np.ndarray) -> None:
+    """
+    `DataError` for a time column without a unit that may count milliseconds.
+
+    Whole numbers at least COUNTER_MIN_STEP_S apart on average, within the rate limits: a
+    logger's millisecond counter (``millis()``) at 100 Hz reads as a 0.1 Hz record in
+    seconds, and a fit of it ends at the time constant's bound. Naming the unit
+    (``time[ms]``, ``time[s]``) settles it; other columns are left to `check_time`.
+    """
+    if time.size < 2 or not np.all(np.isfinite(time)):
+        return
+    period = float((time[-1] - time[0]) / (time.size - 1))
+    if (period < COUNTER_MIN_STEP_S or limits.period_problem(period)
+            or not np.array_equal(time, np.round(time))):
+        return
+    raise DataError(f"{path}: column 'time' counts whole numbers {period:g} apart: "
+                    f'{1 / period:g} Hz if seconds, {1e3 / period:g} Hz if milliseconds; name '
+                    "its unit, time[ms] or time[s] (--column 'time[ms]=HEADER' names it without "
+                    'editing the file)')
 
 
 def check_time(path: PathLike, time: np.ndarray, lines: np.ndarray) -> Tuple[np.ndarray, float]:
