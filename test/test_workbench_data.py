@@ -125,6 +125,28 @@ def test_time_unit_and_separator_come_from_the_header(tmp_path, header, sep, sca
     np.testing.assert_allclose(data.position, pos, atol=1e-6)
 
 
+@pytest.mark.parametrize('sep', [';', '\t'])
+def test_a_spreadsheet_with_decimal_commas_beside_another_separator_reads_as_points(
+        tmp_path, sep):
+    # a spreadsheet of a locale whose decimal mark is the comma separates fields with ';'
+    t, da, db, pos = _dynamic_rows()
+    rows = np.column_stack([t, da, db, pos])
+    points = _write(tmp_path / 'points.csv', 'time,duty_a,duty_b,position', rows)
+    lines = [sep.join(['time', 'duty_a', 'duty_b', 'position[mm]'])]
+    lines += [sep.join(f'{v:.6g}'.replace('.', ',') for v in r) for r in rows]
+    commas = tmp_path / 'commas.csv'
+    commas.write_text('\n'.join(lines) + '\n')
+    assert any(',' in line for line in lines[1:])
+    data, want = load_data(commas), load_data(points)
+    for name in ('time', 'duty_a', 'duty_b', 'position'):
+        np.testing.assert_array_equal(getattr(data, name), getattr(want, name))
+    assert data.position_unit == 'mm'
+    # a comma beside a point is no decimal mark: the field is no number
+    commas.write_text(commas.read_text().replace(lines[2], lines[2].replace(',', '.,', 1)))
+    with pytest.raises(DataError, match=r"line 3, column 'time': '0\.,05' is not a number"):
+        load_data(commas)
+
+
 def test_an_unknown_time_unit_is_a_data_error(tmp_path):
     t, da, _, pos = _dynamic_rows()
     path = _write(tmp_path / 'x.csv', 'time[min],duty_a,position', np.column_stack([t, da, pos]))

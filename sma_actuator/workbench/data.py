@@ -17,7 +17,8 @@ Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
 
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
 names are case-insensitive, column order is free, extra columns are ignored; fields are
-separated by commas, or by semicolons or tabs when the header row has no comma):
+separated by commas, or by semicolons or tabs when the header row has no comma, and then a
+field with one comma and no point has a decimal comma, ``0,25``):
 
 * dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
   (one wire: ``duty`` for ``duty_a`` when the header has neither duty_a nor duty_b);
@@ -281,6 +282,8 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
     # other columns (a pandas index, a logger's state text) are neither read nor checked
     read = {h for h in header if _base_name(h) in COLUMN_NAMES}
     may_miss = {h for h in read if _base_name(h) in MAY_MISS}
+    # beside another separator a comma is a decimal comma (a spreadsheet of many locales)
+    decimal_comma = delimiter != ','
     rows, lines = [], []
     progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
     # no line end after the file's last line: it was cut off, perhaps inside that row
@@ -290,7 +293,8 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
             # a missing value on the cut-off line is where the log stopped, not a reading
             rows.append(_parse_row(path, line_no, header,
                                    _csv_fields(path, line_no, text_line, delimiter), read,
-                                   may_miss if line_no != cut_line else frozenset()))
+                                   may_miss if line_no != cut_line else frozenset(),
+                                   decimal_comma))
         except DataError:
             if line_no != cut_line:
                 raise
@@ -337,12 +341,13 @@ def _is_number(text: str) -> bool:
 
 
 def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: set,
-               may_miss: frozenset = frozenset()) -> list:
+               may_miss: frozenset = frozenset(), decimal_comma: bool = False) -> list:
     """
     Return the finite numbers of one CSV row; `DataError` naming line and column.
 
     Only the columns in `read` are parsed; the others are NaN. A field of a column in
-    `may_miss` that is empty or NaN is a missing value: NaN.
+    `may_miss` that is empty or NaN is a missing value: NaN. decimal_comma: a field with
+    one comma and no point is read with the comma as the point (``0,25``).
     """
     if len(fields) != len(header):
         raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
@@ -358,8 +363,9 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: s
             continue
         if not text:
             raise DataError(f"{path}: line {line_no}, column '{name}': empty value")
+        comma = decimal_comma and text.count(',') == 1 and '.' not in text
         try:
-            value = limits.parse_number(text)
+            value = limits.parse_number(text.replace(',', '.') if comma else text)
         except ValueError:
             raise DataError(f"{path}: line {line_no}, column '{name}': {text[:40]!r} is not a "
                             'number (write plain ASCII decimals such as 1.5 or 2e-3)') from None
