@@ -202,7 +202,23 @@ def test_an_unknown_duty_unit_and_a_percentage_without_its_unit_are_data_errors(
         load_data(path)
     path = _write(tmp_path / 'p.csv', 'time,duty_a,position',
                   np.column_stack([t, 100 * da, pos]))
-    with pytest.raises(DataError, match=r'outside \[0, 1\] .*name a percentage: duty_a\[%\]'):
+    with pytest.raises(DataError, match=r'outside \[0, 1\] .*name its unit: duty_a\[%\] for a '
+                                        r'percentage, duty_a\[1/255\] for counts of a PWM'):
+        load_data(path)
+
+
+@pytest.mark.parametrize('top', [255, 1023, 4095])
+def test_a_duty_in_counts_of_a_pwm_timer_is_read_with_the_timers_top(tmp_path, top):
+    # analogWrite(pin, 51) on an 8-bit timer is duty 0.2: the header says 1/255 per count
+    t, da, db, pos = _dynamic_rows()
+    counts = np.round(da * top)
+    path = _write(tmp_path / 'c.csv', f'time,duty_a[1/{top}],duty_b,position',
+                  np.column_stack([t, counts, db, pos]))
+    np.testing.assert_allclose(load_data(path).duty_a, counts / top, rtol=1e-12)
+    path = _write(tmp_path / 'o.csv', 'time,duty_a[1/0],duty_b,position',
+                  np.column_stack([t, counts, db, pos]))
+    with pytest.raises(DataError, match=r"unknown duty unit '1/0'; known: .*, 1/N \(counts "
+                                        r'of a PWM timer whose top is N\)'):
         load_data(path)
 
 

@@ -29,7 +29,8 @@ field with one comma and no point has a decimal comma, ``0,25``):
   duties: the position is interpolated there and, over more than one row, neither fitted
   nor scored, as in a bag's gap (`fill_missing_positions`, `measured_on_grid`); an
   empty or NaN duty, ambient or setpoint holds the value above it (`hold_missing_signals`);
-  duties [0, 1], position and setpoint in the unit the header (``position[mm]``), a
+  duties [0, 1] (or ``duty_a[%]``, ``duty_a[1/255]`` for counts of a PWM timer whose top
+  is 255), position and setpoint in the unit the header (``position[mm]``), a
   comment (``# ... position in mm``) or the caller names (default rad), ambient
   temperature [°C]; without duty_b (or with duty_b always 0) the rig is one wire against
   a bias spring (layout 'single');
@@ -70,6 +71,8 @@ _UNIT_SUFFIX = re.compile(r'^(time|position|setpoint)_([a-zµ]+)$')
 TIME_UNITS = {'s': 1.0, 'sec': 1.0, 'ms': 1e-3, 'us': 1e-6, 'µs': 1e-6, 'ns': 1e-9}
 #: duty units a header may name -> fraction per unit
 DUTY_UNITS = {'-': 1.0, '1': 1.0, 'fraction': 1.0, '%': 0.01}
+# ... and counts of a PWM timer whose top is N: duty_a[1/255] (a fraction of 1/N per unit)
+_DUTY_COUNTS = re.compile(r'1/([1-9][0-9]{0,6})')
 #: ambient temperature units a header may name (the model works in °C)
 AMBIENT_UNITS = dict.fromkeys(('°c', 'degc', 'c'), 1.0)
 # the unit table and its name in messages of each column a header may give a scaled unit
@@ -402,9 +405,13 @@ def _unit_in_name(name: str) -> Optional[tuple]:
 def _column_scale(path: PathLike, column: str, unit: str) -> float:
     """Return the factor to seconds (time), to a fraction (duties) or 1 (ambient in °C)."""
     table, what = _SCALED_COLUMNS[column]
+    counts = _DUTY_COUNTS.fullmatch(unit) if what == 'duty' else None
+    if counts:
+        return 1.0 / int(counts.group(1))
     if unit not in table:
-        raise DataError(f'{path}: unknown {what} unit {unit!r}; known: {", ".join(table)} '
-                        f'(column {column!r})')
+        also = ', 1/N (counts of a PWM timer whose top is N)' if what == 'duty' else ''
+        raise DataError(f'{path}: unknown {what} unit {unit!r}; known: {", ".join(table)}'
+                        f'{also} (column {column!r})')
     return table[unit]
 
 
@@ -457,7 +464,9 @@ def dynamic_from_table(path: PathLike, header: list, rows: np.ndarray, lines: np
         if bad.size:
             k = bad[0]
             raise DataError(f"{path}: line {lines[k]}, column '{name}': {cols[name][k]:g} is "
-                            'outside [0, 1] (duty is a fraction; name a percentage: duty_a[%])')
+                            f'outside [0, 1] (duty is a fraction; name its unit: {name}[%] for '
+                            f'a percentage, {name}[1/255] for counts of a PWM timer whose top '
+                            'is 255)')
     measured_time = fill_missing_positions(path, cols, lines, notes)
     cols, note = steady_columns(path, cols, lines)
     if note and notes is not None:
