@@ -65,3 +65,31 @@ def test_processes_started_later_inherit_the_setting():
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True, env={'PATH': '/usr/bin:/bin'})
     assert int(out.stdout) >= 1 << 30
+
+
+def _pid_and_blas(item):
+    """Return (item, this process's id, its BLAS thread setting); raise for item 'fail'."""
+    import os
+    if item == 'fail':
+        raise ValueError('a job failed')
+    return item, os.getpid(), os.environ.get('OPENBLAS_NUM_THREADS')
+
+
+def test_worker_processes_are_kept_for_the_next_call_and_shut_down_by_an_error(monkeypatch):
+    from sma_actuator.workbench import parallel
+    monkeypatch.setenv('OPENBLAS_NUM_THREADS', '4')
+    parallel.shutdown_pool()
+    try:
+        first = [r for _, r in parallel.imap_on_cores(_pid_and_blas, range(6), 2)]
+        second = [r for _, r in parallel.imap_on_cores(_pid_and_blas, range(4), 2)]
+        assert sorted(r[0] for r in first) == list(range(6))
+        pids = {r[1] for r in first}
+        assert len(pids) == 2 and {r[1] for r in second} <= pids   # the same two processes
+        assert {r[2] for r in first + second} == {'1'}              # one BLAS thread each
+        assert parallel.os.environ['OPENBLAS_NUM_THREADS'] == '4'   # the caller's, restored
+        with pytest.raises(ValueError, match='a job failed'):
+            list(parallel.imap_on_cores(_pid_and_blas, ['fail', 1, 2, 3], 2))
+        third = {r[1] for _, r in parallel.imap_on_cores(_pid_and_blas, range(4), 2)}
+        assert not third & pids                                      # started anew
+    finally:
+        parallel.shutdown_pool()

@@ -19,6 +19,7 @@ Diagnose's candidate refits, and the hidden-effect tests and benchmark (one reco
 """
 from __future__ import annotations
 
+import atexit
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 import ctypes
 import multiprocessing
@@ -33,6 +34,9 @@ MMAP_THRESHOLD_B = 32 << 20
 # ... and the heap's free top is given back to the kernel only beyond this size
 TRIM_THRESHOLD_B = 1 << 30
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3   # mallopt parameters (malloc.h)
+# this process's worker pool and its size, kept from one `imap_on_cores` to the next
+_pool: Optional[ProcessPoolExecutor] = None
+_pool_size = 0
 
 
 def one_blas_thread() -> None:
@@ -78,7 +82,10 @@ def imap_on_cores(fn: Callable[[T], R], items: Iterable[T],
 
     `workers` defaults to the cores this process may use. One BLAS thread per worker (the
     workers already fill the cores); spawn, not fork: the caller may hold DDS or numba
-    threads that must not be forked.
+    threads that must not be forked. The worker processes are kept for the next call
+    (`shared_pool`): starting one costs about 2 s of CPU (the imports and the compiled
+    kernels), as much as a small fit. A call that ends early (an error in fn, Ctrl-C, the
+    caller stopping) shuts them down.
 
     fn must be importable (a module-level function).
     """
@@ -89,19 +96,46 @@ def imap_on_cores(fn: Callable[[T], R], items: Iterable[T],
             yield item, fn(item)
         return
     saved = {k: os.environ.get(k) for k in BLAS_THREADS}
-    os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))
+    os.environ.update(dict.fromkeys(BLAS_THREADS, '1'))   # workers start as tasks arrive
+    finished = False
     try:
-        spawn = multiprocessing.get_context('spawn')
-        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
-            futures = {pool.submit(fn, item): item for item in items}
-            pending = set(futures)
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in done:
-                    yield futures[f], f.result()
+        pool, queue, futures = shared_pool(workers), iter(items), {}
+        while True:
+            while len(futures) < workers:   # at most `workers` run in a larger kept pool
+                item = next(queue, queue)
+                if item is queue:
+                    break
+                futures[pool.submit(fn, item)] = item
+            if not futures:
+                break
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for f in done:
+                yield futures.pop(f), f.result()
+        finished = True
     finally:
+        if not finished:
+            shutdown_pool()
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def shared_pool(workers: int) -> ProcessPoolExecutor:
+    """Return this process's kept worker pool, started anew if it has fewer than `workers`."""
+    global _pool, _pool_size
+    if _pool is None or _pool_size < workers:
+        shutdown_pool()
+        spawn = multiprocessing.get_context('spawn')
+        _pool, _pool_size = ProcessPoolExecutor(max_workers=workers, mp_context=spawn), workers
+    return _pool
+
+
+@atexit.register
+def shutdown_pool() -> None:
+    """Stop the kept worker pool: queued jobs are cancelled, running ones finish."""
+    global _pool, _pool_size
+    pool, _pool, _pool_size = _pool, None, 0
+    if pool is not None:
+        pool.shutdown(wait=True, cancel_futures=True)
