@@ -650,6 +650,10 @@ def test_a_few_samples_jumping_away_and_back_are_glitches_and_a_wires_moves_are_
         found, clearance = glitch_mask(lifted)
         np.testing.assert_array_equal(found, _glitch_rows(y.size, runs[:3]))
         assert 0 < clearance < 0.5 * np.ptp(y)
+    # a record that barely moves: its noise, and the quanta of a coarse sensor, are no glitch
+    rng = np.random.default_rng(4)
+    for noise in (rng.normal(0.0, 1.0, 24000), np.round(rng.normal(0.0, 0.6, 24000))):
+        assert not glitch_mask(noise + np.repeat([0.0, 20.0], 12000))[0].any()
 
 
 def _with_position_offsets(source, path, offsets):

@@ -31,11 +31,13 @@ from scipy.ndimage import median_filter
 
 #: Longest excursion read as a glitch [samples].
 MAX_GLITCH_SAMPLES = 3
-#: An excursion clears both samples around it by more than this many times the record's
-#: 99th percentile of |Δy| per sample ...
+#: An excursion clears both samples around it by more than this many times the 99th
+#: percentile of the record's motion per sample, |Δm| (m its running median) ...
 GLITCH_STEP_FACTOR = 4.0
-#: ... and by more than this fraction of its 0.5-99.5 percentile range.
+#: ... than this fraction of the 0.5-99.5 percentile range of m ...
 GLITCH_RANGE_FRACTION = 0.1
+#: ... and than this many times the 90th percentile of its noise, |y − m|.
+GLITCH_NOISE_FACTOR = 5.0
 
 
 def glitch_threshold(position: np.ndarray, max_samples: int = MAX_GLITCH_SAMPLES) -> float:
@@ -43,14 +45,18 @@ def glitch_threshold(position: np.ndarray, max_samples: int = MAX_GLITCH_SAMPLES
     Return the least clearance of a glitch [unit of `position`].
 
     D = max(GLITCH_STEP_FACTOR · P99(|m[k+1] − m[k]|), GLITCH_RANGE_FRACTION · (P99.5(m) −
-    P0.5(m))), m the running median of y over 2 `max_samples` + 1 samples: the motion and
-    range of the record without its glitches, which the median removes however many there
-    are. Gaussian noise of σ gives P99(|Δy|) ≈ 3.6 σ, so D is over 14 σ.
+    P0.5(m)), GLITCH_NOISE_FACTOR · P90(|y − m|)), m the running median of y over
+    2 `max_samples` + 1 samples: the motion, range and noise of the record without its
+    glitches, which the median removes however many there are. Gaussian noise of σ gives
+    P90(|y − m|) ≈ 1.6 σ, so on a record that barely moves D is still about 8 σ, and a whole
+    quantum of a coarse sensor is no glitch.
     """
-    m = median_filter(np.asarray(position, float), size=2 * max_samples + 1, mode='nearest')
+    y = np.asarray(position, float)
+    m = median_filter(y, size=2 * max_samples + 1, mode='nearest')
     spread = np.percentile(m, 99.5) - np.percentile(m, 0.5)
     return float(max(GLITCH_STEP_FACTOR * np.percentile(np.abs(np.diff(m)), 99),
-                     GLITCH_RANGE_FRACTION * spread))
+                     GLITCH_RANGE_FRACTION * spread,
+                     GLITCH_NOISE_FACTOR * np.percentile(np.abs(y - m), 90)))
 
 
 def excursions(position: np.ndarray, run: int, clearance: float) -> np.ndarray:
