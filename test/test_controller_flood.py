@@ -105,5 +105,7 @@ def test_setpoint_flood_keeps_the_control_period_and_throttles_warnings(ros_cont
     assert after, 'the controller stopped publishing duty'
     assert len(during) >= 0.5 * (flood_end - flood_start) / 0.025
     assert gaps[len(gaps) // 2] < 0.035            # the 25 ms cadence holds throughout
-    # generous: the flooder and the nodes share a busy machine (load 20 on 2 cores seen)
-    assert gaps[-1] < 0.5, 'the control step stalled during the flood'
+    # a starved step lengthens many gaps; one long gap is the scheduler of a busy machine
+    # (the flooder and the nodes share 2 cores with the other tests: 0.66 s seen once)
+    assert gaps[int(0.95 * len(gaps))] < 0.1, 'the control step stalled during the flood'
+    assert gaps[-1] < 2.0, 'the control step stopped during the flood'
