@@ -364,15 +364,20 @@ def _without_joint_states(bag, out_dir, start_s, stop_s):
     return out_dir
 
 
-def _blank_positions(path, rows, token):
-    """Rewrite data rows `rows` (0-based) of a CSV with `token` in its position field."""
-    lines = _lines(path)
+def _edit_positions(source, path, edits):
+    """Copy CSV `source` to `path` with {data row (0-based): old field -> new} on its position."""
+    lines = _lines(source)
     first = next(k for k, line in enumerate(lines) if line.startswith('time'))
-    for k in rows:
+    for k, edit in edits.items():
         fields = lines[first + 1 + k].split(',')
-        fields[3] = token
+        fields[3] = edit(fields[3])
         lines[first + 1 + k] = ','.join(fields)
     return _rewrite(path, lines)
+
+
+def _blank_positions(path, rows, token):
+    """Rewrite data rows `rows` (0-based) of a CSV with `token` in its position field."""
+    return _edit_positions(path, path, {k: lambda _: token for k in rows})
 
 
 def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scored(tmp_path):
@@ -656,17 +661,6 @@ def test_a_few_samples_jumping_away_and_back_are_glitches_and_a_wires_moves_are_
         assert not glitch_mask(noise + np.repeat([0.0, 20.0], 12000))[0].any()
 
 
-def _with_position_offsets(source, path, offsets):
-    """Copy CSV `source` to `path` with {data row: added position} (comments kept)."""
-    lines = _lines(source)
-    first = next(k for k, line in enumerate(lines) if line.startswith('time'))
-    for row, offset in offsets.items():
-        fields = lines[first + 1 + row].split(',')
-        fields[3] = f'{float(fields[3]) + offset:.4f}'
-        lines[first + 1 + row] = ','.join(fields)
-    return _rewrite(path, lines)
-
-
 WIRE_STEP = Path(REAL).parent / 'spring_biased_wire' / 'step_a.csv'
 
 
@@ -680,7 +674,8 @@ def test_sensor_glitches_in_a_measured_record_are_bridged_and_neither_fitted_nor
     rows = [516, 900, 1300, 1801, 2222, 3000, 3900, 4700]
     offsets = dict.fromkeys(rows, 12.0)
     offsets.update({2500: -5.0, 2501: -5.0})
-    path = _with_position_offsets(WIRE_STEP, tmp_path / 'step_glitches.csv', offsets)
+    added = {row: lambda x, d=d: f'{float(x) + d:.4f}' for row, d in offsets.items()}
+    path = _edit_positions(WIRE_STEP, tmp_path / 'step_glitches.csv', added)
     notes = []
     data, clean = load_data(path, notes=notes), load_data(WIRE_STEP)
     glitch = np.zeros(len(clean), bool)
