@@ -315,7 +315,7 @@ def test_missing_file_binary_file_and_directory(tmp_path):
     with pytest.raises(DataError, match='no such file'):
         load_data(tmp_path / 'nope.csv')
     (tmp_path / 'bin.csv').write_bytes(b'\xff\xfe\x00garbage\x80')
-    with pytest.raises(DataError, match='not UTF-8'):
+    with pytest.raises(DataError, match='not a text CSV file'):
         load_data(tmp_path / 'bin.csv')
     with pytest.raises(DataError, match='directory without an .mcap'):
         load_data(tmp_path)

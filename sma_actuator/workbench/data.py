@@ -16,13 +16,17 @@
 Load workbench DATA: a dynamic CSV, a static curve CSV or an MCAP bag.
 
 Formats (header row first; lines starting with '#' and blank lines are skipped, column
-names are case-insensitive, column order is free, extra columns are ignored; fields are
-separated by commas, or by semicolons or tabs when the header row has no comma, and then a
-field with one comma and no point has a decimal comma, ``0,25``):
+names are case-insensitive and spaces in them read as ``_``, column order is free, extra
+columns are ignored; fields are separated by commas, or by semicolons, tabs or spaces when
+the header row has no comma, and then a field with one comma and no point has a decimal
+comma, ``0,25``; UTF-8, a Windows code page or UTF-16; a header written as the comment
+above the numbers, as ``numpy.savetxt`` writes it, and a row of units under the header
+are read, `tablelayout`):
 
 * dynamic CSV  ``time,duty_a[,duty_b],position[,ambient_temperature][,setpoint]``
   (one wire: ``duty`` for ``duty_a`` when the header has neither duty_a nor duty_b);
-  time strictly increasing, in s (or the unit of a ``time[ms]`` header); a record whose
+  time strictly increasing, in s (or the unit of a ``time[ms]`` header, or ISO 8601
+  clock times, `_clock_column`); a record whose
   steps vary by more than 1 % (clock jitter, rounded stamps, one dropped sample) is
   resampled to its mean step (`steady_columns`); a longer gap is an error;
   a row whose position is empty or NaN (a reading the sensor did not deliver) keeps its
@@ -44,6 +48,7 @@ Every problem raises `DataError` (a ValueError) whose message names the file and
 there is one, the line (1-based, as an editor shows it) and the column.
 """
 import csv
+import datetime
 import os
 from pathlib import Path
 import re
@@ -53,6 +58,7 @@ import numpy as np
 
 from . import limits
 from .glitches import glitch_mask, MAX_GLITCH_SAMPLES
+from .tablelayout import column_name, decode_text, field_separator, join_unit_tokens, unit_field
 from ..core.datakinds import DynamicData, StaticData, uniform_steps
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
@@ -79,8 +85,10 @@ AMBIENT_UNITS = dict.fromkeys(('°c', 'degc', 'c'), 1.0)
 _SCALED_COLUMNS = {'time': (TIME_UNITS, 'time'), 'duty_a': (DUTY_UNITS, 'duty'),
                    'duty_b': (DUTY_UNITS, 'duty'), 'duty': (DUTY_UNITS, 'duty'),
                    'ambient_temperature': (AMBIENT_UNITS, 'ambient')}
-# field separators tried, in order, when the header row has no comma
-OTHER_DELIMITERS = (';', '\t')
+# a time field that is a clock time, after a date or alone (ISO 8601):
+# 2026-12-04T13:36:54.120, 2026-12-04 13:36:54+01:00, 13:36:54.120
+_CLOCK_TIME = re.compile(r'(\d{4}-\d{2}-\d{2}[T ])?\d{2}:\d{2}:\d{2}')
+SECONDS_PER_DAY = 86400.0
 # a unit in a comment line: '# ... Position in mm ...'
 _UNIT_IN_COMMENT = re.compile(r'\bposition\s+in\s+([^\s,;.()]+)', re.IGNORECASE)
 #: accepted static layouts: file column -> StaticData field
@@ -134,14 +142,14 @@ def parse_unit(text: str, source: Any) -> str:
 def comment_unit(path: PathLike) -> Optional[str]:
     """Return the unit named by a '# ... position in UNIT' comment of a CSV file, or None."""
     try:
-        with open(path, encoding='utf-8-sig', errors='replace') as fh:
-            for line in fh:
-                if line.lstrip().startswith('#'):
-                    m = _UNIT_IN_COMMENT.search(line)
-                    if m:
-                        return m.group(1)
-    except OSError:
+        text = read_text(path)
+    except DataError:
         return None
+    for line in text.splitlines():
+        if line.lstrip().startswith('#'):
+            m = _UNIT_IN_COMMENT.search(line)
+            if m:
+                return m.group(1)
     return None
 
 
@@ -240,6 +248,27 @@ def parse_column_map(pairs: Iterable[str]) -> Dict[str, str]:
     return renames
 
 
+def read_text(path: PathLike) -> str:
+    """
+    Return the text of a CSV file (`tablelayout.decode_text`); `DataError` if it is not one.
+
+    UTF-8, a Windows code page or UTF-16 with its byte-order mark; a file over
+    `limits.MAX_CSV_BYTES`, or holding binary data, is an error.
+    """
+    try:
+        size = Path(path).stat().st_size
+        if size > limits.MAX_CSV_BYTES:
+            raise DataError(f'{path}: {size} bytes is over the limit of {limits.MAX_CSV_BYTES} '
+                            'bytes for a CSV file (split or decimate the record)')
+        raw = Path(path).read_bytes()
+    except OSError as err:
+        raise DataError(f'{path}: cannot read: {err.strerror}') from None
+    text = decode_text(raw)
+    if text is None:
+        raise DataError(f'{path}: not a text CSV file (it holds binary data)')
+    return text
+
+
 def read_csv_table(path: PathLike, notes: Optional[list] = None,
                    renames: Optional[Dict[str, str]] = None) -> tuple:
     """
@@ -256,17 +285,7 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
     (no line end after it, as a log stopped while it was written) whose last row does not
     parse, or lacks a value, loses that row only; `notes` receives a line saying so.
     """
-    try:
-        size = Path(path).stat().st_size
-        if size > limits.MAX_CSV_BYTES:
-            raise DataError(f'{path}: {size} bytes is over the limit of {limits.MAX_CSV_BYTES} '
-                            'bytes for a CSV file (split or decimate the record)')
-        with open(path, encoding='utf-8-sig', newline='') as fh:
-            text = fh.read()
-    except UnicodeDecodeError:
-        raise DataError(f'{path}: not a text CSV file (it is not UTF-8)') from None
-    except OSError as err:
-        raise DataError(f'{path}: cannot read: {err.strerror}') from None
+    text = read_text(path)
     all_lines = text.splitlines()
     numbered = [(i + 1, line) for i, line in enumerate(all_lines)
                 if line.strip() and not line.lstrip().startswith('#')]
@@ -276,28 +295,36 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
         raise DataError(f'{path}: {len(numbered) - 1} data rows is over the limit of '
                         f'{limits.MAX_ROWS} rows (split or decimate the record)')
     header_line, header_text = numbered[0]
-    delimiter = ',' if ',' in header_text else next(
-        (d for d in OTHER_DELIMITERS if d in header_text), ',')
-    header = [h.strip().lower()
-              for h in _csv_fields(path, header_line, header_text, delimiter)]
-    header = [(renames or {}).get(h, h) for h in header]
+    data_rows = numbered[1:]
+    commented = _commented_header(path, all_lines, header_line, header_text, renames)
+    if commented is not None:
+        header_line, header_text = commented
+        data_rows = numbered
+    delimiter = field_separator(header_text)
+    header = _header(_csv_fields(path, header_line, header_text, delimiter), delimiter,
+                     renames)
+    # beside another separator a comma is a decimal comma (a spreadsheet of many locales)
+    decimal_comma = delimiter != ','
+    if data_rows:
+        with_units = _units_row(path, header, *data_rows[0], delimiter, decimal_comma)
+        if with_units is not None:
+            header, data_rows = with_units, data_rows[1:]
     _check_header(path, header_line, header)
+    clock = _clock_column(path, header, data_rows, delimiter, notes)
     # other columns (a pandas index, a logger's state text) are neither read nor checked
     read = {h for h in header if _base_name(h) in COLUMN_NAMES}
     may_miss = {h for h in read if _base_name(h) in MAY_MISS}
-    # beside another separator a comma is a decimal comma (a spreadsheet of many locales)
-    decimal_comma = delimiter != ','
     rows, lines = [], []
-    progress = limits.LoadProgress(Path(path).name, len(numbered) - 1)
+    progress = limits.LoadProgress(Path(path).name, len(data_rows))
     # no line end after the file's last line: it was cut off, perhaps inside that row
     cut_line = None if text.endswith(('\n', '\r')) else len(all_lines)
-    for line_no, text_line in numbered[1:]:
+    for line_no, text_line in data_rows:
         try:
             # a missing value on the cut-off line is where the log stopped, not a reading
             rows.append(_parse_row(path, line_no, header,
                                    _csv_fields(path, line_no, text_line, delimiter), read,
                                    may_miss if line_no != cut_line else frozenset(),
-                                   decimal_comma))
+                                   decimal_comma, clock))
         except DataError:
             if line_no != cut_line:
                 raise
@@ -310,15 +337,172 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
         progress(len(rows))
     if not rows:
         raise DataError(f'{path}: no data rows after the header (line {header_line})')
-    return header, np.array(rows, float), np.array(lines)
+    table = np.array(rows, float)
+    if clock is not None:
+        table[:, header.index(clock)] = past_midnight(table[:, header.index(clock)])
+    return header, table, np.array(lines)
 
 
-def _csv_fields(path: PathLike, line_no: int, text: str, delimiter: str = ',') -> list:
-    """Split one CSV line into fields; a malformed or oversized field is a `DataError`."""
+def _csv_fields(path: PathLike, line_no: int, text: str,
+                delimiter: Optional[str] = ',') -> list:
+    """
+    Split one CSV line into fields; a malformed or oversized field is a `DataError`.
+
+    delimiter None splits at runs of whitespace (`tablelayout.field_separator`).
+    """
+    if delimiter is None:
+        return text.split()
     try:
         return next(csv.reader([text], delimiter=delimiter), [])
     except csv.Error as err:
         raise DataError(f'{path}: line {line_no}: not a valid CSV row ({err})') from None
+
+
+def _header(fields: list, delimiter: Optional[str],
+            renames: Optional[Dict[str, str]]) -> list:
+    """
+    Return the column names of a header row's fields (`tablelayout.column_name`).
+
+    A field `renames` names (``--column``) takes the formats' name it is given; a header
+    split at whitespace has its bracketed units joined to their names first.
+    """
+    if delimiter is None:
+        fields = join_unit_tokens(fields)
+    renames = renames or {}
+    names = []
+    for field in fields:
+        name = field.strip().lower()
+        name = name if name in renames else column_name(field)
+        names.append(renames.get(name, name))
+    return names
+
+
+def _commented_header(path: PathLike, all_lines: list, first_line: int, first_text: str,
+                      renames: Optional[Dict[str, str]]) -> Optional[tuple]:
+    """
+    Return (line number, text) of a header written as a comment, or None.
+
+    ``numpy.savetxt(..., header='time,duty_a,position')`` writes ``# time,duty_a,position``
+    above its numbers. The comment line right above a first row that holds only numbers is
+    the header when it splits into as many fields as that row and names two columns of the
+    formats; any other comment stays a comment.
+    """
+    above = first_line - 2
+    while above >= 0 and not all_lines[above].strip():
+        above -= 1
+    if above < 0 or not all_lines[above].lstrip().startswith('#'):
+        return None
+    text = all_lines[above].lstrip().lstrip('#').strip()
+    delimiter = field_separator(text)
+    try:
+        names = _header(_csv_fields(path, above + 1, text, delimiter), delimiter, renames)
+        row = _csv_fields(path, first_line, first_text, delimiter)
+    except DataError:   # a comment that is no CSV row stays a comment
+        return None
+    numbers = all(_reads_as_number(f, delimiter != ',') for f in row)
+    known = sum(_base_name(name) in COLUMN_NAMES for name in names)
+    return (above + 1, text) if numbers and len(row) == len(names) and known >= 2 else None
+
+
+def _units_row(path: PathLike, header: list, line_no: int, text: str,
+               delimiter: Optional[str], decimal_comma: bool) -> Optional[list]:
+    """
+    Return the header with the units of the row under it, or None if that row is data.
+
+    A data logger may write the units in a row of their own (``time,duty_a,position`` then
+    ``s,%,mm``): a row whose fields under the formats' columns hold no number but the
+    dimensionless ``1``, no clock time, and at least one word. Each unit joins its column's name
+    (``duty_a[%]``), and goes the way of a unit in the name (`_units_from_header`); a
+    column that names its unit already, or takes none (``curve``), keeps its name.
+    """
+    fields = _csv_fields(path, line_no, text, delimiter)
+    if len(fields) != len(header):
+        return None
+    under = [field.strip() for name, field in zip(header, fields)
+             if _base_name(name) in COLUMN_NAMES]
+    words = [f for f in under if f and not _reads_as_number(f, decimal_comma)]
+    if not words or any(f != '1' and _reads_as_number(f, decimal_comma) for f in under if f):
+        return None
+    if any(_CLOCK_TIME.match(f) for f in words):   # the first row of a clock-time column
+        return None
+    named = []
+    for name, field in zip(header, fields):
+        unit = unit_field(field)
+        joined = f'{name}[{unit}]'
+        takes_unit = (_unit_in_name(joined) or ('',))[0] == name
+        named.append(joined if unit and takes_unit and not _unit_in_name(name) else name)
+    return named
+
+
+def _clock_column(path: PathLike, header: list, data_rows: list, delimiter: Optional[str],
+                  notes: Optional[list]) -> Optional[str]:
+    """
+    Return the time column's name if it holds clock times, renamed to seconds; else None.
+
+    A logger that stamps each row with the clock time, after the date or alone (ISO 8601:
+    ``2026-12-04T13:36:54.120``, ``2026-12-04 13:36:54.120+01:00`` as Python's
+    ``datetime.isoformat`` and pandas write them, or ``13:36:54.120``), gives the time in
+    seconds once each stamp is read as seconds (`_clock_seconds`). `header` then names the
+    column ``time[s]``, and `notes` receives a line.
+    """
+    names = [_base_name(name) for name in header]
+    if 'time' not in names or not data_rows:
+        return None
+    column = names.index('time')
+    fields = _csv_fields(path, data_rows[0][0], data_rows[0][1], delimiter)
+    first = fields[column].strip() if column < len(fields) else ''
+    if not _CLOCK_TIME.match(first):
+        return None
+    header[column] = 'time[s]'
+    if notes is not None:
+        notes.append(f"{path}: column 'time' holds clock times (the first {first}): read as "
+                     'seconds from it')
+    return header[column]
+
+
+def past_midnight(seconds: np.ndarray) -> np.ndarray:
+    """
+    Return clock times of day [s] that pass midnight counted on: +86400 s from each pass.
+
+    A step back by more than 12 h is a new day: t[k] + 86400 · (number of such steps up to
+    k). POSIX seconds never step back so far in a record, so they pass unchanged.
+    """
+    days = np.concatenate([[0], np.cumsum(np.diff(seconds) < -SECONDS_PER_DAY / 2)])
+    return seconds + SECONDS_PER_DAY * days
+
+
+def _clock_seconds(path: PathLike, line_no: int, text: str) -> float:
+    """
+    Return the seconds of a clock-time field; `DataError` if it is none.
+
+    A date and time is POSIX seconds (a stamp without a zone counts as UTC: only the
+    differences are used); a clock time alone is seconds from midnight (`past_midnight`
+    counts on through midnight).
+    """
+    try:
+        match = _CLOCK_TIME.match(text)
+        if not match:
+            raise ValueError(text)
+        if not match.group(1):
+            of_day = datetime.time.fromisoformat(text)
+            return (of_day.hour * 3600.0 + of_day.minute * 60.0 + of_day.second
+                    + of_day.microsecond * 1e-6)
+        stamp = datetime.datetime.fromisoformat(text)
+    except ValueError:
+        raise DataError(f"{path}: line {line_no}, column 'time': {text[:40]!r} is not a clock "
+                        "time as the first row's (ISO 8601: 2026-12-04T13:36:54.120 or "
+                        '13:36:54.120)') from None
+    if stamp.tzinfo is None:
+        stamp = stamp.replace(tzinfo=datetime.timezone.utc)
+    return stamp.timestamp()
+
+
+def _reads_as_number(text: str, decimal_comma: bool) -> bool:
+    """Return whether a field reads as a number, a decimal comma (``0,25``) included."""
+    text = text.strip()
+    if decimal_comma and text.count(',') == 1 and '.' not in text:
+        text = text.replace(',', '.')
+    return _is_number(text)
 
 
 def _base_name(name: str) -> str:
@@ -344,13 +528,15 @@ def _is_number(text: str) -> bool:
 
 
 def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: set,
-               may_miss: frozenset = frozenset(), decimal_comma: bool = False) -> list:
+               may_miss: frozenset = frozenset(), decimal_comma: bool = False,
+               clock: Optional[str] = None) -> list:
     """
     Return the finite numbers of one CSV row; `DataError` naming line and column.
 
     Only the columns in `read` are parsed; the others are NaN. A field of a column in
     `may_miss` that is empty or NaN is a missing value: NaN. decimal_comma: a field with
-    one comma and no point is read with the comma as the point (``0,25``).
+    one comma and no point is read with the comma as the point (``0,25``). clock: the
+    column that holds clock times (`_clock_column`), read as seconds.
     """
     if len(fields) != len(header):
         raise DataError(f'{path}: line {line_no}: {len(fields)} field(s), the header has '
@@ -366,6 +552,9 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: s
             continue
         if not text:
             raise DataError(f"{path}: line {line_no}, column '{name}': empty value")
+        if name == clock:
+            values.append(_clock_seconds(path, line_no, text))
+            continue
         comma = decimal_comma and text.count(',') == 1 and '.' not in text
         try:
             value = limits.parse_number(text.replace(',', '.') if comma else text)
