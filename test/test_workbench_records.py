@@ -147,6 +147,31 @@ def test_a_record_without_a_unit_takes_the_unit_of_the_model_or_of_the_other_rec
     assert_one_line_error(code, err, 'records fitted together need one unit')
 
 
+def test_a_record_in_another_unit_of_length_is_converted_into_the_models(tmp_path, capsys):
+    a = single_wire_csv(tmp_path / 'a.csv', seed=1)
+    rows = np.loadtxt(a, delimiter=',', skiprows=1)
+    um = tmp_path / 'um.csv'
+    np.savetxt(um, rows * [1, 1, 1000], delimiter=',', header='time,duty_a,position[um]',
+               comments='', fmt='%.6f')
+    out = tmp_path / 'm.yaml'
+    assert run(capsys, 'fit', a, '--out', out)[0] == 0
+    code, text, err = run(capsys, 'compare', '--model', out, a, '--json')
+    assert code == 0, err
+    expected = json.loads(text)['scores']['all']
+    code, text, err = run(capsys, 'compare', '--model', out, um, '--json')
+    assert code == 0, err
+    assert f'note: {um} has its position in um: converted to mm, the unit of {out} ' \
+        '(1 um = 0.001 mm)' in err
+    got = json.loads(text)
+    assert got['position_unit'] == 'mm'
+    assert got['scores']['all']['rmse'] == pytest.approx(expected['rmse'], rel=1e-6)
+    # fitted together, the record in um joins the first record's mm
+    code, text, err = run(capsys, 'fit', a, um, '--out', tmp_path / 'n.yaml')
+    assert code == 0, err
+    assert f'note: {um} has its position in um: converted to mm, the unit of {a}' in text
+    assert yaml.safe_load((tmp_path / 'n.yaml').read_text())['position_unit'] == 'mm'
+
+
 def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys):
     # nothing is labelled rad unless it is rad: the terminal, the JSON and the fleet table
     a = single_wire_csv(tmp_path / 'a.csv', seed=1, zero=0.3)

@@ -208,6 +208,7 @@ def load_checked_records(args: argparse.Namespace,
     for path, d in loaded:
         apply_layout(d, getattr(args, 'layout', None), path)
     adopt_stated_unit(args, loaded, (spec or {}).get('position_unit'))
+    convert_to_one_unit(args, loaded, (spec or {}).get('position_unit'))
     return loaded
 
 
@@ -240,6 +241,32 @@ def adopt_stated_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
             if unit and unit != 'rad':
                 _note(args, f'note: {path} names no position unit; read in {unit}, the unit of '
                             f'{source} (give --position-unit if that is wrong)')
+
+
+def convert_to_one_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
+                        model_unit: Optional[str] = None) -> None:
+    """
+    Convert each record's position into the model's unit, or the first record's.
+
+    A rig logged in mm one day and in um the next is still one rig: a record in another
+    unit of the same quantity (`data.unit_factor`) has its position and setpoint scaled,
+    with a note. Units of different quantities (mm and deg) stay as they are, for the
+    model's or the join's one-line error.
+    """
+    from .data import unit_factor
+    target = model_unit or loaded[0][1].position_unit
+    source = args.model if model_unit else loaded[0][0]
+    for path, d in loaded:
+        factor = unit_factor(d.position_unit, target)
+        if factor is None or d.position_unit == target:
+            continue
+        d.position = d.position * factor
+        if d.setpoint is not None:
+            d.setpoint = d.setpoint * factor
+        _note(args, f'note: {path} has its position in {d.position_unit}: converted to '
+                    f'{target}, the unit of {source} (1 {d.position_unit} = {factor:.6g} '
+                    f'{target})')
+        d.position_unit = target
 
 
 def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],

@@ -68,6 +68,12 @@ DYNAMIC_OPTIONAL = ('duty_b', 'ambient_temperature', 'setpoint')
 UNITS = {'rad': 'rad', 'mrad': 'mrad', 'deg': 'deg', 'degree': 'deg', 'degrees': 'deg',
          'm': 'm', 'cm': 'cm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'in': 'in', 'v': 'V',
          'mv': 'mV', 'counts': 'counts', '%': '%', '°': 'deg'}
+#: position units of one quantity convert into each other: unit -> (quantity, its size in
+#: the quantity's first unit here: mm, rad, V)
+UNIT_SIZES = {'mm': ('length', 1.0), 'm': ('length', 1000.0), 'cm': ('length', 10.0),
+              'um': ('length', 1e-3), 'in': ('length', 25.4), 'rad': ('angle', 1.0),
+              'mrad': ('angle', 1e-3), 'deg': ('angle', np.pi / 180.0),
+              'V': ('voltage', 1.0), 'mV': ('voltage', 1e-3)}
 # a unit in a column name: position[mm], position [mm], position (mm), time [s], duty_a[%]
 _UNIT_IN_NAME = re.compile(r'^(time|position|setpoint|duty_a|duty_b|duty|ambient_temperature)'
                            r'\s*[\[(]\s*([^\])]*?)\s*[\])]$')
@@ -137,6 +143,22 @@ def parse_unit(text: str, source: Any) -> str:
         raise DataError(f'{source}: unknown position unit {text!r}; known: '
                         f'{", ".join(sorted(set(UNITS.values())))}')
     return unit
+
+
+def unit_factor(unit: str, into: str) -> Optional[float]:
+    """
+    Return the factor that converts a position in `unit` into `into`, or None.
+
+    y_into = factor · y_unit, factor = size(unit) / size(into) (`UNIT_SIZES`: 1 um =
+    0.001 mm, 1 deg = π/180 rad); None for units of different quantities (mm and deg) or
+    without a size (counts, %).
+    """
+    if unit == into:
+        return 1.0
+    have, want = UNIT_SIZES.get(unit), UNIT_SIZES.get(into)
+    if have is None or want is None or have[0] != want[0]:
+        return None
+    return have[1] / want[1]
 
 
 def comment_unit(path: PathLike) -> Optional[str]:
