@@ -89,6 +89,16 @@ def domain_ids():
 
 
 @pytest.fixture
+def catalog_guard():
+    """Remove effects a test registers, so plug-ins do not leak into other tests."""
+    from sma_actuator.workbench.effects import CATALOG
+    before = dict(CATALOG)
+    yield
+    CATALOG.clear()
+    CATALOG.update(before)
+
+
+@pytest.fixture
 def ros_domain_id():
     """Return a DDS domain id private to this test (also exported for subprocess nodes)."""
     domain = random.SystemRandom().choice(domain_ids())

@@ -24,6 +24,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.excitation import multilevel
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
+from support.plugin_effect import DEAD_TIME_PLUGIN
 
 N_DELAY, N_NONE = 7, 7
 N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed CSV
@@ -33,13 +34,14 @@ T0_NS = 1_700_000_000_000_000_000
 DUTY, JOINT_STATE = (SMA_TOPICS[topic][0] for topic in ('/sma/duty', '/sma/joint_states'))
 
 
-def _record(effect, seed, warm_s=None):
+def _record(effect, seed, warm_s=None, dead_duty=0.0):
     """
     Return a short identification run of the package's plant model.
 
     Multilevel excitation, as the controller's model is identified from, and 2 mrad noise;
     `effect` 'delay' is a 0.8 s transport delay. warm_s [s]: the log begins 1 s after the
     first duty came on, that duty having been on for warm_s before (a chunk of a longer log).
+    dead_duty: the PWM dead time of the plug-in effect (`support.plugin_effect`).
     """
     dt = 1.0 / RATE_HZ
     duty_a, duty_b = multilevel(DURATION_S + (10.0 if warm_s else 0.0), dt, seed=seed)
@@ -49,7 +51,8 @@ def _record(effect, seed, warm_s=None):
         warm = int(round(warm_s / dt))
         duty_a, duty_b = (np.r_[np.full(warm, d[first]), d[first:]] for d in (duty_a, duty_b))
     params = ActuatorParams(delay_s=DELAY_S if effect == 'delay' else 0.0)
-    position = simulate(params, duty_a, duty_b, dt).position_rad[warm:]
+    heat = (np.clip((d - dead_duty) / (1 - dead_duty), 0, 1) for d in (duty_a, duty_b))
+    position = simulate(params, *heat, dt).position_rad[warm:]
     rng = np.random.default_rng(seed)
     return {'time': np.arange(len(position)) * dt, 'duty_a': duty_a[warm:],
             'duty_b': duty_b[warm:], 'position': position + rng.normal(0.0, 0.002, len(position))}
@@ -330,13 +333,20 @@ def test_a_loggers_own_columns_unit_and_layout_are_read_as_fit_reads_them(schedu
     rad = _record('delay', 11)
     np.savetxt(root / 'in_rad.csv', np.column_stack([rad[c] for c in COLUMNS]), delimiter=',',
                header='time,duty_a,duty_b,position[rad]', comments='', fmt='%.6g')
+    plain = _record('delay', 10)
+    np.savetxt(root / 'in_um.csv', np.column_stack([plain[c] for c in COLUMNS]) * [1, 1, 1, 1e3],
+               delimiter=',', header='time,duty_a,duty_b,position[um]', comments='', fmt='%.9g')
     out = tmp_path / 'compared'
-    assert cli.main(['batch', str(root / 'plain.csv'), str(root / 'in_rad.csv'), '--out',
-                     str(out), '--model', str(model), '--candidates', 'delay', '--no-reports',
-                     '--scheduler', scheduler]) == 0
+    assert cli.main(['batch', str(root / 'plain.csv'), str(root / 'in_rad.csv'),
+                     str(root / 'in_um.csv'), '--out', str(out), '--model', str(model),
+                     '--candidates', 'delay', '--no-reports', '--scheduler', scheduler]) == 0
     rows = {_name(r['record']): r for r in pq.read_table(out / 'batch.parquet').to_pylist()}
     assert rows['plain.csv']['position_unit'] == 'mm'
     assert rows['plain.csv']['reference_nrmse'] < 0.02 and rows['plain.csv']['notes'] is None
+    # the same record in um is compared in the model's mm, as compare converts it
+    assert rows['in_um.csv']['position_unit'] == 'um'
+    assert rows['in_um.csv']['reference_nrmse'] == pytest.approx(
+        rows['plain.csv']['reference_nrmse'], rel=1e-6)
     # a record of another unit is not compared with the model (no NRMSE across units)
     assert rows['in_rad.csv']['position_unit'] == 'rad'
     assert rows['in_rad.csv']['reference_nrmse'] is None
@@ -361,6 +371,27 @@ def test_a_records_glitches_are_bridged_as_fit_bridges_them_unless_kept(tmp_path
     data, notes = batch._read(path, batch.BatchOptions(keep_glitches=True).reading(), 'stamp')
     assert data.scored is None and notes == ()
     assert data.position[400] == pytest.approx(rec['position'][400], abs=1e-5)
+
+
+@pytest.mark.slow
+def test_a_plugin_effect_is_registered_on_the_workers_and_named(tmp_path, catalog_guard):
+    plugin = tmp_path / 'dead_time.py'
+    plugin.write_text(DEAD_TIME_PLUGIN)
+    _write_csv(tmp_path / 'dead.csv', _record('none', 12, dead_duty=0.2))
+    out = tmp_path / 'out'
+    # a cluster of its own: the plug-in stays registered in its workers
+    assert cli.main(['batch', str(tmp_path / 'dead.csv'), '--out', str(out), '--plugin',
+                     str(plugin), '--candidates', 'pwm_dead_time', 'delay', '--no-reports',
+                     '--workers', '1']) == 0
+    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
+    assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
+    # another version of the plug-in is another option: the record is computed again
+    options = [batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)]))]
+    plugin.write_text(DEAD_TIME_PLUGIN + '\n# edited\n')
+    options.append(batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)])))
+    assert options[0].fingerprint() != options[1].fingerprint()
+    assert options[0].plugins[0][0] == str(plugin.resolve())
 
 
 def test_reading_options_enter_the_fingerprint_only_when_set():

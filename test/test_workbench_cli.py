@@ -35,6 +35,7 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins
 from sma_actuator.workbench.effects import CATALOG
+from support.plugin_effect import DEAD_TIME_PLUGIN
 import yaml
 
 REAL = real_data_path()
@@ -376,38 +377,9 @@ def test_existing_report_is_not_overwritten(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------------ plug-ins
-PLUGIN = '''
-import numpy as np
-from sma_actuator.workbench.effects import Effect
-
-
-class PwmDeadTime(Effect):
-    """PWM dead time: the driver needs a minimum pulse, so duties below d0 heat nothing
-    and the rest is rescaled, d' = max(d - d0, 0) / (1 - d0)."""
-    name = 'pwm_dead_time'
-    parameters = {'dead_duty': (0.0, 0.4, 0.05)}
-    neutral = {'dead_duty': 0.0}
-    signature = 'model heats too much at small duties'
-
-    def transform_inputs(self, duty_a, duty_b, ambient, values):
-        d0 = values['dead_duty']
-        return (np.clip((duty_a - d0) / (1 - d0), 0, 1),
-                np.clip((duty_b - d0) / (1 - d0), 0, 1), ambient)
-'''
-
-
-@pytest.fixture
-def catalog_guard():
-    """Remove effects a test registers, so plug-ins do not leak into other tests."""
-    before = dict(CATALOG)
-    yield
-    CATALOG.clear()
-    CATALOG.update(before)
-
-
 @pytest.mark.slow
 def test_plugin_file_effect_is_fitted_through_the_cli(tmp_path):
-    (tmp_path / 'dead_time.py').write_text(PLUGIN)
+    (tmp_path / 'dead_time.py').write_text(DEAD_TIME_PLUGIN)
     data = write_record(tmp_path / 'dt.csv', n=600, seed=5, dead_duty=0.2)
     proc = run('fit', data, '--plugin', tmp_path / 'dead_time.py', '--add', 'pwm_dead_time',
                '--json')
@@ -421,7 +393,7 @@ def test_plugin_file_effect_is_fitted_through_the_cli(tmp_path):
     ('def broken(:\n', 'syntax error at line 1'),
     ('X = 1\n', 'defines no subclass of sma_actuator.workbench.effects.Effect'),
     ('raise RuntimeError("boom")\n', 'import failed: RuntimeError: boom'),
-    (PLUGIN.replace("'pwm_dead_time'", "'delay'"), 'delay already taken'),
+    (DEAD_TIME_PLUGIN.replace("'pwm_dead_time'", "'delay'"), 'delay already taken'),
 ])
 def test_bad_plugins_are_bad_input(tmp_path, capsys, catalog_guard, source, fragment):
     delay = CATALOG['delay']
@@ -434,8 +406,9 @@ def test_bad_plugins_are_bad_input(tmp_path, capsys, catalog_guard, source, frag
 
 
 def test_plugin_by_module_name_and_explicit_registration(tmp_path, monkeypatch, catalog_guard):
-    source = PLUGIN.replace('class PwmDeadTime', 'class _Hidden(Effect):\n    name = "x"\n\n\n'
-                            'class PwmDeadTime') + '\nregister_effect(PwmDeadTime)\n'
+    source = DEAD_TIME_PLUGIN.replace('class PwmDeadTime', 'class _Hidden(Effect):\n    '
+                                      'name = "x"\n\n\nclass PwmDeadTime')
+    source += '\nregister_effect(PwmDeadTime)\n'
     source = source.replace('import Effect', 'import Effect, register_effect')
     (tmp_path / 'my_effects_mod.py').write_text(source)
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -447,7 +420,7 @@ def test_plugin_by_module_name_and_explicit_registration(tmp_path, monkeypatch, 
 
 
 def test_entry_point_group_registers_installed_effects(tmp_path, monkeypatch, catalog_guard):
-    (tmp_path / 'ep_effect_mod.py').write_text(PLUGIN)
+    (tmp_path / 'ep_effect_mod.py').write_text(DEAD_TIME_PLUGIN)
     info = tmp_path / 'ep_effects-0.1.dist-info'
     info.mkdir()
     (info / 'METADATA').write_text('Metadata-Version: 2.1\nName: ep-effects\nVersion: 0.1\n')
@@ -461,7 +434,7 @@ def test_entry_point_group_registers_installed_effects(tmp_path, monkeypatch, ca
 
 
 def test_effects_lists_catalog_and_plugins(tmp_path, capsys, catalog_guard):
-    (tmp_path / 'dead_time.py').write_text(PLUGIN)
+    (tmp_path / 'dead_time.py').write_text(DEAD_TIME_PLUGIN)
     assert cli.main(['effects', '--plugin', str(tmp_path / 'dead_time.py'), '--json']) == 0
     doc = {d['effect']: d for d in json.loads(capsys.readouterr().out)}
     assert set(CATALOG) == set(doc) and 'pwm_dead_time' in doc and 'delay' in doc

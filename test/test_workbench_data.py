@@ -22,8 +22,8 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import (check_excitation, DataError, describe, load_data,
-                                         parse_column_map)
+from sma_actuator.workbench.data import (check_excitation, DataError, describe, in_unit,
+                                         load_data, parse_column_map, unit_factor)
 
 REAL = real_data_path()
 
@@ -193,6 +193,23 @@ def test_the_unit_a_record_names_is_told_from_the_default(tmp_path):
     assert [load_data(p, default_unit='').position_unit for p in (header, comment, bare)] \
         == ['mm', 'deg', '']
     assert load_data(bare).position_unit == 'rad'   # read in the default unit
+
+
+def test_units_of_one_quantity_convert_and_others_do_not(dynamic_csv):
+    assert unit_factor('um', 'mm') == pytest.approx(1e-3)
+    assert unit_factor('in', 'mm') == pytest.approx(25.4)
+    assert unit_factor('deg', 'rad') == pytest.approx(np.pi / 180)
+    assert unit_factor('mV', 'V') == pytest.approx(1e-3)
+    assert unit_factor('mm', 'mm') == 1.0
+    assert unit_factor('mm', 'deg') is None and unit_factor('counts', 'counts') == 1.0
+    assert unit_factor('counts', 'mm') is None and unit_factor('%', 'mm') is None
+    data = load_data(dynamic_csv, position_unit='m')
+    data.setpoint = data.position + 0.1
+    mm = in_unit(data, 'mm')
+    assert mm.position_unit == 'mm' and data.position_unit == 'm'   # a copy
+    np.testing.assert_allclose(mm.position, 1000 * data.position)
+    np.testing.assert_allclose(mm.setpoint, 1000 * data.setpoint)
+    assert in_unit(data, 'm') is data and in_unit(data, 'rad') is None
 
 
 def test_an_unknown_duty_unit_and_a_percentage_without_its_unit_are_data_errors(tmp_path):

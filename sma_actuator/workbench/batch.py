@@ -82,6 +82,8 @@ class BatchOptions:
     layout: str = None           # 'single' | 'antagonistic' (None: from each record's duties)
     columns: tuple = ()          # a CSV's own column names, 'NAME=HEADER' texts (--column)
     keep_glitches: bool = False  # read sensor glitches as measured (--keep-glitches)
+    # --plugin specs loaded on every worker, each with a hash of its file (`worker_plugins`)
+    plugins: tuple = ()
 
     def fingerprint(self) -> str:
         """
@@ -101,7 +103,7 @@ class BatchOptions:
 
 
 READING_DEFAULTS = {'position_unit': None, 'default_unit': 'rad', 'layout': None,
-                    'columns': (), 'keep_glitches': False}
+                    'columns': (), 'keep_glitches': False, 'plugins': ()}
 
 
 # ------------------------------------------------------------------------------ records
@@ -159,6 +161,39 @@ def file_fingerprint(path: Union[str, Path]) -> str:
 
 
 # ------------------------------------------------------------------------------ worker tasks
+def worker_plugins(specs: Optional[Iterable[str]]) -> tuple:
+    """
+    Return the --plugin specs as every worker loads them: ((spec, content hash), ...).
+
+    A file is named by its absolute path (a worker may run elsewhere: the file must be at
+    that path there) and carries a hash of its text, so that results made with another
+    version of the plug-in are recomputed (`BatchOptions.fingerprint`); a module name
+    carries ''.
+    """
+    out = []
+    for spec in specs or ():
+        path = Path(spec)
+        if spec.endswith('.py') or path.is_file():
+            text = path.read_bytes() if path.is_file() else b''
+            out.append((str(path.resolve()), hashlib.sha1(text).hexdigest()[:12]))
+        else:
+            out.append((spec, ''))
+    return tuple(out)
+
+
+@lru_cache(maxsize=None)
+def register_effects(plugins: tuple) -> None:
+    """
+    Register the entry-point effects and `plugins` (`worker_plugins`) in this process, once.
+
+    A worker process starts with the package's catalog only: what the client registered
+    (`cli.setup_effects`) is registered here too before a record's first fit.
+    """
+    from . import plugins as plugin_loader
+    plugin_loader.load_entry_points()
+    plugin_loader.load_plugins([spec for spec, _ in plugins])
+
+
 @lru_cache(maxsize=4)
 def _read(path: str, reading: tuple, stamp: str) -> tuple:
     """
@@ -226,6 +261,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     from .data import describe
     from .engine import diagnose_rounds
     from .report import write_diagnosis_report
+    register_effects(options.plugins)
     started = time.perf_counter()
     reading = options.reading()
     data, base, lead = _fit_led(path, reading, stamp, options)
@@ -296,10 +332,14 @@ def compare_reference(spec: dict, data: Any) -> Optional[float]:
     """
     Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record.
 
-    None for a record of another rig: its position unit or layout is not the model's.
+    A record in another unit of the same quantity (um beside the model's mm) is converted
+    into the model's, as `sma-model compare` converts it (`cli.convert_to_one_unit`). None
+    for a record of another rig: its layout, or its position's quantity, is not the model's.
     """
+    from .data import in_unit
     from .engine import load_fit
-    if any(spec.get(key) not in (None, value) for key, value in data.rig().items()):
+    data = in_unit(data, spec.get('position_unit') or data.position_unit)
+    if data is None or spec.get('layout') not in (None, data.layout):
         return None
     return float(load_fit(spec, data=data).validation['nrmse'])
 

@@ -253,20 +253,17 @@ def convert_to_one_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
     with a note. Units of different quantities (mm and deg) stay as they are, for the
     model's or the join's one-line error.
     """
-    from .data import unit_factor
+    from .data import in_unit, unit_factor
     target = model_unit or loaded[0][1].position_unit
     source = args.model if model_unit else loaded[0][0]
-    for path, d in loaded:
-        factor = unit_factor(d.position_unit, target)
-        if factor is None or d.position_unit == target:
+    for k, (path, d) in enumerate(loaded):
+        converted = in_unit(d, target)
+        if converted is None or converted is d:
             continue
-        d.position = d.position * factor
-        if d.setpoint is not None:
-            d.setpoint = d.setpoint * factor
+        loaded[k] = (path, converted)
         _note(args, f'note: {path} has its position in {d.position_unit}: converted to '
-                    f'{target}, the unit of {source} (1 {d.position_unit} = {factor:.6g} '
-                    f'{target})')
-        d.position_unit = target
+                    f'{target}, the unit of {source} (1 {d.position_unit} = '
+                    f'{unit_factor(d.position_unit, target):.6g} {target})')
 
 
 def join_records(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
@@ -947,7 +944,8 @@ def left_to_explain(held_out: float, train: float) -> str:
 # ------------------------------------------------------------------------------ batch
 def cmd_batch(args: argparse.Namespace) -> int:
     """Run `sma-model batch`: fit, compare and diagnose every record on a Dask cluster."""
-    from .batch import BatchOptions, BatchProgress, find_records, run_batch, start_client
+    from .batch import (BatchOptions, BatchProgress, find_records, run_batch, start_client,
+                        worker_plugins)
     from .fleet import write_index, write_table
     catalog = setup_effects(args)
     spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
@@ -970,7 +968,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
                            position_unit=args.position_unit,
                            default_unit=spec.get('position_unit') or 'rad',
                            layout=args.layout, columns=tuple(args.column),
-                           keep_glitches=args.keep_glitches)
+                           keep_glitches=args.keep_glitches,
+                           plugins=worker_plugins(args.plugin))
     _note(args, f'batch: {len(paths)} records -> {out}')
     results = []
     client = start_client(args.scheduler, args.workers)
@@ -1207,7 +1206,10 @@ def _add_batch(sub: Any, common: argparse.ArgumentParser) -> None:
     bat.add_argument('--no-reports', action='store_true', help='skip the per-record reports')
     bat.add_argument('--force', action='store_true', help='recompute finished records')
     bat.add_argument('--json', action='store_true', help='print a JSON summary')
-    bat.set_defaults(func=cmd_batch, plugin=None)
+    bat.add_argument('--plugin', action='append', metavar='FILE.py|MODULE',
+                     help='load user effects from a Python file or module (repeatable); '
+                     'every worker loads them, so a file must be at that path on each')
+    bat.set_defaults(func=cmd_batch)
 
 
 def _add_effects(sub: Any, common: argparse.ArgumentParser) -> None:

@@ -48,6 +48,7 @@ Every problem raises `DataError` (a ValueError) whose message names the file and
 there is one, the line (1-based, as an editor shows it) and the column.
 """
 import csv
+from dataclasses import replace
 import datetime
 import os
 from pathlib import Path
@@ -159,6 +160,21 @@ def unit_factor(unit: str, into: str) -> Optional[float]:
     if have is None or want is None or have[0] != want[0]:
         return None
     return have[1] / want[1]
+
+
+def in_unit(data: DynamicData, unit: str) -> Optional[DynamicData]:
+    """
+    Return `data` with position and setpoint in `unit` (`unit_factor`), or None.
+
+    A copy when the unit changes; `data` itself in its own unit; None for a unit of
+    another quantity.
+    """
+    factor = unit_factor(data.position_unit, unit)
+    if factor is None or data.position_unit == unit:
+        return data if factor is not None else None
+    setpoint = None if data.setpoint is None else data.setpoint * factor
+    return replace(data, position=data.position * factor, setpoint=setpoint,
+                   position_unit=unit)
 
 
 def comment_unit(path: PathLike) -> Optional[str]:
