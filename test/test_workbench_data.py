@@ -678,6 +678,25 @@ def test_a_few_samples_jumping_away_and_back_are_glitches_and_a_wires_moves_are_
         assert not glitch_mask(noise + np.repeat([0.0, 20.0], 12000))[0].any()
 
 
+def test_above_100_hz_a_glitch_may_last_30_ms():
+    # at 1 kHz a wiper's lift-off of 10 or 25 ms spans 10 or 25 samples: glitches, bridged
+    # close to the clean record; 40 samples off are a move, and the clean record holds none
+    from support import plant_records
+    from sma_actuator.workbench.data import leave_out_glitches
+    rec = plant_records.simulate('none', 0, duration_s=60.0, rate_hz=1000.0, seed=3)
+    y = np.asarray(rec['position'], float)
+    runs = [(int(f * y.size), samples) for f, samples in ((0.3, 10), (0.6, 25), (0.8, 40))]
+    lifted = y + 0.6 * np.ptp(y) * _glitch_rows(y.size, runs)
+    time, notes = np.arange(y.size) * 1e-3, []
+    assert leave_out_glitches('r.csv', {'time': time, 'position': y}, None, notes) is None
+    cols = {'time': time, 'position': lifted}
+    scored = leave_out_glitches('r.csv', cols, None, notes)
+    glitch = _glitch_rows(y.size, runs[:2])
+    np.testing.assert_array_equal(scored, ~glitch)
+    np.testing.assert_allclose(cols['position'][glitch], y[glitch], atol=0.02 * np.ptp(y))
+    assert len(notes) == 1 and 'and back within 30 samples' in notes[0]
+
+
 WIRE_STEP = Path(REAL).parent / 'spring_biased_wire' / 'step_a.csv'
 
 

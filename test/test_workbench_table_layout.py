@@ -64,10 +64,15 @@ def test_a_windows_code_page_and_utf16_read_as_utf8_does(tmp_path, encoding):
     _assert_same(load_data(tmp_path / 'other.csv'), utf8)
 
 
-def test_binary_data_is_still_no_csv(tmp_path):
-    (tmp_path / 'rec.csv').write_bytes(b'MATLAB 5.0 MAT-file, Platform: GLNXA64\x00\x00\x01IM'
-                                       + bytes(range(256)))
-    with pytest.raises(DataError, match='rec.csv: not a text CSV file'):
+@pytest.mark.parametrize('head, kind', [
+    (b'MATLAB 5.0 MAT-file, Platform: GLNXA64\x00\x00\x01IM', r'a MATLAB \.mat file'),
+    (b'PK\x03\x04\x14\x00\x06\x00', r'a zip archive: an \.xlsx workbook\? save the sheet as CSV'),
+    (b'SQLite format 3\x00\x10\x00', r'an SQLite file: a rosbag2 \.db3 bag\? convert it to MCAP'),
+    (b'\x7fELF\x02\x01\x01\x00', r'it holds binary data'),
+])
+def test_binary_data_is_no_csv_and_the_error_says_what_it_seems_to_be(tmp_path, head, kind):
+    (tmp_path / 'rec.csv').write_bytes(head + bytes(range(256)))
+    with pytest.raises(DataError, match=f'rec.csv: not a text CSV file \\({kind}'):
         load_data(tmp_path / 'rec.csv')
 
 

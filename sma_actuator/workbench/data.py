@@ -58,8 +58,9 @@ from typing import Any, Dict, Iterable, Optional, Tuple, Union
 import numpy as np
 
 from . import limits
-from .glitches import glitch_mask, MAX_GLITCH_SAMPLES
-from .tablelayout import column_name, decode_text, field_separator, join_unit_tokens, unit_field
+from .glitches import glitch_mask, max_glitch_samples
+from .tablelayout import (binary_kind, column_name, decode_text, field_separator,
+                          join_unit_tokens, unit_field)
 from ..core.datakinds import DynamicData, StaticData, uniform_steps
 
 DYNAMIC_REQUIRED = ('time', 'duty_a', 'position')
@@ -303,7 +304,7 @@ def read_text(path: PathLike) -> str:
         raise DataError(f'{path}: cannot read: {err.strerror}') from None
     text = decode_text(raw)
     if text is None:
-        raise DataError(f'{path}: not a text CSV file (it holds binary data)')
+        raise DataError(f'{path}: not a text CSV file ({binary_kind(raw)})')
     return text
 
 
@@ -718,21 +719,24 @@ def leave_out_glitches(source: Any, cols: dict, scored: Optional[np.ndarray],
     """
     Bridge the position's sensor glitches in `cols` (`glitches.glitch_mask`); return `scored`.
 
-    Each glitch sample takes the position interpolated from the samples around it and is
-    neither fitted nor scored (False in the returned mask). notes receives a line with
+    A glitch lasts up to `glitches.max_glitch_samples` of the record's step. Each glitch
+    sample takes the position interpolated from the samples around it and is neither
+    fitted nor scored (False in the returned mask). notes receives a line with
     their number, the first one's time [s] and the clearance in % of the record's range
     (its unit may be settled only later, beside the other records).
     """
-    glitch, clearance = glitch_mask(cols['position'])
+    time = cols['time']
+    longest = max_glitch_samples(float(np.median(np.diff(time))))
+    glitch, clearance = glitch_mask(cols['position'], longest)
     if not glitch.any():
         return scored
-    time, keep = cols['time'], ~glitch
+    keep = ~glitch
     cols['position'] = np.interp(time, time[keep], cols['position'][keep])
     if notes is not None:
         share = 100 * clearance / max(float(np.ptp(cols['position'])), clearance)
         notes.append(f'{source}: {np.count_nonzero(glitch)} position sample(s) (the first at '
                      f'{time[np.argmax(glitch)]:.3f} s) jump away by over {share:.2g} % of '
-                     f"the record's range and back within {MAX_GLITCH_SAMPLES} samples: read "
+                     f"the record's range and back within {longest} samples: read "
                      'as sensor glitches, bridged, neither fitted nor scored '
                      '(--keep-glitches reads them as measured)')
     return keep if scored is None else scored & keep

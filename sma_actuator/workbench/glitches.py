@@ -27,10 +27,13 @@ from __future__ import annotations
 from typing import Tuple
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import maximum_filter1d, median_filter, minimum_filter1d
 
-#: Longest excursion read as a glitch [samples].
+#: Longest excursion read as a glitch [samples] at 100 Hz and below ...
 MAX_GLITCH_SAMPLES = 3
+#: ... and [s] at faster rates: a wire goes away and back only through a cooling, which takes
+#: even the thinnest Flexinol wire (25 µm) about 0.1 s
+MAX_GLITCH_S = 0.03
 #: An excursion clears both samples around it by more than this many times the 99th
 #: percentile of the record's motion per sample, |Δm| (m its running median) ...
 GLITCH_STEP_FACTOR = 4.0
@@ -38,6 +41,17 @@ GLITCH_STEP_FACTOR = 4.0
 GLITCH_RANGE_FRACTION = 0.1
 #: ... and than this many times the 90th percentile of its noise, |y − m|.
 GLITCH_NOISE_FACTOR = 5.0
+
+
+def max_glitch_samples(dt_s: float) -> int:
+    """
+    Return the longest glitch [samples] of a record sampled every `dt_s` [s].
+
+    max(MAX_GLITCH_SAMPLES, round(MAX_GLITCH_S / dt_s)): 3 samples up to 100 Hz, 30 ms
+    above (30 samples at 1 kHz), where a wiper's lift-off of a few milliseconds spans
+    more than 3 samples.
+    """
+    return max(MAX_GLITCH_SAMPLES, int(round(MAX_GLITCH_S / dt_s)))
 
 
 def glitch_threshold(position: np.ndarray, max_samples: int = MAX_GLITCH_SAMPLES) -> float:
@@ -71,10 +85,13 @@ def excursions(position: np.ndarray, run: int, clearance: float) -> np.ndarray:
     y = np.asarray(position, float)
     if y.size < run + 2:
         return np.empty(0)
-    inside = np.lib.stride_tricks.sliding_window_view(y[1:-1], run)
-    before, after = y[:inside.shape[0]], y[run + 1:]
-    above = inside.min(axis=1) - np.maximum(before, after)
-    below = np.minimum(before, after) - inside.max(axis=1)
+    count = y.size - run - 1
+    # the least and greatest of y[i+1..i+run], each in one pass whatever the run's length
+    lowest = minimum_filter1d(y[1:-1], run, origin=-(run // 2))[:count]
+    highest = maximum_filter1d(y[1:-1], run, origin=-(run // 2))[:count]
+    before, after = y[:count], y[run + 1:]
+    above = lowest - np.maximum(before, after)
+    below = np.minimum(before, after) - highest
     back = np.abs(after - before) <= clearance / 2
     return np.where(back, np.maximum(above, below), -np.inf)
 

@@ -30,6 +30,15 @@ from typing import List, Optional
 TEXT_ENCODINGS = ('utf-8-sig', 'cp1252', 'latin-1')
 # field separators tried, in order, when the header row has no comma
 OTHER_SEPARATORS = (';', '\t')
+# what a binary file given as a CSV most likely is, by its first bytes, and what to do
+BINARY_KINDS = (
+    (b'PK\x03\x04', 'a zip archive: an .xlsx workbook? save the sheet as CSV'),
+    (b'\xd0\xcf\x11\xe0', 'an OLE file: an .xls workbook? save the sheet as CSV'),
+    (b'MATLAB', 'a MATLAB .mat file: write its arrays to a CSV (writematrix)'),
+    (b'\x89HDF', 'an HDF5 file (a MATLAB v7.3 .mat?): write its arrays to a CSV'),
+    (b'SQLite format 3\x00', 'an SQLite file: a rosbag2 .db3 bag? convert it to MCAP '
+     '(ros2 bag convert)'),
+)
 # the part of a column name before its unit: 'Duty A [%]' -> 'Duty A', ' [%]'
 _NAME_AND_UNIT = re.compile(r'([^\[(]*)(.*)', re.DOTALL)
 # a unit written as its own token or field: '[mm]', '(s)', 'mm'
@@ -57,6 +66,12 @@ def decode_text(raw: bytes) -> Optional[str]:
         except UnicodeDecodeError:
             continue
     return None
+
+
+def binary_kind(raw: bytes) -> str:
+    """Return what binary data (`decode_text` None) most likely is, for the error line."""
+    return next((kind for magic, kind in BINARY_KINDS if raw.startswith(magic)),
+                'it holds binary data')
 
 
 def field_separator(header_text: str) -> Optional[str]:
