@@ -170,10 +170,11 @@ def worker_plugins(specs: Optional[Iterable[str]]) -> tuple:
     version of the plug-in are recomputed (`BatchOptions.fingerprint`); a module name
     carries ''.
     """
+    from .plugins import is_file_spec
     out = []
     for spec in specs or ():
         path = Path(spec)
-        if spec.endswith('.py') or path.is_file():
+        if is_file_spec(spec):
             text = path.read_bytes() if path.is_file() else b''
             out.append((str(path.resolve()), hashlib.sha1(text).hexdigest()[:12]))
         else:

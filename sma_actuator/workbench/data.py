@@ -378,7 +378,8 @@ def read_csv_table(path: PathLike, notes: Optional[list] = None,
         raise DataError(f'{path}: no data rows after the header (line {header_line})')
     table = np.array(rows, float)
     if clock is not None:
-        table[:, header.index(clock)] = past_midnight(table[:, header.index(clock)])
+        column = header.index(clock)
+        table[:, column] = past_midnight(table[:, column])
     return header, table, np.array(lines)
 
 
@@ -450,9 +451,10 @@ def _units_row(path: PathLike, header: list, line_no: int, text: str,
 
     A data logger may write the units in a row of their own (``time,duty_a,position`` then
     ``s,%,mm``): a row whose fields under the formats' columns hold no number but the
-    dimensionless ``1``, no clock time, and at least one word. Each unit joins its column's name
-    (``duty_a[%]``), and goes the way of a unit in the name (`_units_from_header`); a
-    column that names its unit already, or takes none (``curve``), keeps its name.
+    dimensionless ``1``, no clock time, and at least one word. Each unit joins its
+    column's name (``duty_a[%]``), and goes the way of a unit in the name
+    (`_units_from_header`); a column that names its unit already, or takes none
+    (``curve``), keeps its name.
     """
     fields = _csv_fields(path, line_no, text, delimiter)
     if len(fields) != len(header):
@@ -536,12 +538,15 @@ def _clock_seconds(path: PathLike, line_no: int, text: str) -> float:
     return stamp.timestamp()
 
 
+def _with_point(text: str, decimal_comma: bool) -> str:
+    """Return a field with its decimal comma as a point (``0,25`` -> ``0.25``), if it has one."""
+    comma = decimal_comma and text.count(',') == 1 and '.' not in text
+    return text.replace(',', '.') if comma else text
+
+
 def _reads_as_number(text: str, decimal_comma: bool) -> bool:
     """Return whether a field reads as a number, a decimal comma (``0,25``) included."""
-    text = text.strip()
-    if decimal_comma and text.count(',') == 1 and '.' not in text:
-        text = text.replace(',', '.')
-    return _is_number(text)
+    return _is_number(_with_point(text.strip(), decimal_comma))
 
 
 def _base_name(name: str) -> str:
@@ -594,9 +599,8 @@ def _parse_row(path: PathLike, line_no: int, header: list, fields: list, read: s
         if name == clock:
             values.append(_clock_seconds(path, line_no, text))
             continue
-        comma = decimal_comma and text.count(',') == 1 and '.' not in text
         try:
-            value = limits.parse_number(text.replace(',', '.') if comma else text)
+            value = limits.parse_number(_with_point(text, decimal_comma))
         except ValueError:
             raise DataError(f"{path}: line {line_no}, column '{name}': {text[:40]!r} is not a "
                             'number (write plain ASCII decimals such as 1.5 or 2e-3)') from None

@@ -89,11 +89,16 @@ class guarded_catalog:
         return False
 
 
+def is_file_spec(spec: str) -> bool:
+    """Return True if a --plugin spec names a Python file (else it is a module name)."""
+    return spec.endswith('.py') or Path(spec).exists()
+
+
 def import_plugin(spec: str) -> ModuleType:
     """Import a plug-in given as a .py path or a module name; errors name the plug-in."""
     path = Path(spec)
     try:
-        if spec.endswith('.py') or path.exists():
+        if is_file_spec(spec):
             return _import_file(path)
         return importlib.import_module(spec)
     except PluginError:

@@ -19,15 +19,16 @@ loggers write besides a plain UTF-8 CSV: a Windows code page (``°C``, ``µm`` a
 bytes), UTF-16 with its byte-order mark (a spreadsheet's "Unicode text"), fields separated
 by spaces (``numpy.savetxt``'s default, Octave, gnuplot), column names with spaces
 (``Duty A``) and units written apart from the names (``time (s)`` as two tokens, a row of
-units under the header) (docs/workbench.md, "DATA formats").
+units under the header); and a binary file given as a CSV is named by what it seems to be
+(docs/workbench.md, "DATA formats").
 """
 import codecs
 import re
 from typing import List, Optional
 
-# tried in order on a file without a UTF-16 byte-order mark; latin-1 reads any byte, so a
-# file without NUL bytes is always text
-TEXT_ENCODINGS = ('utf-8-sig', 'cp1252', 'latin-1')
+# tried in order on a file without a UTF-16 byte-order mark, before latin-1, which reads
+# any byte: a file without NUL bytes is always text
+TEXT_ENCODINGS = ('utf-8-sig', 'cp1252')
 # field separators tried, in order, when the header row has no comma
 OTHER_SEPARATORS = (';', '\t')
 # what a binary file given as a CSV most likely is, by its first bytes, and what to do
@@ -65,7 +66,7 @@ def decode_text(raw: bytes) -> Optional[str]:
             return raw.decode(encoding)
         except UnicodeDecodeError:
             continue
-    return None
+    return raw.decode('latin-1')
 
 
 def binary_kind(raw: bytes) -> str:
