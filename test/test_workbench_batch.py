@@ -329,11 +329,11 @@ def test_a_loggers_own_columns_unit_and_layout_are_read_as_fit_reads_them(schedu
     model = tmp_path / 'mm.yaml'
     assert cli.main(['fit', str(root / 'logger.csv'), '--add', 'delay', '--out', str(model)]
                     + reading) == 0
-    _write_csv(root / 'plain.csv', _record('delay', 10))
+    plain = _record('delay', 10)
+    _write_csv(root / 'plain.csv', plain)
     rad = _record('delay', 11)
     np.savetxt(root / 'in_rad.csv', np.column_stack([rad[c] for c in COLUMNS]), delimiter=',',
                header='time,duty_a,duty_b,position[rad]', comments='', fmt='%.6g')
-    plain = _record('delay', 10)
     np.savetxt(root / 'in_um.csv', np.column_stack([plain[c] for c in COLUMNS]) * [1, 1, 1, 1e3],
                delimiter=',', header='time,duty_a,duty_b,position[um]', comments='', fmt='%.9g')
     out = tmp_path / 'compared'
@@ -387,11 +387,18 @@ def test_a_plugin_effect_is_registered_on_the_workers_and_named(tmp_path, catalo
     assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
     assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
     # another version of the plug-in is another option: the record is computed again
-    options = [batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)]))]
+    before = batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)]))
     plugin.write_text(DEAD_TIME_PLUGIN + '\n# edited\n')
-    options.append(batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)])))
-    assert options[0].fingerprint() != options[1].fingerprint()
-    assert options[0].plugins[0][0] == str(plugin.resolve())
+    after = batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)]))
+    assert before.fingerprint() != after.fingerprint()
+    assert before.plugins[0][0] == str(plugin.resolve())
+
+
+def test_a_plugin_a_worker_cannot_load_is_that_records_one_line_error(tmp_path):
+    gone = tmp_path / 'gone.py'   # a file the client read, missing on the worker
+    with pytest.raises(ValueError) as err:
+        batch.register_effects(batch.worker_plugins([str(gone)]))
+    assert batch.error_line(err.value) == f'plugin {gone}: no such file'
 
 
 def test_reading_options_enter_the_fingerprint_only_when_set():
