@@ -17,9 +17,9 @@ How near clean simulated records come to the sensor-glitch rule (`workbench.glit
 For records without glitches, from the rich simulator (every effect at the ends of its
 range; open loop with two wires and with one, closed loop, and the package's rig
 excitation) and from the package's plant (every effect at its three levels), at 10, 25,
-40 and 100 Hz: the largest excursion of 1 to 3 samples that comes back, over the
-clearance D a glitch must exceed (1.0 would be read as a glitch), and the records where
-any sample is read as one.
+40, 100, 200 and 1000 Hz: the largest excursion of 1 to `max_glitch_samples` samples (3 up
+to 100 Hz, 30 ms above) that comes back, over the clearance D a glitch must exceed (1.0
+would be read as a glitch), and the records where any sample is read as one.
 
 With --real, the measured spring-biased wire records (../shared/data/real) instead:
 `sma-model fit step_a ramp_a square_a` (each left out in turn) as they are, with eight
@@ -45,22 +45,23 @@ from conftest import real_data_path  # noqa: E402, I100
 from sma_actuator.core.excitation import rig_excitation  # noqa: E402
 from sma_actuator.workbench import cli  # noqa: E402
 from sma_actuator.workbench.glitches import (  # noqa: E402
-    excursions, glitch_mask, glitch_threshold, MAX_GLITCH_SAMPLES)
+    excursions, glitch_mask, glitch_threshold, max_glitch_samples)
 from support import plant_records  # noqa: E402
+from support.csv_edit import edit_positions, shifted  # noqa: E402
 from support.richsim import DEFAULTS, EFFECTS, simulate, simulate_profile  # noqa: E402
 
-RATES_HZ = (10.0, 25.0, 40.0, 100.0)
+RATES_HZ = (10.0, 25.0, 40.0, 100.0, 200.0, 1000.0)
 WIRE = Path(real_data_path()).parent / 'spring_biased_wire'
 GLITCH_ROWS = (516, 965, 1100, 2089, 3682, 3868, 4058, 4662)   # data rows of step_a
 GLITCH_MM = 12.0
 
 
-def nearness(position):
+def nearness(position, max_samples):
     """Return the largest excursion that comes back, over the clearance D of the rule."""
     y = np.asarray(position, float)
-    clearance = glitch_threshold(y)
+    clearance = glitch_threshold(y, max_samples)
     worst = max(float(np.max(excursions(y, run, clearance), initial=-np.inf))
-                for run in range(1, MAX_GLITCH_SAMPLES + 1))
+                for run in range(1, max_samples + 1))
     return worst / clearance
 
 
@@ -98,18 +99,6 @@ def plant_record_set(duration_s, rate_hz):
             yield f'plant {effect} L{level}', d['position']
 
 
-def glitched_copy(source, path):
-    """Write CSV `source` to `path` with GLITCH_MM added to the position of GLITCH_ROWS."""
-    lines = Path(source).read_text().splitlines()
-    first = next(k for k, line in enumerate(lines) if line.startswith('time'))
-    for row in GLITCH_ROWS:
-        fields = lines[first + 1 + row].split(',')
-        fields[3] = f'{float(fields[3]) + GLITCH_MM:.4f}'
-        lines[first + 1 + row] = ','.join(fields)
-    path.write_text('\n'.join(lines) + '\n')
-    return path
-
-
 def leave_one_out(records, *options):
     """Return [(name, NRMSE %, RMSE mm)] of `sma-model fit RECORDS` for each record."""
     out = io.StringIO()
@@ -125,7 +114,8 @@ def real_records():
     """Print the leave-one-out scores of the measured records, clean and glitched."""
     clean = [WIRE / f'{name}.csv' for name in ('step_a', 'ramp_a', 'square_a')]
     with tempfile.TemporaryDirectory() as tmp:
-        glitched = [glitched_copy(clean[0], Path(tmp) / 'step_a.csv')] + clean[1:]
+        added = dict.fromkeys(GLITCH_ROWS, shifted(GLITCH_MM))
+        glitched = [edit_positions(clean[0], Path(tmp) / 'step_a.csv', added)] + clean[1:]
         runs = (('as measured', clean, ()), ('8 glitches in step_a', glitched, ()),
                 ('the same, --keep-glitches', glitched, ('--keep-glitches',)))
         for label, records, options in runs:
@@ -144,15 +134,17 @@ def main():
         real_records()
         return
     t0 = time.perf_counter()
-    print('source   rate [Hz]  records  largest excursion / D  (record)        read as glitches')
+    print('source   rate [Hz]  run [samples]  records  largest excursion / D  (record)        '
+          'read as glitches')
     for name, records in (('richsim', richsim_records), ('plant', plant_record_set)):
         for rate_hz in RATES_HZ:
-            rows = [(nearness(y), label, int(glitch_mask(y)[0].sum()))
+            longest = max_glitch_samples(1.0 / rate_hz)
+            rows = [(nearness(y, longest), label, int(glitch_mask(y, longest)[0].sum()))
                     for label, y in records(args.duration, rate_hz)]
             worst = max(rows)
             fired = [f'{label} ({n})' for _, label, n in rows if n]
-            print(f'{name:8s} {rate_hz:9g}  {len(rows):7d}  {worst[0]:21.3f}  ({worst[1]})  '
-                  f'{", ".join(fired) or "none"}', flush=True)
+            print(f'{name:8s} {rate_hz:9g}  {longest:13d}  {len(rows):7d}  {worst[0]:21.3f}  '
+                  f'({worst[1]})  {", ".join(fired) or "none"}', flush=True)
     print(f'{time.perf_counter() - t0:.0f} s')
 
 

@@ -14,6 +14,7 @@
 """`sma-model batch`: a fleet of records on a Dask cluster, error rows, resumption."""
 import csv
 import json
+import os
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -24,7 +25,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.excitation import multilevel
 from sma_actuator.workbench import batch, cli
 from sma_actuator.workbench.fleet import effect_recurrence, table_rows
-from support.plugin_effect import DEAD_TIME_PLUGIN
+from support.plugin_effect import DEAD_TIME_PLUGIN, install_entry_point
 
 N_DELAY, N_NONE = 7, 7
 N_RECORDS = N_DELAY + N_NONE + 3   # and a good bag, a corrupt bag, a malformed CSV
@@ -392,6 +393,24 @@ def test_a_plugin_effect_is_registered_on_the_workers_and_named(tmp_path, catalo
     after = batch.BatchOptions(plugins=batch.worker_plugins([str(plugin)]))
     assert before.fingerprint() != after.fingerprint()
     assert before.plugins[0][0] == str(plugin.resolve())
+
+
+@pytest.mark.slow
+def test_an_installed_entry_point_effect_is_registered_on_the_workers_and_named(
+        tmp_path, monkeypatch, catalog_guard):
+    # an effect a package exposes under the entry-point group, with no --plugin: each
+    # worker process registers it before its first fit, as the client does
+    site = install_entry_point(tmp_path / 'site', 'ep_dead_time', {'dead': 'PwmDeadTime'})
+    monkeypatch.syspath_prepend(str(site))
+    monkeypatch.setenv('PYTHONPATH', os.pathsep.join(
+        filter(None, [str(site), os.environ.get('PYTHONPATH')])))
+    _write_csv(tmp_path / 'dead.csv', _record('none', 12, dead_duty=0.2))
+    out = tmp_path / 'out'
+    assert cli.main(['batch', str(tmp_path / 'dead.csv'), '--out', str(out), '--candidates',
+                     'pwm_dead_time', 'delay', '--no-reports', '--workers', '1']) == 0
+    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
+    assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
 
 
 def test_a_plugin_a_worker_cannot_load_is_that_records_one_line_error(tmp_path):

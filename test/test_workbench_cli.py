@@ -35,7 +35,7 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins
 from sma_actuator.workbench.effects import CATALOG
-from support.plugin_effect import DEAD_TIME_PLUGIN
+from support.plugin_effect import DEAD_TIME_PLUGIN, install_entry_point
 import yaml
 
 REAL = real_data_path()
@@ -420,13 +420,7 @@ def test_plugin_by_module_name_and_explicit_registration(tmp_path, monkeypatch, 
 
 
 def test_entry_point_group_registers_installed_effects(tmp_path, monkeypatch, catalog_guard):
-    (tmp_path / 'ep_effect_mod.py').write_text(DEAD_TIME_PLUGIN)
-    info = tmp_path / 'ep_effects-0.1.dist-info'
-    info.mkdir()
-    (info / 'METADATA').write_text('Metadata-Version: 2.1\nName: ep-effects\nVersion: 0.1\n')
-    (info / 'entry_points.txt').write_text(
-        f'[{plugins.ENTRY_POINT_GROUP}]\ndead = ep_effect_mod:PwmDeadTime\n'
-        'broken = ep_effect_mod:Nope\n')
+    install_entry_point(tmp_path, 'ep_effect_mod', {'dead': 'PwmDeadTime', 'broken': 'Nope'})
     monkeypatch.syspath_prepend(str(tmp_path))
     warnings = []
     assert plugins.load_entry_points(warn=warnings.append) == ['pwm_dead_time']

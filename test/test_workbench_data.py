@@ -24,6 +24,7 @@ import pytest
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench.data import (check_excitation, DataError, describe, in_unit,
                                          load_data, parse_column_map, unit_factor)
+from support.csv_edit import edit_positions, shifted
 
 REAL = real_data_path()
 
@@ -381,20 +382,9 @@ def _without_joint_states(bag, out_dir, start_s, stop_s):
     return out_dir
 
 
-def _edit_positions(source, path, edits):
-    """Copy CSV `source` to `path` with {data row (0-based): old field -> new} on its position."""
-    lines = _lines(source)
-    first = next(k for k, line in enumerate(lines) if line.startswith('time'))
-    for k, edit in edits.items():
-        fields = lines[first + 1 + k].split(',')
-        fields[3] = edit(fields[3])
-        lines[first + 1 + k] = ','.join(fields)
-    return _rewrite(path, lines)
-
-
 def _blank_positions(path, rows, token):
     """Rewrite data rows `rows` (0-based) of a CSV with `token` in its position field."""
-    return _edit_positions(path, path, {k: lambda _: token for k in rows})
+    return edit_positions(path, path, {k: lambda _: token for k in rows})
 
 
 def test_rows_without_a_position_keep_their_duties_and_a_run_of_them_is_not_scored(tmp_path):
@@ -710,8 +700,8 @@ def test_sensor_glitches_in_a_measured_record_are_bridged_and_neither_fitted_nor
     rows = [516, 900, 1300, 1801, 2222, 3000, 3900, 4700]
     offsets = dict.fromkeys(rows, 12.0)
     offsets.update({2500: -5.0, 2501: -5.0})
-    added = {row: lambda x, d=d: f'{float(x) + d:.4f}' for row, d in offsets.items()}
-    path = _edit_positions(WIRE_STEP, tmp_path / 'step_glitches.csv', added)
+    added = {row: shifted(offset) for row, offset in offsets.items()}
+    path = edit_positions(WIRE_STEP, tmp_path / 'step_glitches.csv', added)
     notes = []
     data, clean = load_data(path, notes=notes), load_data(WIRE_STEP)
     glitch = np.zeros(len(clean), bool)

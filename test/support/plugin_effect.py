@@ -32,3 +32,22 @@ class PwmDeadTime(Effect):
         return (np.clip((duty_a - d0) / (1 - d0), 0, 1),
                 np.clip((duty_b - d0) / (1 - d0), 0, 1), ambient)
 '''
+
+
+def install_entry_point(site, module, entry_points):
+    """
+    Make `site` hold DEAD_TIME_PLUGIN as `module` and a distribution that exposes it.
+
+    `entry_points` maps an entry-point name to an object of `module`, in the group the
+    workbench reads (`plugins.ENTRY_POINT_GROUP`); with `site` on sys.path the effect is
+    installed as `pip install` would install it.
+    """
+    from sma_actuator.workbench.plugins import ENTRY_POINT_GROUP
+    site.mkdir(parents=True, exist_ok=True)
+    (site / f'{module}.py').write_text(DEAD_TIME_PLUGIN)
+    info = site / f'{module}-0.1.dist-info'
+    info.mkdir()
+    (info / 'METADATA').write_text(f'Metadata-Version: 2.1\nName: {module}\nVersion: 0.1\n')
+    lines = [f'{name} = {module}:{attr}' for name, attr in entry_points.items()]
+    (info / 'entry_points.txt').write_text('\n'.join([f'[{ENTRY_POINT_GROUP}]', *lines]) + '\n')
+    return site
