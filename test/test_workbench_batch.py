@@ -12,9 +12,12 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 """`sma-model batch`: a fleet of records on a Dask cluster, error rows, resumption."""
+import contextlib
 import csv
 import json
 import os
+import socket
+import warnings
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -411,6 +414,21 @@ def test_an_installed_entry_point_effect_is_registered_on_the_workers_and_named(
     row, = pq.read_table(out / 'batch.parquet').to_pylist()
     assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
     assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
+
+
+def test_a_local_cluster_beside_another_takes_a_free_http_port_without_a_warning():
+    # two batches on one machine: the second scheduler's HTTP server (no dashboard) finds
+    # the default port held and takes another, and the user's terminal is not told so
+    with socket.socket() as held:
+        with contextlib.suppress(OSError):   # held already by another process
+            held.bind(('', 8787))
+            held.listen()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter('always')
+            client = batch.start_client(workers=1)
+            client.close()
+            client.cluster.close()
+    assert [str(w.message) for w in caught if 'in use' in str(w.message)] == []
 
 
 def test_a_plugin_a_worker_cannot_load_is_that_records_one_line_error(tmp_path):

@@ -43,6 +43,7 @@ import sys
 import time
 from typing import (Any, Iterable, Iterator, List, Optional, TextIO, TYPE_CHECKING,
                     Union)
+import warnings
 
 from .limits import MAX_FIT_RATE_HZ
 
@@ -524,9 +525,14 @@ def start_client(scheduler: Optional[str] = None,
     from .parallel import available_cores
     if scheduler:
         return Client(scheduler, timeout='30s')
-    cluster = LocalCluster(n_workers=workers or available_cores(), threads_per_worker=1,
-                           processes=True, dashboard_address=None,
-                           silence_logs=logging.CRITICAL)
+    with warnings.catch_warnings():
+        # without a dashboard the scheduler still serves its HTTP routes; when another
+        # cluster holds the default port it takes a free one, which is nothing to warn of
+        warnings.filterwarnings('ignore', message='Port .* is already in use',
+                                category=UserWarning)
+        cluster = LocalCluster(n_workers=workers or available_cores(), threads_per_worker=1,
+                               processes=True, dashboard_address=None,
+                               silence_logs=logging.CRITICAL)
     return Client(cluster)
 
 
