@@ -377,17 +377,23 @@ def test_a_records_glitches_are_bridged_as_fit_bridges_them_unless_kept(tmp_path
     assert data.position[400] == pytest.approx(rec['position'][400], abs=1e-5)
 
 
+def _dead_time_row(tmp_path, *options):
+    """Return the row of `batch` on a record with a PWM dead time of 0.2, with `options`."""
+    _write_csv(tmp_path / 'dead.csv', _record('none', 12, dead_duty=0.2))
+    out = tmp_path / 'out'
+    # a cluster of its own: what its workers registered stays registered in them
+    assert cli.main(['batch', str(tmp_path / 'dead.csv'), '--out', str(out), *options,
+                     '--candidates', 'pwm_dead_time', 'delay', '--no-reports',
+                     '--workers', '1']) == 0
+    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    return row
+
+
 @pytest.mark.slow
 def test_a_plugin_effect_is_registered_on_the_workers_and_named(tmp_path, catalog_guard):
     plugin = tmp_path / 'dead_time.py'
     plugin.write_text(DEAD_TIME_PLUGIN)
-    _write_csv(tmp_path / 'dead.csv', _record('none', 12, dead_duty=0.2))
-    out = tmp_path / 'out'
-    # a cluster of its own: the plug-in stays registered in its workers
-    assert cli.main(['batch', str(tmp_path / 'dead.csv'), '--out', str(out), '--plugin',
-                     str(plugin), '--candidates', 'pwm_dead_time', 'delay', '--no-reports',
-                     '--workers', '1']) == 0
-    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    row = _dead_time_row(tmp_path, '--plugin', str(plugin))
     assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
     assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
     # another version of the plug-in is another option: the record is computed again
@@ -407,11 +413,7 @@ def test_an_installed_entry_point_effect_is_registered_on_the_workers_and_named(
     monkeypatch.syspath_prepend(str(site))
     monkeypatch.setenv('PYTHONPATH', os.pathsep.join(
         filter(None, [str(site), os.environ.get('PYTHONPATH')])))
-    _write_csv(tmp_path / 'dead.csv', _record('none', 12, dead_duty=0.2))
-    out = tmp_path / 'out'
-    assert cli.main(['batch', str(tmp_path / 'dead.csv'), '--out', str(out), '--candidates',
-                     'pwm_dead_time', 'delay', '--no-reports', '--workers', '1']) == 0
-    row, = pq.read_table(out / 'batch.parquet').to_pylist()
+    row = _dead_time_row(tmp_path)
     assert row['error'] is None and row['named_effect'] == 'pwm_dead_time'
     assert row['param.dead_duty'] == pytest.approx(0.2, abs=0.05)
 
