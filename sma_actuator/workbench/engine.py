@@ -60,8 +60,9 @@ already fits its training window to within the noise (`at_noise`) has no such ba
 second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
 in training RMSE and no worse held out (and, when an effect is named, better held out than
-the named effect's model), the base's own fit sat in a poor minimum: the diagnosis starts
-again from that fit (`better_base`, `Diagnosis.refitted` says so).
+the named effect's model by `min_improvement`, or better than it in training by that bar and
+no worse held out), the base's own fit sat in a poor minimum: the diagnosis starts again
+from that fit (`better_base`, `Diagnosis.refitted` says so).
 When still nothing is named and the base is short of the noise, check 1 is taken once more
 on the typical held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS` blocks
 of held-out time, against the base and against the counterfactual. One excursion beyond the
@@ -788,7 +789,8 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     must also beat it held out by `min_improvement`, the bar the effect cleared to be named
     (the base without any effect predicting clearly better than the named effect: the gain
     was the base's poor minimum, not the effect; near the noise floor a smaller held-out
-    difference is chance).
+    difference is chance), or else fit training better than the effect's model by that bar
+    and hold out no worse (`outfits_named`).
     """
     refits = [(c['base_refit'], c['effect']) for c in entries if c.get('base_refit') is not None]
     if not refits:
@@ -798,13 +800,30 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     v0, v1 = base.validation['nrmse'], refit.validation['nrmse']
     if t1 > (1.0 - min_improvement) * t0 or v1 > v0:
         return None
-    if named is not None and not v1 < (1.0 - min_improvement) * named.get(
-            'validation_nrmse', -np.inf):
+    if named is not None and not (v1 < (1.0 - min_improvement) * named.get(
+            'validation_nrmse', -np.inf) or outfits_named(refit, named, min_improvement)):
         return None
     return refit, (f'the base model refitted from where the {name} refit ended fits better '
                    f'(training NRMSE {100 * base.train["nrmse"]:.2f} % -> '
                    f'{100 * refit.train["nrmse"]:.2f} %, held-out {100 * v0:.2f} % -> '
                    f'{100 * v1:.2f} %): diagnosed from that fit')
+
+
+def outfits_named(refit: ModelFit, named: dict, min_improvement: float) -> bool:
+    """
+    Return whether a fit of the base beats the named effect's model in training and held out.
+
+    The effect's model nests the base (the effect at its neutral value is the base), so its
+    training RMSE can only be above a base fit's when its own search stopped short. A base
+    refit whose training RMSE is below (1 − min_improvement) times the effect model's, and
+    whose held-out NRMSE is no worse, shows that the effect was named from a poor minimum:
+    its gain was measured against a base far from the base's best.
+    """
+    fit = named.get('fit')
+    if fit is None or named.get('validation_nrmse') is None:
+        return False
+    return (refit.train['rmse'] < (1.0 - min_improvement) * fit.train['rmse']
+            and refit.validation['nrmse'] <= named['validation_nrmse'])
 
 
 def _judge_on_cores(jobs: int, tasks: list) -> Iterator[dict]:
