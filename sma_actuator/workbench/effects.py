@@ -65,6 +65,10 @@ class Effect:
     # changes how the duty becomes temperature: not identified by records that heat at one
     # duty level, so diagnose does not name it there (`engine.unresolved_by`)
     heating_law = False
+    # retards the response to the duty: a dead time d and a first-order lag of about d shift
+    # it alike to first order in ω d, so diagnose ranks two such rivals by their training
+    # fit (`engine.rank_candidates`)
+    retards_response = False
     # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (its fit is used)
     declares = {}
 
@@ -172,6 +176,7 @@ class FastDynamics(Effect):
 
     name = 'fast_dynamics'
     heating_law = True
+    retards_response = True
     # also from scratch: without the lag the base grid sits at lag-distorted temperatures
     own_grid = True
 
@@ -218,6 +223,7 @@ class Delay(Effect):
     """
 
     name = 'delay'
+    retards_response = True
     # also from scratch, like fast_dynamics: a plant record with a 0.3 s delay refitted
     # warm reached 0.12 % training NRMSE and lost to fast_dynamics from scratch (0.10 %);
     # from scratch the delay fits to the noise (0.05 %, 0.3015 s)

@@ -69,7 +69,11 @@ of held-out time, against the base and against the counterfactual. One excursion
 trained travel can carry the whole window's RMSE while the candidate is better everywhere
 else; checks 2 and 4 stay as they are, and so does the moving blocks' median of check 3.
 Candidates are listed best first: significant ones by held-out improvement, then the
-rest by held-out improvement; the first significant one is the missing effect. When
+rest by held-out improvement; the first significant one is the missing effect. Two
+significant candidates that retard the response (a delay and a lag,
+`Effect.retards_response`) are ranked by their training BIC instead
+(`_rank_retarders_by_training`): the held-out window tells a dead time from a lag by
+chance where the base misfits it. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
 can hardly tell them apart: they stay in held-out order and every explanation in the
 group says so.
@@ -865,9 +869,41 @@ def rank_candidates(base: ModelFit, entries: list, gain: str = 'improvement') ->
         if c['significant']:
             _yield_to_unresolved_rivals(c, entries)
     out = sorted(entries, key=key, reverse=True)
+    _rank_retarders_by_training(out, gain)
     best = next((c for c in out if c['significant']), None)
     _flag_near_ties(out, gain)
     return Diagnosis(base, out, None if best is None else best['effect'])
+
+
+def _rank_retarders_by_training(ranked: list, gain: str = 'improvement') -> None:
+    """
+    Put first, in their places in `ranked`, the significant retarder that fits training best.
+
+    A dead time d and a first-order lag of about d (`Effect.retards_response`) shift the
+    response to the duty alike to first order in ω d. Where the base misfits the held-out
+    window, which of the two fits that window better is chance; the training window, over
+    twice as long, tells them apart by likelihood: the BIC change against the same base
+    (each adds one parameter), the lower one first.
+    """
+    places = [i for i, c in enumerate(ranked)
+              if c['significant'] and getattr(CATALOG.get(c['effect']), 'retards_response',
+                                              False)]
+    group = [ranked[i] for i in places]
+    best = min(group, key=lambda c: c['bic_change'], default=None)
+    if best is None or best is group[0]:
+        return
+    other = group[0]
+    said = f' Ranked before {other["effect"]}'
+    if said not in best['explanation']:
+        best['explanation'] += (
+            f'{said}, which gains more held out ({100 * other[gain]:+.0f} % against '
+            f'{100 * best[gain]:+.0f} %): it fits the training window better (BIC change '
+            f'{best["bic_change"]:+.1f} '
+            f'against {other["bic_change"]:+.1f}), and a dead time and a lag shift the '
+            'response alike, so the longer window tells them apart.')
+    group.remove(best)
+    for i, c in zip(places, [best] + group):
+        ranked[i] = c
 
 
 def _yield_to_unresolved_rivals(entry: dict, entries: list) -> None:
@@ -1103,7 +1139,8 @@ def _flag_near_ties(ranked: list, gain: str = 'improvement') -> None:
     sig = [c for c in ranked if c['significant']]
     if len(sig) < 2:
         return
-    group = [c for c in sig if c[gain] >= (1.0 - NEAR_TIE) * sig[0][gain]]
+    top = max(c[gain] for c in sig)   # the first may be a retarder ranked by training
+    group = [c for c in sig if c[gain] >= (1.0 - NEAR_TIE) * top]
     if len(group) < 2:
         return
     names = ', '.join(c['effect'] for c in group)
