@@ -238,13 +238,13 @@ def test_bic_counts_independent_samples_on_the_whiter_residual():
 
 
 def _entry(name, gain, significant, bic_change):
-    """A judged candidate entry as `engine.rank_candidates` takes it."""
+    """Return a judged candidate entry as `engine.rank_candidates` takes it."""
     return {'effect': name, 'improvement': gain, 'significant': significant,
             'bic_change': bic_change, 'explanation': name + '.'}
 
 
 def _ranked(*entries):
-    """(name, order, entries) of `engine.rank_candidates` on `entries`."""
+    """Return (name, order, entries) of `engine.rank_candidates` on `entries`."""
     diag = engine.rank_candidates(None, list(entries))
     return diag.missing_effect, [c['effect'] for c in diag.candidates], diag.candidates
 
