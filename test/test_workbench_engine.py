@@ -250,20 +250,19 @@ def _ranked(*entries):
 
 
 def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
-    entry, ranked = _entry, _ranked
     # a larger gain that is not significant never goes before a significant one
-    name, order, _ = ranked(entry('a', 0.9, False, -50.0), entry('b', 0.3, True, -20.0))
+    name, order, _ = _ranked(_entry('a', 0.9, False, -50.0), _entry('b', 0.3, True, -20.0))
     assert (name, order) == ('b', ['b', 'a'])
     # within 10 % of the best gain: held-out order, whatever the BIC (the parameter count)
-    name, order, out = ranked(entry('b', 0.56, True, -45.0), entry('a', 0.61, True, -40.0),
-                              entry('c', 0.20, True, -90.0))
+    name, order, out = _ranked(_entry('b', 0.56, True, -45.0), _entry('a', 0.61, True, -40.0),
+                               _entry('c', 0.20, True, -90.0))
     assert (name, order) == ('a', ['a', 'b', 'c'])
     assert all('Near tie: a, b' in c['explanation'] for c in out[:2])
     assert 'Near tie' not in out[2]['explanation']
     engine.rank_candidates(None, out)   # ranked again (a later pass): said once
     assert out[0]['explanation'].count('Near tie') == 1
     # further apart: no tie is said
-    name, order, out = ranked(entry('a', 0.61, True, -40.0), entry('b', 0.50, True, -45.0))
+    name, order, out = _ranked(_entry('a', 0.61, True, -40.0), _entry('b', 0.50, True, -45.0))
     assert (name, order) == ('a', ['a', 'b'])
     assert not any('Near tie' in c['explanation'] for c in out)
 
@@ -311,14 +310,13 @@ def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
 
 
 def test_a_delay_and_a_lag_both_significant_are_ranked_by_their_training_fit():
-    entry, ranked = _entry, _ranked
     # a 0.3 s delay on wires that follow the paper's cosine law, which the PI base misfits
     # held out (`bench_major_loop_law.py --seed 1`): the lag gains more held out, the delay
     # fits training far better; a better-fitting effect of another kind keeps its place
-    name, order, out = ranked(entry('fast_dynamics', 0.64, True, -776.0),
-                              entry('delay', 0.46, True, -1505.0),
-                              entry('convection', 0.30, True, -2000.0),
-                              entry('latent_heat', 0.90, False, -9000.0))
+    name, order, out = _ranked(_entry('fast_dynamics', 0.64, True, -776.0),
+                               _entry('delay', 0.46, True, -1505.0),
+                               _entry('convection', 0.30, True, -2000.0),
+                               _entry('latent_heat', 0.90, False, -9000.0))
     assert (name, order) == ('delay', ['delay', 'fast_dynamics', 'convection', 'latent_heat'])
     said = ('Ranked before fast_dynamics, which gains more held out (+64 % against +46 %): '
             'it fits the training window better (BIC change -1505.0 against -776.0)')
@@ -327,18 +325,18 @@ def test_a_delay_and_a_lag_both_significant_are_ranked_by_their_training_fit():
     engine.rank_candidates(None, out)   # ranked again (a later pass): said once
     assert out[0]['explanation'].count('Ranked before') == 1
     # an effect of another kind that gains most stays first; the two retarders swap behind it
-    name, order, _ = ranked(entry('convection', 0.80, True, -100.0),
-                            entry('fast_dynamics', 0.64, True, -776.0),
-                            entry('delay', 0.46, True, -1505.0))
+    name, order, _ = _ranked(_entry('convection', 0.80, True, -100.0),
+                             _entry('fast_dynamics', 0.64, True, -776.0),
+                             _entry('delay', 0.46, True, -1505.0))
     assert (name, order) == ('convection', ['convection', 'delay', 'fast_dynamics'])
     # the held-out leader fits training better too: held-out order, nothing said
-    name, order, out = ranked(entry('delay', 0.55, True, -180.0),
-                              entry('fast_dynamics', 0.22, True, -114.0))
+    name, order, out = _ranked(_entry('delay', 0.55, True, -180.0),
+                               _entry('fast_dynamics', 0.22, True, -114.0))
     assert (name, order) == ('delay', ['delay', 'fast_dynamics'])
     assert [c['explanation'] for c in out] == ['delay.', 'fast_dynamics.']
     # a rival that is not significant is not ranked by its training fit
-    name, order, _ = ranked(entry('fast_dynamics', 0.64, True, -776.0),
-                            entry('delay', 0.46, False, -1505.0))
+    name, order, _ = _ranked(_entry('fast_dynamics', 0.64, True, -776.0),
+                             _entry('delay', 0.46, False, -1505.0))
     assert (name, order) == ('fast_dynamics', ['fast_dynamics', 'delay'])
 
 

@@ -898,9 +898,8 @@ def _rank_retarders_by_training(ranked: list, gain: str = 'improvement') -> None
         best['explanation'] += (
             f'{said}, which gains more held out ({100 * other[gain]:+.0f} % against '
             f'{100 * best[gain]:+.0f} %): it fits the training window better (BIC change '
-            f'{best["bic_change"]:+.1f} '
-            f'against {other["bic_change"]:+.1f}), and a dead time and a lag shift the '
-            'response alike, so the longer window tells them apart.')
+            f'{best["bic_change"]:+.1f} against {other["bic_change"]:+.1f}), and a dead time '
+            'and a lag shift the response alike, so the longer window tells them apart.')
     group.remove(best)
     for i, c in zip(places, [best] + group):
         ranked[i] = c
