@@ -186,6 +186,27 @@ def test_what_is_left_follows_the_errors_over_the_noise():
     assert 'explains the data' in cli.left_to_explain(1.2, 1.0)
     assert 'held-out part goes where training did not' in cli.left_to_explain(3.0, 1.1)
     assert 'the training error too 9 times' in cli.left_to_explain(13.0, 8.6)
+    # held out at the noise, training far off it: the held-out part cannot judge
+    assert 'does not show what the training part lacks' in cli.left_to_explain(1.0, 8.3)
+
+
+def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():
+    lead = {'effect': 'delay', 'train_nrmse': 0.0020, 'validation_nrmse': 0.0020,
+            'bic_change': -55430.0}
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.0020, 'train_nrmse': 0.0158,
+                        'noise_floor_nrmse': 0.0019},
+           'candidates': [], 'missing_effect': None, 'training_lead': lead}
+    lines = cli.diagnosis_lines(doc, 'modified')
+    assert 'missing effect: none (no candidate cuts the held-out error clearly)' in lines
+    assert lines[-1] == ('  the training window is fitted best with delay (training NRMSE '
+                         '1.58 % -> 0.20 %, BIC change -55430; held out 0.20 %), which the '
+                         'held-out part cannot confirm: a lead to test on a record that shows '
+                         'it (sma-model fit DATA --add delay, then compare other records), '
+                         'not a name')
+    rounds = dict(doc, rounds=[], final={'effects': [], 'validation_nrmse': 0.0020,
+                                         'train_nrmse': 0.0158, 'training_lead': lead})
+    assert cli.rounds_lines(rounds, 3)[-1] == lines[-1]
+    assert 'does not show what the training part lacks' in cli.rounds_lines(rounds, 3)[-2]
 
 
 def test_real_loops_classical_base_lacks_saturation_and_adding_it_cuts_the_error(tmp_path):

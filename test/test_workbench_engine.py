@@ -309,6 +309,45 @@ def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
     assert diag.candidates[0]['explanation'] == 'fast_dynamics.'
 
 
+def _judged(name, bic_change, train, held_out, **values):
+    """Return a judged entry whose refit has these training and held-out NRMSE and values."""
+    fit = SimpleNamespace(train={'nrmse': train}, validation={'nrmse': held_out}, values=values)
+    return dict(_entry(name, 0.0, False, bic_change), fit=fit)
+
+
+def _lead(train, held_out, *entries, named=None):
+    """Return `engine.training_lead` over a base with these NRMSE; noise floor 0.19 %, 40 Hz."""
+    base = SimpleNamespace(train={'nrmse': train}, validation={'nrmse': held_out})
+    diag = engine.Diagnosis(base, list(entries), named, noise_floor_nrmse=0.0019)
+    return engine.training_lead(SimpleNamespace(dt=0.025), diag, engine.MIN_IMPROVEMENT)
+
+
+def test_a_training_window_the_held_out_one_cannot_judge_gives_a_lead_not_a_name():
+    # one slow wire (τ 6 s) with a 0.28 s delay, as measured: the base fits training at
+    # 1.58 % and holds out at 0.20 %, the noise; the delay refit fits training to the noise
+    delay = _judged('delay', -55430.0, 0.0020, 0.0020, delay_s=0.276)
+    lag = _judged('fast_dynamics', -3795.0, 0.0068, 0.0021, tau_fast_s=0.30)
+    lead = _lead(0.0158, 0.0020, lag, delay)
+    assert lead == {'effect': 'delay', 'train_nrmse': 0.0020, 'validation_nrmse': 0.0020,
+                    'bic_change': -55430.0}
+    # a delay under one sample period is alignment, not a lead
+    short = _judged('delay', -55430.0, 0.0020, 0.0020, delay_s=0.010)
+    assert _lead(0.0158, 0.0020, lag, short)['effect'] == 'fast_dynamics'
+    # none where the held-out window can judge, training is near the noise, an effect is
+    # named, the refit breaks the held-out window, or training gains too little
+    assert _lead(0.0158, 0.0040, delay) is None
+    assert _lead(0.0035, 0.0020, delay) is None
+    assert _lead(0.0158, 0.0020, delay, named='delay') is None
+    assert _lead(0.0158, 0.0020, _judged('delay', -55430.0, 0.0020, 0.0035, delay_s=0.276)) is None
+    assert _lead(0.0158, 0.0020, _judged('convection', -400.0, 0.0140, 0.0020,
+                                         convection_exponent=0.1)) is None
+    # the JSON and the batch's round summary carry it beside a null missing_effect
+    base = SimpleNamespace(effects=[], train={'nrmse': 0.0158}, validation={'nrmse': 0.0020})
+    diag = engine.Diagnosis(base, [delay], None, noise_floor_nrmse=0.0019, training_lead=lead)
+    assert diag.to_json()['training_lead'] == lead and diag.to_json()['missing_effect'] is None
+    assert round_summary(diag, {})['training_lead'] == 'delay'
+
+
 def test_a_delay_and_a_lag_both_significant_are_ranked_by_their_training_fit():
     # a 0.3 s delay on wires that follow the paper's cosine law, which the PI base misfits
     # held out (`bench_major_loop_law.py --seed 1`): the lag gains more held out, the delay

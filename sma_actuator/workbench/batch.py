@@ -351,7 +351,8 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
     Return one round's summary: its model, the effect it named and the best candidate.
 
     seconds: the base fit's (`base_seconds`, the first round's) plus every refit's;
-    refitted: why the round's base was refitted before it was diagnosed, or None.
+    refitted: why the round's base was refitted before it was diagnosed, or None;
+    training_lead: the effect of `Diagnosis.training_lead`, a hint where nothing is named.
     """
     fit = diag.baseline
     best = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
@@ -364,7 +365,8 @@ def round_summary(diag: Any, record: dict, base_seconds: float = 0.0) -> dict:
             'best_improvement': diag.candidates[0]['improvement'] if diag.candidates else None,
             'seconds': (base_seconds + diag.earlier_seconds
                         + sum(c.get('seconds', 0.0) for c in diag.candidates)),
-            'refitted': diag.refitted or None, 'record': record}
+            'refitted': diag.refitted or None, 'record': record,
+            'training_lead': diag.training_lead['effect'] if diag.training_lead else None}
 
 
 def final_parameters(fit: Any) -> dict:
@@ -419,6 +421,7 @@ class RecordRun:
                 'improvement': first.get('improvement'),
                 'effects_added': ' '.join(named),
                 'final_validation_nrmse': _final_nrmse(self.rounds),
+                'training_lead': self.rounds[-1].get('training_lead') if self.rounds else None,
                 'task_time_s': sum(r['seconds'] for r in self.rounds),
                 'wall_time_s': time.perf_counter() - self.started,
                 'report': (str(Path('records') / self.key / 'report' / 'index.html')

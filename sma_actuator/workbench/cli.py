@@ -53,8 +53,6 @@ EXIT_INTERRUPTED = 130
 PROG = 'sma-model'
 # the role of each record `compare` scores: neither trained on nor held out by it
 COMPARED = 'compared'
-# a held-out error within this factor of the measurement noise's leaves nothing to find
-NEAR_NOISE = 1.5
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
                  '(duty: block means; position: means centred on each kept sample) [Hz] '
                  '(default: %(default)g)')
@@ -824,6 +822,8 @@ def _diagnosis_doc(args: argparse.Namespace, diags: list, rounds: list, base: An
                         'train_nrmse': base.train['nrmse']}
         if diags[-1].refitted and diags[-1].missing_effect is None:
             doc['final']['refitted'] = diags[-1].refitted
+        if diags[-1].training_lead:
+            doc['final']['training_lead'] = diags[-1].training_lead
     return doc
 
 
@@ -886,6 +886,8 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
     if floor and final.get('validation_nrmse') is not None:
         lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
                                             final['train_nrmse'] / floor))
+    if final.get('training_lead'):
+        lines.append('  ' + lead_line(final['training_lead'], final['train_nrmse']))
     return lines
 
 
@@ -915,6 +917,8 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     if not missing and floor and base['validation_nrmse'] is not None:
         lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
                                             base['train_nrmse'] / floor))
+    if doc.get('training_lead'):
+        lines.append('  ' + lead_line(doc['training_lead'], base['train_nrmse']))
     if missing:
         c = next(c for c in doc['candidates'] if c['effect'] == missing)
         lines.append(f'  {c["explanation"]}')
@@ -929,7 +933,12 @@ def left_to_explain(held_out: float, train: float) -> str:
     held_out, train: the base model's held-out and training NRMSE over the NRMSE the
     measurement noise alone gives (`engine.noise_floor`).
     """
+    from .engine import NEAR_NOISE, TRAINING_MISFIT
     noise = 'what the measurement noise alone gives'
+    if held_out <= NEAR_NOISE and train > TRAINING_MISFIT:
+        return (f'the held-out error is {held_out:.1f} times {noise}, but the training error '
+                f'{train:.0f} times: the held-out part does not show what the training part '
+                'lacks (hold out a record that moves as the training does: --validate-on)')
     if held_out <= NEAR_NOISE:
         return f'the held-out error is {held_out:.1f} times {noise}: the model explains the data'
     if train <= NEAR_NOISE:
@@ -939,6 +948,16 @@ def left_to_explain(held_out: float, train: float) -> str:
     return (f'the held-out error is {held_out:.0f} times {noise}, the training error too '
             f'{train:.0f} times: an effect the catalog does not hold, or one too weak to '
             'separate, remains')
+
+
+def lead_line(lead: Mapping[str, Any], train: float) -> str:
+    """Return the text of a diagnosis' training lead (`engine.training_lead`), a hint."""
+    return (f'the training window is fitted best with {lead["effect"]} (training NRMSE '
+            f'{_pct(train)} -> {_pct(lead["train_nrmse"])}, BIC change '
+            f'{lead["bic_change"]:+.0f}; held out {_pct(lead["validation_nrmse"])}), '
+            'which the held-out part cannot confirm: a lead to test on a record that shows '
+            f'it ({PROG} fit DATA --add {lead["effect"]}, then compare other records), not '
+            'a name')
 
 
 # ------------------------------------------------------------------------------ batch

@@ -76,7 +76,9 @@ significant candidates that retard the response (a delay and a lag,
 chance where the base misfits it. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
 can hardly tell them apart: they stay in held-out order and every explanation in the
-group says so.
+group says so. When nothing is named because the base already predicts the held-out window
+to the noise while its training window is misfitted, the candidate that fits training best
+is reported as a lead to test elsewhere, not a name (`training_lead`).
 """
 from dataclasses import dataclass, field, fields
 from functools import partial
@@ -112,6 +114,11 @@ HELD_OUT_BLOCKS = 5
 MIN_MOVING_BLOCKS = 3
 # a pinned parameter's search interval, relative to its value (the optimiser needs one)
 PIN_TOLERANCE = 1e-6
+# a held-out error within this factor of the measurement noise's leaves nothing to find
+NEAR_NOISE = 1.5
+# a training error above this factor of the noise's leaves something to find there
+# (three quarters of its mean square or more is misfit)
+TRAINING_MISFIT = 2.0
 
 
 @dataclass
@@ -538,6 +545,8 @@ class Diagnosis:
     earlier_seconds: float = 0.0
     # the NRMSE the measurement noise alone gives (`noise_floor`), None if not known
     noise_floor_nrmse: Optional[float] = None
+    # what fits a training window the held-out one cannot judge (`training_lead`), or None
+    training_lead: Optional[dict] = None
 
     def to_json(self) -> dict:
         """Return the `sma-model diagnose --json` document."""
@@ -548,9 +557,12 @@ class Diagnosis:
             base['noise_floor_nrmse'] = self.noise_floor_nrmse
         if self.refitted:
             base['refitted'] = self.refitted
-        return {'baseline': base,
-                'candidates': [candidate_json(c) for c in self.candidates],
-                'missing_effect': self.missing_effect}
+        doc = {'baseline': base,
+               'candidates': [candidate_json(c) for c in self.candidates],
+               'missing_effect': self.missing_effect}
+        if self.training_lead:
+            doc['training_lead'] = self.training_lead
+        return doc
 
 
 def candidate_json(entry: dict) -> dict:
@@ -631,6 +643,7 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
         diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
         diag.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
     diag.noise_floor_nrmse = noise_floor(data)
+    diag.training_lead = training_lead(data, diag, min_improvement)
     if progress:
         progress(len(names), len(names), 'done')
     return diag
@@ -661,6 +674,37 @@ def at_noise(base: ModelFit, data: DynamicData, min_improvement: float) -> bool:
     """
     floor = noise_floor(data)
     return floor is not None and bool(base.train['nrmse'] * (1.0 - min_improvement) <= floor)
+
+
+def training_lead(data: Any, diag: 'Diagnosis', min_improvement: float) -> Optional[dict]:
+    """
+    Return the candidate that best fits a training window the held-out one cannot judge.
+
+    When nothing is named, the base predicts the held-out window to within `NEAR_NOISE`
+    times the noise floor (`Diagnosis.noise_floor_nrmse`) and fits its training window worse than
+    `TRAINING_MISFIT` times it, no candidate can gain held out (check 1), yet the training
+    window shows something missing. The lead is, of the resolved candidates (check 4)
+    whose refit fits the training window by `min_improvement` better in NRMSE, beats the
+    base on BIC by `BIC_MARGIN` (check 2) and still holds out within `NEAR_NOISE` of the
+    noise, the one with the largest BIC fall: a hint to test on a record that shows it,
+    not a name. Returns {'effect', 'train_nrmse', 'validation_nrmse', 'bic_change'} or None.
+    """
+    base, floor = diag.baseline, diag.noise_floor_nrmse
+    if (diag.missing_effect is not None or not floor or base.validation is None
+            or base.validation['nrmse'] > NEAR_NOISE * floor
+            or base.train['nrmse'] <= TRAINING_MISFIT * floor):
+        return None
+    leads = [c for c in diag.candidates if 'fit' in c
+             and c['bic_change'] < -BIC_MARGIN
+             and c['fit'].train['nrmse'] <= (1.0 - min_improvement) * base.train['nrmse']
+             and c['fit'].validation['nrmse'] <= NEAR_NOISE * floor
+             and unresolved_by(get_effect(c['effect']), c['fit'].values, data) is None]
+    if not leads:
+        return None
+    best = min(leads, key=lambda c: c['bic_change'])
+    return {'effect': best['effect'], 'train_nrmse': best['fit'].train['nrmse'],
+            'validation_nrmse': best['fit'].validation['nrmse'],
+            'bic_change': best['bic_change']}
 
 
 def held_out_block_rmse(data: DynamicData, reference: ModelFit,

@@ -35,11 +35,11 @@ import numpy as np
 COLUMNS = ('record', 'layout', 'samples', 'duration_s', 'rate_hz', 'position_unit',
            'reference_nrmse', 'lead_in_duty_a', 'lead_in_duty_b', 'lead_in_first_duties_s',
            'base_effects', 'base_train_nrmse', 'base_validation_nrmse',
-           'noise_floor_nrmse', 'named_effect',
-           'improvement', 'effects_added', 'final_validation_nrmse', 'task_time_s',
-           'wall_time_s', 'report', 'notes', 'error')
+           'noise_floor_nrmse', 'named_effect', 'improvement', 'effects_added',
+           'final_validation_nrmse', 'training_lead', 'task_time_s', 'wall_time_s', 'report',
+           'notes', 'error')
 TEXT_COLUMNS = ('record', 'layout', 'position_unit', 'base_effects', 'named_effect',
-                'effects_added', 'report', 'notes', 'error')
+                'effects_added', 'training_lead', 'report', 'notes', 'error')
 INTEGER_COLUMNS = ('samples',)
 PARAMETER_PREFIX = 'param.'
 
