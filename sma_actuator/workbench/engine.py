@@ -71,9 +71,9 @@ else; checks 2 and 4 stay as they are, and so does the moving blocks' median of 
 Candidates are listed best first: significant ones by held-out improvement, then the
 rest by held-out improvement; the first significant one is the missing effect. Two
 significant candidates that retard the response (a delay and a lag,
-`Effect.retards_response`) are ranked by their training BIC instead
-(`_rank_retarders_by_training`): the held-out window tells a dead time from a lag by
-chance where the base misfits it. When
+`Effect.retards_response`) are ranked by their training BIC instead, where one fits the
+training window clearly better (by `NEAR_TIE` in NRMSE; `_rank_retarders_by_training`):
+the held-out window tells a dead time from a lag by chance where the base misfits it. When
 several significant candidates come within `NEAR_TIE` (10 %) of the best gain, the data
 can hardly tell them apart: they stay in held-out order and every explanation in the
 group says so. When nothing is named because the base already predicts the held-out window
@@ -927,7 +927,9 @@ def _rank_retarders_by_training(ranked: list, gain: str = 'improvement') -> None
     response to the duty alike to first order in ω d. Where the base misfits the held-out
     window, which of the two fits that window better is chance; the training window, over
     twice as long, tells them apart by likelihood: the BIC change against the same base
-    (each adds one parameter), the lower one first.
+    (each adds one parameter), the lower one first. It decides only where it clearly does,
+    its training NRMSE at least `NEAR_TIE` below the held-out leader's; where the two fit
+    training about alike, the held-out order stands.
     """
     places = [i for i, c in enumerate(ranked)
               if c['significant'] and getattr(CATALOG.get(c['effect']), 'retards_response',
@@ -937,11 +939,15 @@ def _rank_retarders_by_training(ranked: list, gain: str = 'improvement') -> None
     if best is None or best is group[0]:
         return
     other = group[0]
+    fits = [c['fit'].train['nrmse'] for c in (best, other)]
+    if fits[0] > (1.0 - NEAR_TIE) * fits[1]:
+        return
     said = f' Ranked before {other["effect"]}'
     if said not in best['explanation']:
         best['explanation'] += (
             f'{said}, which gains more held out ({100 * other[gain]:+.0f} % against '
-            f'{100 * best[gain]:+.0f} %): it fits the training window better (BIC change '
+            f'{100 * best[gain]:+.0f} %): it fits the training window clearly better '
+            f'(NRMSE {100 * fits[0]:.2f} % against {100 * fits[1]:.2f} %, BIC change '
             f'{best["bic_change"]:+.1f} against {other["bic_change"]:+.1f}), and a dead time '
             'and a lag shift the response alike, so the longer window tells them apart.')
     group.remove(best)
