@@ -681,13 +681,14 @@ def training_lead(data: Any, diag: 'Diagnosis', min_improvement: float) -> Optio
     Return the candidate that best fits a training window the held-out one cannot judge.
 
     When nothing is named, the base predicts the held-out window to within `NEAR_NOISE`
-    times the noise floor (`Diagnosis.noise_floor_nrmse`) and fits its training window worse than
-    `TRAINING_MISFIT` times it, no candidate can gain held out (check 1), yet the training
-    window shows something missing. The lead is, of the resolved candidates (check 4)
-    whose refit fits the training window by `min_improvement` better in NRMSE, beats the
-    base on BIC by `BIC_MARGIN` (check 2) and still holds out within `NEAR_NOISE` of the
-    noise, the one with the largest BIC fall: a hint to test on a record that shows it,
-    not a name. Returns {'effect', 'train_nrmse', 'validation_nrmse', 'bic_change'} or None.
+    times the noise floor (`Diagnosis.noise_floor_nrmse`) and fits its training window
+    worse than `TRAINING_MISFIT` times it, no candidate can gain held out (check 1), yet
+    the training window shows something missing. The lead is, of the resolved candidates
+    (check 4) whose refit fits the training window by `min_improvement` better in NRMSE,
+    beats the base on BIC by `BIC_MARGIN` (check 2) and still holds out within
+    `NEAR_NOISE` of the noise, the one with the largest BIC fall: a hint to test on a
+    record that shows it, not a name. data: the records diagnosed (for check 4). Returns
+    {'effect', 'train_nrmse', 'validation_nrmse', 'bic_change'} or None.
     """
     base, floor = diag.baseline, diag.noise_floor_nrmse
     if (diag.missing_effect is not None or not floor or base.validation is None
