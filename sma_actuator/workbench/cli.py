@@ -933,9 +933,9 @@ def left_to_explain(held_out: float, train: float) -> str:
     held_out, train: the base model's held-out and training NRMSE over the NRMSE the
     measurement noise alone gives (`engine.noise_floor`).
     """
-    from .engine import NEAR_NOISE, TRAINING_MISFIT
+    from .engine import held_out_cannot_judge, NEAR_NOISE
     noise = 'what the measurement noise alone gives'
-    if held_out <= NEAR_NOISE and train > TRAINING_MISFIT:
+    if held_out_cannot_judge(held_out, train):
         return (f'the held-out error is {held_out:.1f} times {noise}, but the training error '
                 f'{train:.0f} times: the held-out part does not show what the training part '
                 'lacks (hold out a record that moves as the training does: --validate-on)')

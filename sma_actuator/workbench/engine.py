@@ -676,6 +676,17 @@ def at_noise(base: ModelFit, data: DynamicData, min_improvement: float) -> bool:
     return floor is not None and bool(base.train['nrmse'] * (1.0 - min_improvement) <= floor)
 
 
+def held_out_cannot_judge(held_out: float, train: float) -> bool:
+    """
+    Return True when the held-out window is at the noise and the training window is not.
+
+    held_out, train: a model's held-out and training NRMSE over the noise floor's
+    (`noise_floor`): within `NEAR_NOISE` held out and beyond `TRAINING_MISFIT` in
+    training, the held-out window does not show what the training window lacks.
+    """
+    return held_out <= NEAR_NOISE and train > TRAINING_MISFIT
+
+
 def training_lead(data: Any, diag: 'Diagnosis', min_improvement: float) -> Optional[dict]:
     """
     Return the candidate that best fits a training window the held-out one cannot judge.
@@ -692,8 +703,8 @@ def training_lead(data: Any, diag: 'Diagnosis', min_improvement: float) -> Optio
     """
     base, floor = diag.baseline, diag.noise_floor_nrmse
     if (diag.missing_effect is not None or not floor or base.validation is None
-            or base.validation['nrmse'] > NEAR_NOISE * floor
-            or base.train['nrmse'] <= TRAINING_MISFIT * floor):
+            or not held_out_cannot_judge(base.validation['nrmse'] / floor,
+                                         base.train['nrmse'] / floor)):
         return None
     leads = [c for c in diag.candidates if 'fit' in c
              and c['bic_change'] < -BIC_MARGIN
