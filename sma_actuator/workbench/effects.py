@@ -67,7 +67,7 @@ class Effect:
     heating_law = False
     # retards the response to the duty: a dead time d and a first-order lag of about d shift
     # it alike to first order in ω d, so diagnose ranks two such rivals by their training
-    # fit (`engine.rank_candidates`)
+    # fit where one fits it clearly better (`engine.rank_candidates`)
     retards_response = False
     # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (its fit is used)
     declares = {}
