@@ -39,6 +39,8 @@ Run: python benchmarks/bench_tracking.py [--source plant richsim] [--cases plain
      [--detune 1 0.5 ...] (each case again with the PI gains scaled by these factors)
      [--param KEY=VALUE ...] (another rig of the rich simulator: test/support/richsim.py
      DEFAULTS keys, e.g. --param wire_length_m=0.3)
+     [--excitation rig] (the rich simulator's models fitted on the package's identification
+     design in the rig's time constant, `sma-model excite`, instead of its own excitation)
 """
 import argparse
 from pathlib import Path
@@ -51,7 +53,7 @@ import numpy as np
 from sma_actuator.control import ControllerCore, ControllerSettings, law, load_model
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.core.actuator import ActuatorParams
-from sma_actuator.core.excitation import multilevel
+from sma_actuator.core.excitation import multilevel, rig_excitation
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.core.model_file import write_model
 from sma_actuator.profiles import Profile
@@ -60,6 +62,9 @@ from sma_actuator.workbench.engine import fit_model
 DT = 0.025
 # the rich simulator's rig parameters for this run (--param; {}: its defaults)
 RICH_RIG = {}
+# the rich simulator's identification record (--excitation): 'own' its own excitation, 'rig'
+# the package's design in the rig's time constant (`core.excitation.rig_excitation`)
+RICH_EXCITATION = 'own'
 SINE = Profile('sine', 0.5, period_s=20.0, delay_s=1.0)
 # plant_sim parameters of each case (level 1-2 of test/support/plant_records.py)
 PLANT_CASES = {
@@ -102,13 +107,20 @@ def excitation_record(source, case, seconds, seed):
     Return the DynamicData of an open-loop excitation record of the plant.
 
     plant_sim's model: `core.excitation.multilevel` (what scripts/fit_controller_model.py
-    records); the rich simulator: its own open-loop excitation (test/support/richsim.py).
+    records); the rich simulator: its own open-loop excitation (test/support/richsim.py),
+    or with RICH_EXCITATION 'rig' what `sma-model excite` writes for its time constant.
     """
     if source == 'richsim':
-        from support.richsim import simulate
+        from support.richsim import DEFAULTS, simulate, simulate_profile
         effect, magnitude = RICH_CASES[case][0]
-        d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT, seed=seed,
-                     params=RICH_RIG)
+        if RICH_EXCITATION == 'rig':
+            rig = dict(DEFAULTS, **RICH_RIG)
+            duty = rig_excitation(seconds, DT, rig['cooling_tau_s'], rig['duty_max'], seed=seed)
+            d = simulate_profile(*duty, effect=effect, magnitude=magnitude, rate_hz=1.0 / DT,
+                                 noise_rad=0.002, seed=seed, params=RICH_RIG)
+        else:
+            d = simulate(effect, magnitude, 'open', duration_s=seconds, rate_hz=1.0 / DT,
+                         seed=seed, params=RICH_RIG)
         return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
     duty_a, duty_b = multilevel(seconds, DT, seed=seed)
@@ -125,6 +137,8 @@ def excitation_record(source, case, seconds, seed):
 def fitted_model(models, source, case, effects, seconds, seed):
     """Fit (or read the cached) model file; return (model, validation NRMSE, path)."""
     rig = ''.join(f'_{k}={v:g}' for k, v in sorted(RICH_RIG.items()) if source == 'richsim')
+    if source == 'richsim' and RICH_EXCITATION != 'own':
+        rig += f'_{RICH_EXCITATION}'
     path = models / f'{source}{rig}_{case}_{"+".join(effects) or "base"}.yaml'
     if not path.exists():
         fit = fit_model(excitation_record(source, case, seconds, seed), tuple(effects))
@@ -239,6 +253,9 @@ def main():
                     help='also run each case with the PI gains scaled by these factors')
     ap.add_argument('--param', action='append', default=[], metavar='KEY=VALUE',
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
+    ap.add_argument('--excitation', choices=['own', 'rig'], default='own',
+                    help="the rich simulator's identification record: its own excitation, or "
+                    "the package's design in the rig's time constant (sma-model excite)")
     ap.add_argument('--antagonist-lag-share', type=float, default=law.ANTAGONIST_LAG_SHARE,
                     metavar='SHARE', help='control.law.ANTAGONIST_LAG_SHARE for this run '
                     '(inf: the one-sided PI never lets the antagonist pull)')
@@ -246,6 +263,8 @@ def main():
     if not ns.antagonist_lag_share > 0:
         ap.error('--antagonist-lag-share must be positive (inf to switch the release off)')
     law.ANTAGONIST_LAG_SHARE = ns.antagonist_lag_share
+    global RICH_EXCITATION
+    RICH_EXCITATION = ns.excitation
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
     from support.richsim import rig_from_command_line
     RICH_RIG.update(rig_from_command_line(ap, ns.param, 'richsim' in ns.source))

@@ -138,6 +138,35 @@ def test_a_slow_wire_tracks_better_when_the_antagonist_may_pull(monkeypatch):
     assert with_pull < 0.9 * rms()
 
 
+def test_the_antagonist_pulls_where_the_target_outruns_the_active_wires_cooling(monkeypatch):
+    # the exact model of wires three times slower, the 0.05 Hz sine: after each peak the
+    # active wire, cooling freely, falls behind the falling target
+    slow = slow_wires()
+    amb, hot = slow.ambient_c, slow.ambient_c + slow.gain_k
+    cold_ff, hot_ff = (InverseFeedforward(slow, horizon_s=0.2) for _ in range(2))
+    hot_ff.track([hot, amb])
+    for ff, theta in ((cold_ff, amb), (hot_ff, hot)):
+        ff.duties(0.3, theta_est=(theta, amb))
+    # a cold wire heats to its target; a hot one cannot cool to it within 0.2 s
+    assert cold_ff.cooling_short == [False, False] and hot_ff.cooling_short == [True, False]
+
+    calls, outrun = [], law.ControllerCore._outrun
+
+    def recorded(self, *args):
+        calls.append(outrun(self, *args))
+        return calls[-1]
+
+    def rms():
+        ctrl = ControllerCore(slow, ControllerSettings(mode='pi_inverse'))
+        return run_tracking(ctrl, CorePlant(slow, DT), SINE, 61.0, DT).summary(21.0)[
+            'rms_error']
+    monkeypatch.setattr(law.ControllerCore, '_outrun', recorded)
+    released = rms()
+    assert any(a for a, _ in calls) and any(b for _, b in calls)
+    monkeypatch.setattr(law.ControllerCore, '_outrun', lambda *a: (False, False))
+    assert released < 0.95 * rms()
+
+
 def test_the_free_preheat_window_is_counted_in_the_incoming_wires_heating_time():
     def window_and_heating_s(params):
         pre = ControllerCore(params, ControllerSettings(mode='pi_inverse')).handover

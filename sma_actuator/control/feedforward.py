@@ -91,6 +91,8 @@ class InverseFeedforward:
         self._u = [theta, theta]
         self._y = [0.0, 0.0]
         self._last_target = [None, None]   # y_j* of the previous call (None: wire was idle)
+        self.cooling_short = [False, False]
+        self.wanted_duty = 0.0
         self._direction = [0, 0]           # +1 target rising, -1 falling, 0 not moved yet
         for j, play in enumerate(self._plays):
             play.reset(theta)
@@ -159,7 +161,8 @@ class InverseFeedforward:
         d_lim cannot be exceeded (any target beyond it asks for full duty), the smooth one
         d_eff = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, is inverted exactly,
         x = z / (1 − z^n)^(1/n), z = d_eff / d_lim. horizon_s: h of the thermal inverse
-        (None: `horizon_s` of the object).
+        (None: `horizon_s` of the object). The effective duty before clipping is kept in
+        `wanted_duty`: below 0 when even zero duty leaves the wire above θ* after h.
         """
         p = self.params
         gain = self.wire_gain(j) * (1.0 + p.phase_kappa * (1.0 - y_own))
@@ -175,6 +178,7 @@ class InverseFeedforward:
             d_eff = (theta_target - a) / ((1.0 - np.exp(-h / tau)) * gain)
         else:
             d_eff = (theta_target - ambient) / gain
+        self.wanted_duty = d_eff
         return float(np.clip(current_limit_inverse(d_eff, p.duty_limit,
                                                    p.duty_limit_sharpness, self.duty_max),
                              0.0, self.duty_max))
@@ -189,11 +193,14 @@ class InverseFeedforward:
         Return steps 1-4: (d_a, d_b) in [0, duty_max] and the target temperatures θ* [°C].
 
         The duty heats to θ* + λ (y* − y_j): the latent heat that the transformation to y*
-        absorbs (gives back, on cooling) comes on top of the heat balance.
+        absorbs (gives back, on cooling) comes on top of the heat balance. `cooling_short`
+        [j] is set when wire j's thermal inverse asks for less than zero duty: cooling
+        freely, the wire cannot reach its target within the horizon h.
         """
         p = self.params
         amb = p.ambient_c if ambient_c is None else finite_scalar('ambient_c', ambient_c)
         duties, temps = [0.0, 0.0], [amb, amb]
+        self.cooling_short = [False, False]
         targets = self.target_contractions(angle_rad, offset_rad, stroke_rad)
         for j, y_star in enumerate(targets):
             if y_star is None:
@@ -215,6 +222,7 @@ class InverseFeedforward:
             # the heat the transformation to y* absorbs (latent heat) comes on top
             heat_to = theta + p.latent_heat_k * (y_star - float(contraction[j]))
             duties[j] = self.thermal_duty(j, heat_to, est, amb, float(contraction[j]))
+            self.cooling_short[j] = self.wanted_duty < 0.0
         return tuple(duties), tuple(temps)
 
 

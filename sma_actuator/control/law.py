@@ -391,12 +391,27 @@ class ControllerCore:
             # a reference far from a crossing (or held) and far on one side: the antagonist,
             # cold, would only heat, or pull a small overshoot back too far once it reaches
             # its transformation, unless the shaft is off the target on its side by more
-            # than a small error
+            # than a small error, or the target runs away on its side faster than the active
+            # wire cools
             side = self.feedforward.target_side(target, self.drift.offset, self.drift.stroke)
             off = ANTAGONIST_LAG_SHARE * abs(p.stroke_rad)
-            lo = 0.0 if side > 0 and target - angle > -off else lo
-            hi = 0.0 if side < 0 and target - angle < off else hi
+            outrun = self._outrun(target, ff_target, angle)
+            lo = 0.0 if side > 0 and target - angle > -off and not outrun[0] else lo
+            hi = 0.0 if side < 0 and target - angle < off and not outrun[1] else hi
         return self.pi.step(target - angle, dt, lo, hi, feedforward=u_ff), u_ff
+
+    def _outrun(self, target: float, ff_target: float, angle: float) -> Tuple[bool, bool]:
+        """
+        Return, per wire, whether its target runs away from the shaft faster than it cools.
+
+        True for wire a when the shaft is above the target and the inverse's target (its
+        horizon and any reversal ahead) lies further down, φ_ff < φ* < φ, while wire a's
+        thermal inverse asks for less than zero duty (`InverseFeedforward.cooling_short`):
+        cooling freely it falls behind, and only the antagonist can follow; mirrored for b.
+        """
+        short = self.feedforward.cooling_short
+        return (short[0] and ff_target < target < angle,
+                short[1] and ff_target > target > angle)
 
     def _crossing(self, r: float) -> Tuple[Optional[int], float]:
         """
