@@ -91,9 +91,8 @@ class InverseFeedforward:
         self._u = [theta, theta]
         self._y = [0.0, 0.0]
         self._last_target = [None, None]   # y_j* of the previous call (None: wire was idle)
-        self.cooling_short = [False, False]
-        self.wanted_duty = 0.0
         self._direction = [0, 0]           # +1 target rising, -1 falling, 0 not moved yet
+        self.cooling_short = [False, False]
         for j, play in enumerate(self._plays):
             play.reset(theta)
             self._y[j] = play.step(theta)
@@ -155,14 +154,37 @@ class InverseFeedforward:
         """
         Return wire j's duty that brings θ̂_j to θ* (step 4, every thermal effect inverted).
 
-        The heating gain is wire j's G (asymmetric wires) x (1 + κ (1 − y_j)) (phase
-        resistance), G and T divided by the convection factor (|θ − θa| / 50 K)^n taken
-        between θ̂ and θ*, then the current limiter's saturation is inverted: a hard limit
-        d_lim cannot be exceeded (any target beyond it asks for full duty), the smooth one
-        d_eff = d_lim x / (1 + x^n)^(1/n), x = d / d_lim, is inverted exactly,
-        x = z / (1 − z^n)^(1/n), z = d_eff / d_lim. horizon_s: h of the thermal inverse
-        (None: `horizon_s` of the object). The effective duty before clipping is kept in
-        `wanted_duty`: below 0 when even zero duty leaves the wire above θ* after h.
+        `commanded_duty` of `effective_duty` of the same arguments.
+        """
+        return self.commanded_duty(
+            self.effective_duty(j, theta_target, theta_est, ambient, y_own, horizon_s))
+
+    def commanded_duty(self, d_eff: float) -> float:
+        """
+        Return the commanded duty in [0, duty_max] that gives the effective duty d_eff.
+
+        The current limiter's saturation inverted: a hard limit d_lim cannot be exceeded
+        (any target beyond it asks for full duty), the smooth one d_eff = d_lim x / (1 +
+        x^n)^(1/n), x = d / d_lim, is inverted exactly, x = z / (1 − z^n)^(1/n), z = d_eff /
+        d_lim.
+        """
+        p = self.params
+        return float(np.clip(current_limit_inverse(d_eff, p.duty_limit,
+                                                   p.duty_limit_sharpness, self.duty_max),
+                             0.0, self.duty_max))
+
+    def effective_duty(self, j: int, theta_target: float, theta_est: Optional[float],
+                       ambient: float, y_own: float = 0.0,
+                       horizon_s: Optional[float] = None) -> float:
+        """
+        Return the effective duty d_eff that takes θ̂_j to θ* in h, not clipped.
+
+        d_eff = (θ* − θa − (θ̂ − θa) e^{−h/T}) / (G (1 − e^{−h/T})) (eq. 7d inverted; h = 0
+        or no estimate: the static map (θ* − θa) / G). The heating gain is wire j's G
+        (asymmetric wires) x (1 + κ (1 − y_j)) (phase resistance), G and T divided by the
+        convection factor (|θ − θa| / 50 K)^n taken between θ̂ and θ*. Below 0 when even
+        zero duty leaves the wire above θ* after h. horizon_s: h (None: `horizon_s` of the
+        object).
         """
         p = self.params
         gain = self.wire_gain(j) * (1.0 + p.phase_kappa * (1.0 - y_own))
@@ -175,13 +197,8 @@ class InverseFeedforward:
         h = self.horizon_s if horizon_s is None else horizon_s
         if h > 0 and theta_est is not None:
             a, _ = thermal_step(float(theta_est), 0.0, ambient, 0.0, h, tau, 0.0)
-            d_eff = (theta_target - a) / ((1.0 - np.exp(-h / tau)) * gain)
-        else:
-            d_eff = (theta_target - ambient) / gain
-        self.wanted_duty = d_eff
-        return float(np.clip(current_limit_inverse(d_eff, p.duty_limit,
-                                                   p.duty_limit_sharpness, self.duty_max),
-                             0.0, self.duty_max))
+            return float((theta_target - a) / ((1.0 - np.exp(-h / tau)) * gain))
+        return float((theta_target - ambient) / gain)
 
     def duties(
         self, angle_rad: float, ambient_c: Optional[float] = None,
@@ -221,8 +238,9 @@ class InverseFeedforward:
             est = None if theta_est is None else float(theta_est[j])
             # the heat the transformation to y* absorbs (latent heat) comes on top
             heat_to = theta + p.latent_heat_k * (y_star - float(contraction[j]))
-            duties[j] = self.thermal_duty(j, heat_to, est, amb, float(contraction[j]))
-            self.cooling_short[j] = self.wanted_duty < 0.0
+            d_eff = self.effective_duty(j, heat_to, est, amb, float(contraction[j]))
+            duties[j] = self.commanded_duty(d_eff)
+            self.cooling_short[j] = d_eff < 0.0
         return tuple(duties), tuple(temps)
 
 
