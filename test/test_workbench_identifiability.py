@@ -28,7 +28,10 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.datakinds import DynamicData, Split
 from sma_actuator.workbench import cli
-from sma_actuator.workbench.engine import diagnose, fit_model
+from sma_actuator.workbench.branches import branch_of, extrapolated_share, MOSTLY_EXTRAPOLATED
+from sma_actuator.workbench.data import load_data
+from sma_actuator.workbench.effects import get_effect
+from sma_actuator.workbench.engine import diagnose, fit_model, unresolved_by
 from sma_actuator.workbench.identifiability import MIN_PROFILE_RISE, tau_profile
 from sma_actuator.workbench.levels import duty_levels, LEVEL_TOLERANCE, ONE_LEVEL_SHARE
 from sma_actuator.workbench.records import join
@@ -189,3 +192,39 @@ def test_diagnose_names_convection_on_a_staircase_and_nothing_at_one_duty_level(
             assert best['improvement'] > 0.5
             assert best['not_resolved'].startswith('the training records heat at one duty '
                                                    'level (100 % of the heated time at duty 0.45)')
+
+
+def _one_wire(times, positions, rng=np.random.default_rng(5)):
+    """Return a 60 s single-wire record at 100 Hz through (times, positions) [s, mm]."""
+    t = np.arange(0.0, 60.0, 0.01)
+    y = np.interp(t, times, positions) + 0.02 * rng.standard_normal(t.size)
+    return DynamicData(t, np.where(y > 1.0, 0.2, 0.0), np.zeros_like(t), y, layout='single')
+
+
+def test_a_held_out_window_past_the_trained_branches_judges_no_effect():
+    sensor = get_effect('sensor_nonlinearity')
+    # heated from 10 s, cooling from 30 s: training (the first 42 s) ends halfway down the
+    # cooling, and the held-out window finishes it below anything trained on that branch
+    tail = _one_wire([0, 10, 20, 30, 50, 60], [0, 0, 16, 16, 0, 0])
+    assert extrapolated_share(tail) > MOSTLY_EXTRAPOLATED
+    reason, remedy = unresolved_by(sensor, {}, tail)
+    assert 'beyond the positions the training window reached' in reason
+    assert '--validate-on' in remedy
+    # the same heating and cooling once in training and again held out: covered
+    again = _one_wire([0, 5, 10, 15, 25, 43, 48, 53, 58, 60],
+                      [0, 0, 16, 16, 0, 0, 16, 16, 8, 8])
+    assert extrapolated_share(again) == 0.0
+    assert unresolved_by(sensor, {}, again) is None
+    # noise under the turn is no turn: the wire rests, then rises once
+    assert set(branch_of(_one_wire([0, 30, 40, 60], [0, 0, 16, 16]).position,
+                         0.3)) == {0, 1}
+    # a held-out record of a set may rest and reach elsewhere (sensor_zero, record_stroke)
+    two = join([('tail', tail), ('again', again)], held_out=('again',))
+    assert extrapolated_share(two) is None
+
+
+@pytest.mark.skipif(not (WIRE / 'ramp_a.csv').is_file(), reason='shared data not found')
+def test_the_measured_square_alone_holds_out_its_cooling_tail():
+    shares = {n: extrapolated_share(load_data(WIRE / f'{n}.csv'))
+              for n in ('square_a', 'step_a', 'ramp_a')}
+    assert shares['square_a'] > 0.9 and shares['step_a'] == shares['ramp_a'] == 0.0

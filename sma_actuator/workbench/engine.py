@@ -88,6 +88,7 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
+from .branches import extrapolated_share, MOSTLY_EXTRAPOLATED
 from .effects import CATALOG, Effect, get_effect, is_builtin
 from .levels import duty_levels
 from .parallel import available_cores, imap_on_cores
@@ -1153,13 +1154,23 @@ def unresolved_by(eff: Effect, values: dict, data: Any) -> Optional[tuple]:
     Return (why `data` cannot resolve the fitted effect, what would tell it apart), or None.
 
     Check 4: the effect's own resolution at the fitted `values` (`Effect.unresolved`: a
-    delay or lag shorter than the sample period allows), and for an effect on the heating
-    law (`Effect.heating_law`) training records that heat at one duty level
-    (`levels.duty_levels`, on the fit's training window), where any heating law fits.
+    delay or lag shorter than the sample period allows), a record whose held-out window
+    lies mostly on branches of the loop beyond where its training window has been
+    (`branches.extrapolated_share`), where any effect's gain is an extrapolation's, and for
+    an effect on the heating law (`Effect.heating_law`) training records that heat at one
+    duty level (`levels.duty_levels`, on the fit's training window), where any heating law
+    fits.
     """
     reason = eff.unresolved(values, data)
     if reason:
         return reason, 'at this sample rate the two are not told apart; record faster'
+    beyond = extrapolated_share(data)
+    if beyond is not None and beyond > MOSTLY_EXTRAPOLATED:
+        return (f'{100 * beyond:.0f} % of the held-out window lies on branches of the loop '
+                'beyond the positions the training window reached on them, where the gain '
+                "is an extrapolation's",
+                'hold out a stretch or a record that the training part covers (two or more '
+                'records, or --validate-on)')
     if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
         return None
     levels = duty_levels(data, data.default_split())
