@@ -28,6 +28,8 @@ from typing import Any, Optional
 from numba import njit
 import numpy as np
 
+from ..core.datakinds import DynamicData
+
 #: a branch turns where the position comes back by this share of the measured range
 TURN_SHARE = 0.02
 #: a held-out sample beyond the positions its branch trained on by this share of the range
@@ -72,7 +74,7 @@ def extrapolated_share(data: Any) -> Optional[float]:
     measured range beyond the positions the training window took on the same branch
     (`branch_of`, turns at `TURN_SHARE` of the range).
     """
-    if getattr(data, 'kind', None) != 'dynamic' or data.split or len(data.segments) > 1:
+    if not isinstance(data, DynamicData) or data.split or len(data.segments) > 1:
         return None
     y = np.asarray(data.position, float)
     span = float(np.ptp(y))

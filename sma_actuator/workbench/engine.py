@@ -1169,8 +1169,8 @@ def unresolved_by(eff: Effect, values: dict, data: Any) -> Optional[tuple]:
         return (f'{100 * beyond:.0f} % of the held-out window lies on branches of the loop '
                 'beyond the positions the training window reached on them, where the gain '
                 "is an extrapolation's",
-                'hold out a stretch or a record that the training part covers (two or more '
-                'records, or --validate-on)')
+                'hold out a record that the training records cover (two or more records, or '
+                '--validate-on)')
     if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
         return None
     levels = duty_levels(data, data.default_split())
