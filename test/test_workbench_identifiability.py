@@ -21,6 +21,7 @@ and the measured records through `sma-model`.
 """
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 from conftest import real_data_path
 import numpy as np
@@ -31,7 +32,7 @@ from sma_actuator.workbench import cli
 from sma_actuator.workbench.branches import branch_of, extrapolated_share, MOSTLY_EXTRAPOLATED
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.effects import get_effect
-from sma_actuator.workbench.engine import diagnose, fit_model, unresolved_by
+from sma_actuator.workbench.engine import diagnose, fit_model, noise_floor, unresolved_by
 from sma_actuator.workbench.identifiability import MIN_PROFILE_RISE, tau_profile
 from sma_actuator.workbench.levels import duty_levels, LEVEL_TOLERANCE, ONE_LEVEL_SHARE
 from sma_actuator.workbench.records import join
@@ -207,14 +208,21 @@ def test_a_held_out_window_past_the_trained_branches_judges_no_effect():
     # cooling, and the held-out window finishes it below anything trained on that branch
     tail = _one_wire([0, 10, 20, 30, 50, 60], [0, 0, 16, 16, 0, 0])
     assert extrapolated_share(tail) > MOSTLY_EXTRAPOLATED
-    reason, remedy = unresolved_by(sensor, {}, tail)
+
+    def base(times_noise):
+        """Return a base fit's scores: training NRMSE this many times the noise floor."""
+        return SimpleNamespace(train={'nrmse': times_noise * noise_floor(tail)})
+    # a base that fits training to the noise: nothing there shows an effect
+    reason, remedy = unresolved_by(sensor, {}, tail, base(1.2))
     assert 'beyond the positions the training window reached' in reason
     assert '--validate-on' in remedy
+    # one that misfits training shows one there: the held-out window may confirm it
+    assert unresolved_by(sensor, {}, tail, base(3.0)) is None
     # the same heating and cooling once in training and again held out: covered
     again = _one_wire([0, 5, 10, 15, 25, 43, 48, 53, 58, 60],
                       [0, 0, 16, 16, 0, 0, 16, 16, 8, 8])
     assert extrapolated_share(again) == 0.0
-    assert unresolved_by(sensor, {}, again) is None
+    assert unresolved_by(sensor, {}, again, base(1.2)) is None
     # noise under the turn is no turn: the wire rests, then rises once
     assert set(branch_of(_one_wire([0, 30, 40, 60], [0, 0, 16, 16]).position,
                          0.3)) == {0, 1}

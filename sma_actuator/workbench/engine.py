@@ -711,7 +711,7 @@ def training_lead(data: Any, diag: 'Diagnosis', min_improvement: float) -> Optio
              and c['bic_change'] < -BIC_MARGIN
              and c['fit'].train['nrmse'] <= (1.0 - min_improvement) * base.train['nrmse']
              and c['fit'].validation['nrmse'] <= NEAR_NOISE * floor
-             and unresolved_by(get_effect(c['effect']), c['fit'].values, data) is None]
+             and unresolved_by(get_effect(c['effect']), c['fit'].values, data, base) is None]
     if not leads:
         return None
     best = min(leads, key=lambda c: c['bic_change'])
@@ -816,7 +816,7 @@ def typical_pass(data: DynamicData, base: ModelFit, entries: list,
             continue
         eff = get_effect(c['effect'])
         gain = typical_gain(data, base, fit)
-        if (gain is None or gain < min_improvement or unresolved_by(eff, fit.values, data)
+        if (gain is None or gain < min_improvement or unresolved_by(eff, fit.values, data, base)
                 or few_moving_stretches(data, base, fit) is not None):
             continue
         off = c.get('base_refit') or _regridded_base(data, base, fit, eff)
@@ -1116,7 +1116,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     carried = carried and (bic_off is None or bic_off < -BIC_MARGIN)
     few = few_moving_stretches(data, base, fit) if evident and carried else None
     spread = few is None
-    unresolved = unresolved_by(eff, fit.values, data)
+    unresolved = unresolved_by(eff, fit.values, data, base)
     significant = bool(evident and carried and spread and unresolved is None)
     checks = ('' if v_off is None else
               f", {100 * v_off:.2f} % for the base refitted on the candidate's grid"
@@ -1149,26 +1149,25 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
             'fit': fit, 'bic_change': float(bic_change), 'base_refit': base_refit}
 
 
-def unresolved_by(eff: Effect, values: dict, data: Any) -> Optional[tuple]:
+def unresolved_by(eff: Effect, values: dict, data: Any,
+                  base: Optional[ModelFit] = None) -> Optional[tuple]:
     """
     Return (why `data` cannot resolve the fitted effect, what would tell it apart), or None.
 
     Check 4: the effect's own resolution at the fitted `values` (`Effect.unresolved`: a
-    delay or lag shorter than the sample period allows), a record whose held-out window
-    lies mostly on branches of the loop beyond where its training window has been
-    (`branches.extrapolated_share`), where any effect's gain is an extrapolation's, and for
-    an effect on the heating law (`Effect.heating_law`) training records that heat at one
-    duty level (`levels.duty_levels`, on the fit's training window), where any heating law
-    fits.
+    delay or lag shorter than the sample period allows), a held-out window that only
+    extrapolates from the `base` fit (`beyond_training`), and for an effect on the heating
+    law (`Effect.heating_law`) training records that heat at one duty level
+    (`levels.duty_levels`, on the fit's training window), where any heating law fits.
     """
     reason = eff.unresolved(values, data)
     if reason:
         return reason, 'at this sample rate the two are not told apart; record faster'
-    beyond = extrapolated_share(data)
-    if beyond is not None and beyond > MOSTLY_EXTRAPOLATED:
+    beyond = None if base is None else beyond_training(data, base)
+    if beyond is not None:
         return (f'{100 * beyond:.0f} % of the held-out window lies on branches of the loop '
-                'beyond the positions the training window reached on them, where the gain '
-                "is an extrapolation's",
+                'beyond the positions the training window reached on them, and the base '
+                "fits the training window to the noise: the gain is an extrapolation's",
                 'hold out a record that the training records cover (two or more records, or '
                 '--validate-on)')
     if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
@@ -1179,6 +1178,23 @@ def unresolved_by(eff: Effect, values: dict, data: Any) -> Optional[tuple]:
     return (f'the training records heat at one duty level ({100 * levels.share:.0f} % of the '
             f'heated time at duty {levels.level:.3g}), where a heating law is not identified',
             'records at one duty level do not tell the two apart; record other duty levels')
+
+
+def beyond_training(data: Any, base: ModelFit) -> Optional[float]:
+    """
+    Return the held-out share beyond the trained branches where it rules out every effect.
+
+    Over `MOSTLY_EXTRAPOLATED` of one record's held-out window lies beyond the positions
+    its training window reached on each branch of the loop (`branches.extrapolated_share`)
+    while the base fits the training window to within `NEAR_NOISE` of the noise floor
+    (`noise_floor`): nothing in training shows an effect, and a held-out gain says which
+    extrapolation fits. None otherwise.
+    """
+    share = extrapolated_share(data)
+    if share is None or share <= MOSTLY_EXTRAPOLATED:
+        return None
+    floor = noise_floor(data)
+    return share if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
