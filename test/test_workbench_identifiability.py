@@ -195,10 +195,11 @@ def test_diagnose_names_convection_on_a_staircase_and_nothing_at_one_duty_level(
                                                    'level (100 % of the heated time at duty 0.45)')
 
 
-def _one_wire(times, positions, rng=np.random.default_rng(5)):
+def _one_wire(times, positions, seed=5):
     """Return a 60 s single-wire record at 100 Hz through (times, positions) [s, mm]."""
     t = np.arange(0.0, 60.0, 0.01)
-    y = np.interp(t, times, positions) + 0.02 * rng.standard_normal(t.size)
+    y = np.interp(t, times, positions) + 0.02 * np.random.default_rng(seed).standard_normal(
+        t.size)
     return DynamicData(t, np.where(y > 1.0, 0.2, 0.0), np.zeros_like(t), y, layout='single')
 
 
