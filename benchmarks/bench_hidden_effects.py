@@ -77,8 +77,9 @@ def run_case(case):
         d = simulate(effect, magnitude=magnitude, excitation=args.excitation,
                      duration_s=args.duration, rate_hz=args.rate, noise_rad=args.noise,
                      seed=seed, params=args.params, layout=args.layout)
-    data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
-                       d.get('ambient_temperature'), layout=args.layout)
+    ambient = None if args.no_ambient else d.get('ambient_temperature')
+    data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'], ambient,
+                       layout=args.layout)
     t0 = time.perf_counter()
     diag = diagnose(data, kind='classical' if effect == 'saturation' else None)
     mine = next((c for c in diag.candidates if c['effect'] == effect), None)
@@ -108,6 +109,8 @@ def main():
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ap.add_argument('--effects', nargs='*', default=None)
     ap.add_argument('--jobs', type=int, default=1)
+    ap.add_argument('--no-ambient', action='store_true',
+                    help='hand diagnose no ambient column, as from a rig that logs none')
     args = ap.parse_args()
     plant = args.source == 'plant'
     if args.noise is None:
@@ -126,6 +129,7 @@ def main():
                                       'rig': 'open loop (rig_excitation)'}[args.excitation]
     print(f'{args.source}: {args.duration:.0f} s at {args.rate:.0f} Hz, '
           f'{loop}, {args.layout}, noise {args.noise} rad'
+          + (', no ambient column' if args.no_ambient else '')
           + ('; M = level 0/1/2 of test/support/plant_records.py' if plant else '')
           + ''.join(f', {k} = {v:g}' for k, v in args.params.items()))
     print(f'{"effect":20s} {"M":>5s} {"base NRMSE":>10s} {"named":>20s} '

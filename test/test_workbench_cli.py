@@ -188,6 +188,25 @@ def test_what_is_left_follows_the_errors_over_the_noise():
     assert 'the training error too 9 times' in cli.left_to_explain(13.0, 8.6)
     # held out at the noise, training far off it: the held-out part cannot judge
     assert 'does not show what the training part lacks' in cli.left_to_explain(1.0, 8.3)
+    lacking = ['ambient_drift: no ambient_temperature column in the data']
+    assert 'not tried, for what the data lack: ambient_drift: no ambient_temperature' in (
+        cli.left_to_explain(13.0, 8.6, lacking))
+    assert 'not tried' not in cli.left_to_explain(1.2, 1.0, lacking)
+
+
+def test_an_effect_the_data_cannot_test_is_named_where_an_error_remains(tmp_path):
+    # a delay remains unexplained (the one candidate asked for cannot take it); the record
+    # has no ambient column, so ambient_drift is not tried, and the user is told why
+    data = write_record(tmp_path / 'r.csv', n=3000, seed=3, delay_s=0.4)
+    asked = ('--candidates', 'sensor_nonlinearity', 'ambient_drift')
+    proc = run('diagnose', data, *asked, '--json')
+    assert proc.returncode == 0, proc.stderr
+    lacking = {c['effect']: c.get('data_lack') for c in json.loads(proc.stdout)['candidates']}
+    assert lacking == {'sensor_nonlinearity': None,
+                       'ambient_drift': 'no ambient_temperature column in the data'}
+    proc = run('diagnose', data, *asked)
+    assert ('remains; not tried, for what the data lack: ambient_drift: no '
+            'ambient_temperature column in the data') in proc.stdout
 
 
 def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():

@@ -794,6 +794,7 @@ def test_diagnose_names_a_hidden_delay_of_one_wire_against_a_spring():
     assert named['improvement'] >= 0.4
     pair_only = next(c for c in diag.candidates if c['effect'] == 'asymmetric_wires')
     assert pair_only['explanation'].startswith('not applicable: needs two wires')
+    assert 'data_lack' not in pair_only     # the rig's layout, not something to record
 
 
 @pytest.mark.slow

@@ -885,7 +885,7 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
     floor = doc['baseline'].get('noise_floor_nrmse')
     if floor and final.get('validation_nrmse') is not None:
         lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
-                                            final['train_nrmse'] / floor))
+                                            final['train_nrmse'] / floor, untried(doc)))
     if final.get('training_lead'):
         lines.append('  ' + lead_line(final['training_lead'], final['train_nrmse']))
     return lines
@@ -916,7 +916,7 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
               'more: not named' for c in doc['candidates'] if c.get('rival') and not missing]
     if not missing and floor and base['validation_nrmse'] is not None:
         lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
-                                            base['train_nrmse'] / floor))
+                                            base['train_nrmse'] / floor, untried(doc)))
     if doc.get('training_lead'):
         lines.append('  ' + lead_line(doc['training_lead'], base['train_nrmse']))
     if missing:
@@ -926,12 +926,19 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
     return lines
 
 
-def left_to_explain(held_out: float, train: float) -> str:
+def untried(doc: Mapping[str, Any]) -> List[str]:
+    """Return 'effect: why' of each candidate not tried for what the data lack (`data_lack`)."""
+    return [f'{c["effect"]}: {c["data_lack"]}' for c in doc.get('candidates', ())
+            if c.get('data_lack')]
+
+
+def left_to_explain(held_out: float, train: float, not_tried: Sequence[str] = ()) -> str:
     """
     Return what is left to find when nothing is named, from the base's errors.
 
     held_out, train: the base model's held-out and training NRMSE over the NRMSE the
-    measurement noise alone gives (`engine.noise_floor`).
+    measurement noise alone gives (`engine.noise_floor`); not_tried: 'effect: why' of the
+    catalog's effects these data could not test (`untried`), named where an effect remains.
     """
     from .engine import held_out_cannot_judge, NEAR_NOISE
     noise = 'what the measurement noise alone gives'
@@ -945,9 +952,12 @@ def left_to_explain(held_out: float, train: float) -> str:
         return (f'the held-out error is {held_out:.0f} times {noise}, the training error '
                 f'{train:.1f} times: the held-out part goes where training did not (give '
                 'longer or more varied records)')
-    return (f'the held-out error is {held_out:.0f} times {noise}, the training error too '
-            f'{train:.0f} times: an effect the catalog does not hold, or one too weak to '
-            'separate, remains')
+    remains = (f'the held-out error is {held_out:.0f} times {noise}, the training error too '
+               f'{train:.0f} times: an effect the catalog does not hold, or one too weak to '
+               'separate, remains')
+    if not_tried:
+        remains += '; not tried, for what the data lack: ' + '; '.join(not_tried)
+    return remains
 
 
 def lead_line(lead: Mapping[str, Any], train: float) -> str:

@@ -1092,8 +1092,12 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     if reason is None and eff.kind is not None and base.kind == eff.kind:
         reason = f'the base model already is {eff.kind} PI'
     if reason:
-        return {'effect': name, 'validation_nrmse': None, 'improvement': None,
-                'significant': False, 'explanation': f'not applicable: {reason}'}
+        entry = {'effect': name, 'validation_nrmse': None, 'improvement': None,
+                 'significant': False, 'explanation': f'not applicable: {reason}'}
+        lacking = eff.applicable(data)
+        if lacking:
+            entry['data_lack'] = lacking     # a signal or records the user could add
+        return entry
     effects = list(base.effects) + [name]
     try:
         fit = fit_model(data, effects, kind=base.kind, base_fit=base if warm is None else None)
