@@ -29,7 +29,8 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.datakinds import DynamicData, Split
 from sma_actuator.workbench import cli
-from sma_actuator.workbench.branches import branch_of, extrapolated_share, MOSTLY_EXTRAPOLATED
+from sma_actuator.workbench.branches import (
+    branch_of, extrapolated_error_share, extrapolated_share, MOSTLY_EXTRAPOLATED)
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.effects import get_effect
 from sma_actuator.workbench.engine import diagnose, fit_model, noise_floor, unresolved_by
@@ -230,6 +231,27 @@ def test_a_held_out_window_past_the_trained_branches_judges_no_effect():
     # a held-out record of a set may rest and reach elsewhere (sensor_zero, record_stroke)
     two = join([('tail', tail), ('again', again)], held_out=('again',))
     assert extrapolated_share(two) is None
+
+
+def test_a_base_whose_held_out_error_lies_past_the_trained_branches_judges_no_effect():
+    sensor = get_effect('sensor_nonlinearity')
+    # the cooling goes 2 mm below where training left it, rests, then heats along the
+    # trained rising branch: under half of the held-out window lies beyond
+    dip = _one_wire([0, 10, 20, 30, 46, 50, 55, 60], [0, 0, 16, 16, 4, 4, 16, 16])
+    assert 0.3 < extrapolated_share(dip) < MOSTLY_EXTRAPOLATED
+    y, t = dip.position, dip.time
+
+    def base(prediction):
+        """Return a base fit at 1.2 times the noise in training with this prediction."""
+        return SimpleNamespace(train={'nrmse': 1.2 * noise_floor(dip)}, prediction=prediction)
+    # a base that misses only the dip's bottom, where it extrapolates: no effect is resolved
+    short = y + np.where((t > 42.0) & (y < 6.0), 1.0, 0.0)
+    assert extrapolated_error_share(dip, short) > 0.8
+    reason, _ = unresolved_by(sensor, {}, dip, base(short))
+    assert "of the base's error over it" in reason
+    # one that misses everywhere alike: the error lies where the samples do, under half
+    assert extrapolated_error_share(dip, y + 0.5) == pytest.approx(extrapolated_share(dip))
+    assert unresolved_by(sensor, {}, dip, base(y + 0.5)) is None
 
 
 @pytest.mark.skipif(not (WIRE / 'ramp_a.csv').is_file(), reason='shared data not found')

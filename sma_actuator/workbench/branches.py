@@ -21,9 +21,10 @@ modified PI operator). A model fitted on a training window knows each branch ove
 positions the window moved through on it; beyond them the branch is extrapolated, as in
 the cooling tail of a record whose training part ends while the wire cools. A held-out
 gain won there says which extrapolation happens to fit, not which effect is missing.
-`extrapolated_share` measures how much of a time split's held-out window lies there.
+`extrapolated_share` measures how much of a time split's held-out window lies there, and
+`extrapolated_error_share` how much of a model's held-out error.
 """
-from typing import Any, Optional
+from typing import Any, Optional, Tuple
 
 from numba import njit
 import numpy as np
@@ -64,13 +65,13 @@ def branch_of(position: np.ndarray, turn: float) -> np.ndarray:
     return branch
 
 
-def extrapolated_share(data: Any) -> Optional[float]:
+def held_out_beyond(data: Any) -> Optional[Tuple[int, np.ndarray]]:
     """
-    Return the share of the held-out window that lies beyond its trained branches.
+    Return (split start, which held-out samples lie beyond their trained branches), or None.
 
     For one dynamic record split in time (None otherwise: a held-out record of a rig's
-    set may rest or reach elsewhere on other days, `sensor_zero`, `record_stroke`): the
-    samples of the held-out window whose position lies more than `OUTSIDE_SHARE` of the
+    set may rest or reach elsewhere on other days, `sensor_zero`, `record_stroke`): a
+    held-out sample lies beyond when its position is more than `OUTSIDE_SHARE` of the
     measured range beyond the positions the training window took on the same branch
     (`branch_of`, turns at `TURN_SHARE` of the range).
     """
@@ -83,13 +84,37 @@ def extrapolated_share(data: Any) -> Optional[float]:
         return None
     branch = branch_of(y, TURN_SHARE * span)
     tol = OUTSIDE_SHARE * span
-    outside = 0
+    beyond = np.zeros(y.size - start, bool)
     for side in (1, -1):
         trained = y[:start][branch[:start] == side]
-        held = y[start:][branch[start:] == side]
+        on_side = branch[start:] == side
         if trained.size == 0:
-            outside += held.size
+            beyond |= on_side
         else:
-            outside += np.count_nonzero((held < trained.min() - tol)
-                                        | (held > trained.max() + tol))
-    return outside / (y.size - start)
+            held = y[start:]
+            beyond |= on_side & ((held < trained.min() - tol) | (held > trained.max() + tol))
+    return start, beyond
+
+
+def extrapolated_share(data: Any) -> Optional[float]:
+    """Return the share of the held-out window beyond its trained branches (`held_out_beyond`)."""
+    found = held_out_beyond(data)
+    return None if found is None else float(np.mean(found[1]))
+
+
+def extrapolated_error_share(data: Any, prediction: np.ndarray) -> Optional[float]:
+    """
+    Return the share of a prediction's held-out squared error beyond the trained branches.
+
+    Σ_beyond e_k² / Σ_held-out e_k², e = y − ŷ over the held-out window's finite samples
+    (`held_out_beyond`); None where that does not apply or the prediction is exact.
+    """
+    found = held_out_beyond(data)
+    if found is None:
+        return None
+    start, beyond = found
+    error = np.asarray(data.position, float)[start:] - np.asarray(prediction, float)[start:]
+    finite = np.isfinite(error)
+    squared = np.where(finite, error, 0.0) ** 2
+    total = float(squared.sum())
+    return float(squared[beyond].sum() / total) if total > 0 else None

@@ -84,11 +84,11 @@ from dataclasses import dataclass, field, fields
 from functools import partial
 from itertools import chain
 import time
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional, Tuple
 
 import numpy as np
 
-from .branches import extrapolated_share, MOSTLY_EXTRAPOLATED
+from .branches import extrapolated_error_share, extrapolated_share, MOSTLY_EXTRAPOLATED
 from .effects import CATALOG, Effect, get_effect, is_builtin
 from .levels import duty_levels
 from .parallel import available_cores, imap_on_cores
@@ -1169,9 +1169,10 @@ def unresolved_by(eff: Effect, values: dict, data: Any,
         return reason, 'at this sample rate the two are not told apart; record faster'
     beyond = None if base is None else beyond_training(data, base)
     if beyond is not None:
-        return (f'{100 * beyond:.0f} % of the held-out window lies on branches of the loop '
-                'beyond the positions the training window reached on them, and the base '
-                "fits the training window to the noise: the gain is an extrapolation's",
+        return (f'{100 * beyond[0]:.0f} % of the held-out window, and {100 * beyond[1]:.0f} % '
+                "of the base's error over it, lie on branches of the loop beyond the positions "
+                'the training window reached on them, and the base fits the training window '
+                "to the noise: the gain is an extrapolation's",
                 'hold out a record that the training records cover (two or more records, or '
                 '--validate-on)')
     if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
@@ -1184,21 +1185,27 @@ def unresolved_by(eff: Effect, values: dict, data: Any,
             'records at one duty level do not tell the two apart; record other duty levels')
 
 
-def beyond_training(data: Any, base: ModelFit) -> Optional[float]:
+def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, float]]:
     """
-    Return the held-out share beyond the trained branches where it rules out every effect.
+    Return (held-out share, base error share) beyond the trained branches, where they rule.
 
-    Over `MOSTLY_EXTRAPOLATED` of one record's held-out window lies beyond the positions
-    its training window reached on each branch of the loop (`branches.extrapolated_share`)
-    while the base fits the training window to within `NEAR_NOISE` of the noise floor
-    (`noise_floor`): nothing in training shows an effect, and a held-out gain says which
-    extrapolation fits. None otherwise.
+    Over `MOSTLY_EXTRAPOLATED` of one record's held-out window, or of the base's squared
+    error over it, lies beyond the positions its training window reached on each branch of
+    the loop (`branches.extrapolated_share`, `extrapolated_error_share`) while the base fits
+    the training window to within `NEAR_NOISE` of the noise floor (`noise_floor`): nothing
+    in training shows an effect, and a held-out gain, won mostly where the base
+    extrapolates, says which extrapolation fits. None otherwise.
     """
     share = extrapolated_share(data)
-    if share is None or share <= MOSTLY_EXTRAPOLATED:
+    if share is None:
+        return None
+    prediction = getattr(base, 'prediction', None)
+    error = None if prediction is None else extrapolated_error_share(data, prediction)
+    error = 0.0 if error is None else error
+    if max(share, error) <= MOSTLY_EXTRAPOLATED:
         return None
     floor = noise_floor(data)
-    return share if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
+    return (share, error) if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
