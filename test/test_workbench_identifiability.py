@@ -248,7 +248,7 @@ def test_a_base_whose_held_out_error_lies_past_the_trained_branches_judges_no_ef
     short = y + np.where((t > 42.0) & (y < 6.0), 1.0, 0.0)
     assert extrapolated_error_share(dip, short) > 0.8
     reason, _ = unresolved_by(sensor, {}, dip, base(short))
-    assert "of the base's error over it" in reason
+    assert "% of the held-out window (90 % of the base's error over it) lies" in reason
     # one that misses everywhere alike: the error lies where the samples do, under half
     assert extrapolated_error_share(dip, y + 0.5) == pytest.approx(extrapolated_share(dip))
     assert unresolved_by(sensor, {}, dip, base(y + 0.5)) is None

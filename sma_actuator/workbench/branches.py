@@ -84,14 +84,14 @@ def held_out_beyond(data: Any) -> Optional[Tuple[int, np.ndarray]]:
         return None
     branch = branch_of(y, TURN_SHARE * span)
     tol = OUTSIDE_SHARE * span
-    beyond = np.zeros(y.size - start, bool)
+    held = y[start:]
+    beyond = np.zeros(held.size, bool)
     for side in (1, -1):
         trained = y[:start][branch[:start] == side]
         on_side = branch[start:] == side
         if trained.size == 0:
             beyond |= on_side
         else:
-            held = y[start:]
             beyond |= on_side & ((held < trained.min() - tol) | (held > trained.max() + tol))
     return start, beyond
 

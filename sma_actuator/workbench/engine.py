@@ -1169,10 +1169,11 @@ def unresolved_by(eff: Effect, values: dict, data: Any,
         return reason, 'at this sample rate the two are not told apart; record faster'
     beyond = None if base is None else beyond_training(data, base)
     if beyond is not None:
-        return (f'{100 * beyond[0]:.0f} % of the held-out window, and {100 * beyond[1]:.0f} % '
-                "of the base's error over it, lie on branches of the loop beyond the positions "
-                'the training window reached on them, and the base fits the training window '
-                "to the noise: the gain is an extrapolation's",
+        share, error = beyond
+        of_error = '' if error is None else f" ({100 * error:.0f} % of the base's error over it)"
+        return (f'{100 * share:.0f} % of the held-out window{of_error} lies on branches of the '
+                'loop beyond the positions the training window reached on them, and the base '
+                "fits the training window to the noise: the gain is an extrapolation's",
                 'hold out a record that the training records cover (two or more records, or '
                 '--validate-on)')
     if not eff.heating_law or getattr(data, 'kind', None) != DynamicData.kind:
@@ -1185,7 +1186,7 @@ def unresolved_by(eff: Effect, values: dict, data: Any,
             'records at one duty level do not tell the two apart; record other duty levels')
 
 
-def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, float]]:
+def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, Optional[float]]]:
     """
     Return (held-out share, base error share) beyond the trained branches, where they rule.
 
@@ -1194,15 +1195,15 @@ def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, float]]:
     the loop (`branches.extrapolated_share`, `extrapolated_error_share`) while the base fits
     the training window to within `NEAR_NOISE` of the noise floor (`noise_floor`): nothing
     in training shows an effect, and a held-out gain, won mostly where the base
-    extrapolates, says which extrapolation fits. None otherwise.
+    extrapolates, says which extrapolation fits. None otherwise; the error share is None
+    when the base has no prediction or predicts the held-out window exactly.
     """
     share = extrapolated_share(data)
     if share is None:
         return None
     prediction = getattr(base, 'prediction', None)
     error = None if prediction is None else extrapolated_error_share(data, prediction)
-    error = 0.0 if error is None else error
-    if max(share, error) <= MOSTLY_EXTRAPOLATED:
+    if max(share, error or 0.0) <= MOSTLY_EXTRAPOLATED:
         return None
     floor = noise_floor(data)
     return (share, error) if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
