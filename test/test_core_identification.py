@@ -14,6 +14,7 @@
 
 """Identification (the paper's least-squares tuning): static PI on real data, Preisach, dynamic."""
 import os
+from types import SimpleNamespace
 
 from conftest import real_data_path
 import numpy as np
@@ -88,6 +89,35 @@ def test_fit_dynamic_recovers_simulated_actuator():
     fit = idn.fit_dynamic(idn.DynamicData(np.arange(n) * dt, da, db, y))
     assert fit.validation['nrmse'] < 0.02
     assert fit.free['tau_s'] == pytest.approx(truth.tau_s, rel=0.10)
+
+
+# training RMSE of the searches from each coarse grid [noise σ]; the grid whose fit is
+# kept; how many grids are searched
+@pytest.mark.parametrize('misfits, kept, searched', [
+    ((3.0, 2.0, 1.2), 2, 3),       # the first alternative misfits less: not taken
+    ((3.0, 1.4, 1.0), 1, 2),       # the first that reaches the noise ends the search
+    ((3.0, 2.0, 1.6), 0, 3),       # none reaches it: the first grid's fit stays
+    ((1.2, 1.0, 1.0), 0, 1),       # the first reaches it: no other is tried
+])
+def test_another_coarse_grid_replaces_the_fit_only_where_it_reaches_the_noise(
+        monkeypatch, misfits, kept, searched):
+    dt, n = 0.025, 4000
+    da, db = multilevel_duty(n, dt, np.random.default_rng(3))
+    y = act.simulate(act.ActuatorParams(), da, db, dt).position_rad
+    data = idn.DynamicData(np.arange(n) * dt, da, db, y + np.random.default_rng(4).normal(
+        0.0, 0.002, n))
+    sigma = idn.record_noise_rms(data)
+    options = idn.SearchOptions()
+    grids = (options.coarse,) + options.coarse_alternatives
+    tried = []
+
+    def search(setup, kind, options, coarse, ref=None):
+        tried.append(coarse)
+        return SimpleNamespace(coarse=coarse,
+                               train={'rmse': misfits[grids.index(coarse)] * sigma})
+    monkeypatch.setattr(idn, 'fit_on_coarse_grid', search)
+    assert idn.fit_dynamic(data).coarse == grids[kept]
+    assert tried == list(grids[:searched])
 
 
 def test_scores_on_hand_checkable_example():

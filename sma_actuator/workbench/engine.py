@@ -97,7 +97,8 @@ from .records import (loop_prior, record_strokes, referred_to_rest, stroke_scale
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import fit_dynamic, fit_static, noise_rms, scores
+from ..core.identification import (fit_dynamic, fit_static, NEAR_NOISE,
+                                   record_noise_rms, scores, SearchOptions)
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)
@@ -113,10 +114,12 @@ HELD_OUT_BLOCKS = 5
 # fewest moving held-out blocks whose median gain must not be negative (check 3): a
 # majority of the blocks
 MIN_MOVING_BLOCKS = 3
+# a candidate's refits from scratch are further starts beside its warm refit on the base
+# fit's grid, which already is the best of the base's coarse grids: they search from the
+# first coarse grid only
+REFIT_SEARCH = SearchOptions(coarse_alternatives=())
 # a pinned parameter's search interval, relative to its value (the optimiser needs one)
 PIN_TOLERANCE = 1e-6
-# a held-out error within this factor of the measurement noise's leaves nothing to find
-NEAR_NOISE = 1.5
 # a training error above this factor of the noise's leaves something to find there
 # (three quarters of its mean square or more is misfit)
 TRAINING_MISFIT = 2.0
@@ -258,14 +261,17 @@ def _kind(effects: list, kind: Optional[str]) -> str:
 
 def fit_model(data: Any, effects: tuple = (), kind: Optional[str] = None,
               progress: Optional[Callable] = None,
-              base_fit: Optional[ModelFit] = None, pinned: Optional[dict] = None) -> ModelFit:
+              base_fit: Optional[ModelFit] = None, pinned: Optional[dict] = None,
+              search: Optional[SearchOptions] = None) -> ModelFit:
     """
     Fit the base model plus `effects` (catalog names) to dynamic or static data.
 
     kind: 'classical' or 'modified' PI base (default modified; an effect with a `kind`,
     saturation, forces its kind). base_fit: a previous ModelFit whose grid and values
     warm-start this one. pinned: {free parameter: value} held fixed in a dynamic fit
-    (e.g. {'tau_s': 3.0} for a profile of the error over the time constant).
+    (e.g. {'tau_s': 3.0} for a profile of the error over the time constant). search: how
+    a dynamic fit searches from scratch (`identification.SearchOptions`); default the
+    whole search, or with a `base_fit` `REFIT_SEARCH`.
     """
     effects = list(dict.fromkeys(effects))
     for e in effects:
@@ -275,18 +281,22 @@ def fit_model(data: Any, effects: tuple = (), kind: Optional[str] = None,
     kind = _kind(effects, kind)
     if progress:
         progress(0, 1, 'fit ' + ('+'.join(effects) or 'base'))
-    fit = _FITTERS[data.kind](data, effects, kind, base_fit, pinned)
+    if search is None:
+        search = SearchOptions() if base_fit is None else REFIT_SEARCH
+    fit = _FITTERS[data.kind](data, effects, kind, base_fit, pinned, search)
     if progress:
         progress(1, 1, 'fit done')
     return fit
 
 
 def _fit_static(data: StaticData, effects: list, kind: str, base_fit: Optional[ModelFit],
-                pinned: Optional[dict] = None) -> ModelFit:
+                pinned: Optional[dict] = None, search: Optional[SearchOptions] = None
+                ) -> ModelFit:
     """
     Fit a PI operator to curves: the paper's least-squares tuning (classical: plain LS).
 
-    Curves have no free parameters besides the weights: nothing can be pinned.
+    Curves have no free parameters besides the weights: nothing can be pinned, and the
+    least squares have one minimum (`search` is not used).
     """
     if pinned:
         raise ValueError(f'static curves have no parameter {", ".join(pinned)} to pin')
@@ -363,19 +373,21 @@ def _tared(data: DynamicData) -> tuple:
 
 
 def _fit_dynamic(data: DynamicData, effects: list, kind: str,
-                 base_fit: Optional[ModelFit], pinned: Optional[dict] = None) -> ModelFit:
+                 base_fit: Optional[ModelFit], pinned: Optional[dict] = None,
+                 search: SearchOptions = SearchOptions()) -> ModelFit:
     """
     Fit a dynamic record; a `sensor_zero` model is fitted on the tared positions.
 
-    pinned: {free parameter: value} held fixed (`fit_model`).
+    pinned: {free parameter: value} held fixed; search: `SearchOptions` (`fit_model`).
     """
     tare = 'sensor_zero' in effects
     # the residual is the same either way: the tare cancels in model − measured
     fit_data = _tared(data)[0] if tare else data
     strokes = None
     if 'record_stroke' in effects:
-        fit_data, strokes, base_fit = _stroked(fit_data, effects, kind, base_fit, tare, pinned)
-    fit = _fit_dynamic_raw(fit_data, effects, kind, base_fit, pinned)
+        fit_data, strokes, base_fit = _stroked(fit_data, effects, kind, base_fit, tare, pinned,
+                                               search)
+    fit = _fit_dynamic_raw(fit_data, effects, kind, base_fit, pinned, search)
     if strokes is not None:   # back to each record's own stroke: m0 + ρ (p − m0)
         m0 = zeros(fit_data)
         fit.prediction = m0 + stroke_scale(fit_data, strokes) * (fit.prediction - m0)
@@ -392,7 +404,8 @@ def _fit_dynamic(data: DynamicData, effects: list, kind: str,
 
 
 def _stroked(data: DynamicData, effects: list, kind: str, base_fit: Optional[ModelFit],
-             tared: bool, pinned: Optional[dict] = None) -> tuple:
+             tared: bool, pinned: Optional[dict] = None,
+             search: SearchOptions = SearchOptions()) -> tuple:
     """
     Return (`data` scaled to the median record's stroke, {record: ρ}, the pooled fit).
 
@@ -406,7 +419,7 @@ def _stroked(data: DynamicData, effects: list, kind: str, base_fit: Optional[Mod
             and base_fit.prediction is not None and len(base_fit.prediction) == len(data)):
         pred = base_fit.prediction - (zeros(data) if tared else 0.0)
     else:
-        base_fit = _fit_dynamic_raw(data, pooled, kind, base_fit, pinned)
+        base_fit = _fit_dynamic_raw(data, pooled, kind, base_fit, pinned, search)
         pred = base_fit.prediction
     strokes = record_strokes(data, pred)
     m0 = zeros(data)
@@ -436,11 +449,13 @@ def rig_info(data: DynamicData, split: Optional[Split] = None) -> dict:
 
 
 def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
-                     base_fit: Optional[ModelFit], pinned: Optional[dict] = None) -> ModelFit:
+                     base_fit: Optional[ModelFit], pinned: Optional[dict] = None,
+                     search: SearchOptions = SearchOptions()) -> ModelFit:
     """
     Fit the effects' free parameters: warm from `base_fit`, its alternative starts.
 
-    pinned: {free parameter: value} held within PIN_TOLERANCE of value.
+    pinned: {free parameter: value} held within PIN_TOLERANCE of value; search: how each
+    start searches from scratch.
     """
     pinned = pinned or {}
     # sorted: a negative value's lower bound is v (1 + tolerance)
@@ -480,7 +495,7 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
                             grid=base_fit.grid if warm else None,
                             start=trial_start, input_hook=hook,
                             ref=base_fit.params.hysteresis if warm else None,
-                            loop_ratio=loop_ratio)
+                            options=search, loop_ratio=loop_ratio)
         if res is None or trial.train['rmse'] < res.train['rmse']:
             res = trial
     train = data.split_masks(res.split)[0]
@@ -654,15 +669,14 @@ def noise_floor(data: Any) -> Optional[float]:
     """
     Return the NRMSE a perfect model would score on `data`: its measurement noise.
 
-    σ / span, σ from `identification.noise_rms` over each record's measured positions, span
+    σ / span, σ from `identification.record_noise_rms` over each record's measured positions, span
     the range measured over the whole set (the NRMSE's scale); None for static curves,
     whose points are not a time series.
     """
     span = data.span()
     if not isinstance(data, DynamicData) or span <= 0:
         return None
-    records = data.segments or (('', 0, len(data)),)
-    return noise_rms(*(data.position[a:b] for _, a, b in records)) / span
+    return record_noise_rms(data) / span
 
 
 def at_noise(base: ModelFit, data: DynamicData, min_improvement: float) -> bool:
@@ -1100,7 +1114,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
         return entry
     effects = list(base.effects) + [name]
     try:
-        fit = fit_model(data, effects, kind=base.kind, base_fit=base if warm is None else None)
+        fit = fit_model(data, effects, kind=base.kind, base_fit=base if warm is None else None,
+                        search=REFIT_SEARCH)
         if warm is not None and warm.train['rmse'] <= fit.train['rmse']:
             fit = warm
     except ValueError as err:
