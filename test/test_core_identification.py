@@ -95,7 +95,8 @@ def test_fit_dynamic_recovers_simulated_actuator():
 # kept; how many grids are searched
 @pytest.mark.parametrize('misfits, kept, searched', [
     ((3.0, 2.0, 1.2), 2, 3),       # the first alternative misfits less: not taken
-    ((3.0, 1.4, 1.0), 1, 2),       # the first that reaches the noise ends the search
+    ((3.0, 1.4, 1.0), 2, 3),       # of those at the noise, the lowest training error
+    ((3.0, 1.0, 1.4), 1, 3),
     ((3.0, 2.0, 1.6), 0, 3),       # none reaches it: the first grid's fit stays
     ((1.2, 1.0, 1.0), 0, 1),       # the first reaches it: no other is tried
 ])

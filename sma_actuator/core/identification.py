@@ -784,9 +784,9 @@ class SearchOptions:
 
     coarse/fine: (widths, centres) of the coarse grid and of the adaptive fine grid.
     coarse_alternatives: further coarse grids, each the start of a whole search of its own
-    while the fit is above NEAR_NOISE times the noise (`record_noise_rms`); the first
-    whose fit reaches that replaces it. The fine grid follows the coarse fit's weights, so
-    the coarse grid decides the basin.
+    where the first fit is above NEAR_NOISE times the noise (`record_noise_rms`); the
+    lowest training error among those that reach that replaces it. The fine grid follows
+    the coarse fit's weights, so the coarse grid decides the basin.
     starts: the coarse multi-start, time constants as multiples of base.tau_s / 2.
     max_nfev: evaluations per outer search. rounds: alternations of search and feedback
     settling in the final stage. refine: passes of the adaptive fine grid (modified PI).
@@ -1154,11 +1154,12 @@ def fit_dynamic(data: DynamicData, free: Optional[dict] = None, kind: str = 'mod
     parameters (names not in ActuatorParams). ref: hysteresis on `grid` used in the
     feedback path of the first round (default: the grid with zero weights, i.e. no
     feedback until the first weights are known). options: `SearchOptions`; with no grid,
-    every stage runs from its coarse grid and, while the fit stays above NEAR_NOISE times
-    the noise, from each of its coarse alternatives (`fit_on_coarse_grid`) until one
-    reaches that. loop_ratio: None, or β of `tie_loop_width` (the descending branch tied
-    to the ascending one, for training data that never shows the wire cooling through its
-    transformation; the workbench passes `flexinol_loop_ratio()` then). The fitted
+    every stage runs from its coarse grid and, where that fit is above NEAR_NOISE times the
+    noise, from each of its coarse alternatives (`fit_on_coarse_grid`), of which the
+    lowest training error within that bar wins. loop_ratio: None, or β of `tie_loop_width`
+    (the descending branch tied to the ascending one, for training data that never shows
+    the wire cooling through its transformation; the workbench passes
+    `flexinol_loop_ratio()` then). The fitted
     elements' bands are narrowed to the states they took in the training window
     (`narrow_bands`). Returns a `DynamicFit` scored by free-run error on training and
     held-out data.
@@ -1169,16 +1170,14 @@ def fit_dynamic(data: DynamicData, free: Optional[dict] = None, kind: str = 'mod
         return score_fit(setup, grid, best)
     fit = fit_on_coarse_grid(setup, kind, options, options.coarse, ref)
     near_noise = NEAR_NOISE * record_noise_rms(data)
-    for coarse in options.coarse_alternatives:
-        if fit.train['rmse'] <= near_noise:
-            break
-        other = fit_on_coarse_grid(setup, kind, options, coarse, ref)
-        # among misfits a lower training error does not predict better held out (an effect
-        # is missing, and each basin misses it differently): only a fit that reaches the
-        # noise replaces the first
-        if other.train['rmse'] <= near_noise:
-            fit = other
-    return fit
+    if fit.train['rmse'] <= near_noise:
+        return fit
+    others = [fit_on_coarse_grid(setup, kind, options, coarse, ref)
+              for coarse in options.coarse_alternatives]
+    # among misfits a lower training error does not predict better held out (an effect is
+    # missing, and each basin misses it differently): only fits that reach the noise count
+    at_noise = [f for f in others if f.train['rmse'] <= near_noise]
+    return min(at_noise, key=lambda f: f.train['rmse']) if at_noise else fit
 
 
 def fit_on_coarse_grid(setup: Setup, kind: str, options: SearchOptions, coarse: tuple,
