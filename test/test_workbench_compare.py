@@ -239,6 +239,25 @@ def test_a_gap_in_a_record_is_neither_scored_nor_drawn_and_keeps_its_time(tmp_pa
     assert (tmp_path / 'r' / 'time.png').is_file()
 
 
+def test_a_diagnosis_report_says_how_far_the_model_is_from_the_noise(tmp_path):
+    data = _record(400)
+    res = compare(data, data.position - 0.02 * np.sin(data.time))
+    named = {'effect': 'delay', 'validation_nrmse': 0.0014, 'train_nrmse': 0.0012,
+             'improvement': 0.8, 'significant': True, 'explanation': 'residual leads'}
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.1, 'train_nrmse': 0.08,
+                        'noise_floor_nrmse': 0.001},
+           'candidates': [named], 'missing_effect': 'delay'}
+    page = write_report(tmp_path / 'named', res, 'named', diagnosis=doc).read_text()
+    assert 'validation NRMSE 10.00 % (the measurement noise alone: 0.10 %)' in page
+    assert ('<p>with delay the held-out error is 1.4 times what the measurement noise alone '
+            'gives: the model explains the data</p>') in page
+    named['significant'] = False
+    doc['missing_effect'] = None
+    page = write_report(tmp_path / 'none', res, 'none', diagnosis=doc).read_text()
+    assert ('<p>the held-out error is 100 times what the measurement noise alone gives, the '
+            'training error too 80 times: an effect the catalog does not hold') in page
+
+
 def test_joined_records_follow_each_other_and_a_gap_keeps_its_length():
     first, second = _gapped(), _record(300, seed=1)
     data = join([('first', first), ('second', second)])

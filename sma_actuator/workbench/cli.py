@@ -46,11 +46,12 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 import numpy as np  # noqa: E402, I100
 
 from .limits import MAX_FIT_RATE_HZ  # noqa: E402, I100
+from .remaining import (lead_line, left_to_explain, percent as _pct, PROG,  # noqa: E402
+                        remaining_lines, untried)
 from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
-PROG = 'sma-model'
 # the role of each record `compare` scores: neither trained on nor held out by it
 COMPARED = 'compared'
 MAX_RATE_HELP = ('records sampled faster are decimated to this rate or below for fitting '
@@ -399,11 +400,6 @@ def json_safe(obj: Any) -> Any:
 def print_json(obj: Any) -> None:
     """Print strict JSON (no NaN) to stdout."""
     print(json.dumps(json_safe(obj), indent=2, allow_nan=False))
-
-
-def _pct(x: Optional[float]) -> str:
-    """Return the fraction x as a percentage text ('n/a' for None)."""
-    return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
 def model_line(effects: Sequence[str], kind: str) -> str:
@@ -876,17 +872,18 @@ def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
         lines.append(f'  then - {r["added"]:<20} validation NRMSE '
                      f'{_pct(r["validation_nrmse_without"])} (not significant next to the '
                      'others)')
-    if stopped:
-        return lines
     final = doc.get('final', {})
-    if 'refitted' in final:
+    if 'refitted' in final and not stopped:
         lines.append(f'  final: {final["refitted"]}, validation NRMSE '
                      f'{_pct(final["validation_nrmse"])}')
     floor = doc['baseline'].get('noise_floor_nrmse')
+    # stopped by the limit, the last round named an effect: more may be missing
+    added = ' + '.join(e for e in final.get('effects', ())
+                       if e not in doc['baseline']['effects']) if stopped else ''
     if floor and final.get('validation_nrmse') is not None:
         lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
-                                            final['train_nrmse'] / floor, untried(doc)))
-    if final.get('training_lead'):
+                                            final['train_nrmse'] / floor, untried(doc), added))
+    if final.get('training_lead') and not stopped:
         lines.append('  ' + lead_line(final['training_lead'], final['train_nrmse']))
     return lines
 
@@ -914,60 +911,13 @@ def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:
               f'{c["not_resolved"]}' for c in unresolved]
     lines += [f'  {c["effect"]} passed every check, but {c["rival"]} cuts the held-out error '
               'more: not named' for c in doc['candidates'] if c.get('rival') and not missing]
-    if not missing and floor and base['validation_nrmse'] is not None:
-        lines.append('  ' + left_to_explain(base['validation_nrmse'] / floor,
-                                            base['train_nrmse'] / floor, untried(doc)))
-    if doc.get('training_lead'):
-        lines.append('  ' + lead_line(doc['training_lead'], base['train_nrmse']))
     if missing:
         c = next(c for c in doc['candidates'] if c['effect'] == missing)
         lines.append(f'  {c["explanation"]}')
+    lines += ['  ' + line for line in remaining_lines(doc)]
+    if missing:
         lines.append(f'  next: {PROG} fit DATA --add {missing} ... --out FITTED.yaml')
     return lines
-
-
-def untried(doc: Mapping[str, Any]) -> List[str]:
-    """Return 'effect: why' of each candidate not tried for what the data lack (`data_lack`)."""
-    return [f'{c["effect"]}: {c["data_lack"]}' for c in doc.get('candidates', ())
-            if c.get('data_lack')]
-
-
-def left_to_explain(held_out: float, train: float, not_tried: Sequence[str] = ()) -> str:
-    """
-    Return what is left to find when nothing is named, from the base's errors.
-
-    held_out, train: the base model's held-out and training NRMSE over the NRMSE the
-    measurement noise alone gives (`engine.noise_floor`); not_tried: 'effect: why' of the
-    catalog's effects these data could not test (`untried`), named where an effect remains.
-    """
-    from .engine import held_out_cannot_judge, NEAR_NOISE
-    noise = 'what the measurement noise alone gives'
-    if held_out_cannot_judge(held_out, train):
-        return (f'the held-out error is {held_out:.1f} times {noise}, but the training error '
-                f'{train:.0f} times: the held-out part does not show what the training part '
-                'lacks (hold out a record that moves as the training does: --validate-on)')
-    if held_out <= NEAR_NOISE:
-        return f'the held-out error is {held_out:.1f} times {noise}: the model explains the data'
-    if train <= NEAR_NOISE:
-        return (f'the held-out error is {held_out:.0f} times {noise}, the training error '
-                f'{train:.1f} times: the held-out part goes where training did not (give '
-                'longer or more varied records)')
-    remains = (f'the held-out error is {held_out:.0f} times {noise}, the training error too '
-               f'{train:.0f} times: an effect the catalog does not hold, or one too weak to '
-               'separate, remains')
-    if not_tried:
-        remains += '; not tried, for what the data lack: ' + '; '.join(not_tried)
-    return remains
-
-
-def lead_line(lead: Mapping[str, Any], train: float) -> str:
-    """Return the text of a diagnosis' training lead (`engine.training_lead`), a hint."""
-    return (f'the training window is fitted best with {lead["effect"]} (training NRMSE '
-            f'{_pct(train)} -> {_pct(lead["train_nrmse"])}, BIC change '
-            f'{lead["bic_change"]:+.0f}; held out {_pct(lead["validation_nrmse"])}), '
-            'which the held-out part cannot confirm: a lead to test on a record that shows '
-            f'it ({PROG} fit DATA --add {lead["effect"]}, then compare other records), not '
-            'a name')
 
 
 # ------------------------------------------------------------------------------ batch

@@ -59,6 +59,7 @@ from scipy.signal import lfilter
 
 from .engine import part_scores
 from .records import partly_measured
+from .remaining import percent as _pct
 from ..core.datakinds import DynamicData, Split, StaticData
 
 Z99 = 2.576
@@ -531,11 +532,6 @@ def score_line(part: str, s: Optional[Dict[str, Any]], unit: str = '',
                 f'RMSE {s["rmse"]:.4g}{u})')
     return (f'{part:>{width}}: NRMSE {_pct(s["nrmse"])}  RMSE {s["rmse"]:.4g}{u}  fit '
             f'{_num(s["fit_percent"])} %  max error {s["max_error"]:.4g}{u}')
-
-
-def _pct(x: Optional[float]) -> str:
-    """Return a fraction as a percentage, 'n/a' for None."""
-    return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
 def _num(x: Optional[float]) -> str:

@@ -1106,8 +1106,9 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     if reason is None and eff.kind is not None and base.kind == eff.kind:
         reason = f'the base model already is {eff.kind} PI'
     if reason:
-        entry = {'effect': name, 'validation_nrmse': None, 'improvement': None,
-                 'significant': False, 'explanation': f'not applicable: {reason}'}
+        entry = {'effect': name, 'validation_nrmse': None, 'train_nrmse': None,
+                 'improvement': None, 'significant': False,
+                 'explanation': f'not applicable: {reason}'}
         lacking = eff.applicable(data)
         if lacking:
             entry['data_lack'] = lacking     # a signal or records the user could add
@@ -1119,8 +1120,9 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
         if warm is not None and warm.train['rmse'] <= fit.train['rmse']:
             fit = warm
     except ValueError as err:
-        return {'effect': name, 'validation_nrmse': None, 'improvement': None,
-                'significant': False, 'explanation': f'fit failed: {err}'}
+        return {'effect': name, 'validation_nrmse': None, 'train_nrmse': None,
+                'improvement': None, 'significant': False,
+                'explanation': f'fit failed: {err}'}
     v0, v1 = base.validation['nrmse'], fit.validation['nrmse']
     gain = (v0 - v1) / v0 if v0 > 0 else 0.0
     bic_change = bic_gain(base, fit, base_length)
@@ -1155,8 +1157,8 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     unit = getattr(data, 'position_unit', '')
     values = ', '.join(f'{act.name_in_unit(k, unit)} = {v:.4g}' for k, v in fit.values.items()
                        if k in eff.parameters) or 'modified PI (saturated plays)'
-    return {'effect': name, 'validation_nrmse': v1, 'improvement': gain,
-            'significant': significant,
+    return {'effect': name, 'validation_nrmse': v1, 'train_nrmse': fit.train['nrmse'],
+            'improvement': gain, 'significant': significant,
             # the only check it failed: a rival to whatever is named instead
             'unresolved': unresolved if evident and carried and spread else None,
             'explanation': (f'held-out NRMSE {100 * v0:.2f} % -> {100 * v1:.2f} % '

@@ -37,6 +37,7 @@ from matplotlib.figure import Figure
 import numpy as np
 
 from .compare import Comparison, CONCENTRATION_RATIO, MIN_SHARE
+from .remaining import percent as _pct, remaining_lines
 
 PathLike = Union[str, os.PathLike]
 
@@ -334,11 +335,6 @@ def _f(x: Optional[float], fmt: str = '{:.4g}') -> str:
     return 'n/a' if x is None else fmt.format(x)
 
 
-def _pct(x: Optional[float]) -> str:
-    """Return a fraction as a percentage."""
-    return 'n/a' if x is None else f'{100 * x:.2f} %'
-
-
 def _table(header: list, rows: list, left: int = 1, hot: Optional[list] = None) -> str:
     head = ''.join(f'<th class="l">{html.escape(h)}</th>' if i < left
                    else f'<th>{html.escape(h)}</th>' for i, h in enumerate(header))
@@ -412,10 +408,14 @@ def _diagnosis_html(diagnosis: Optional[dict]) -> str:
         return ''
     base = diagnosis['baseline']
     missing = diagnosis.get('missing_effect')
+    floor = base.get('noise_floor_nrmse')
     head = (f'<p>Baseline effects: <b>{html.escape(", ".join(base["effects"]) or "none")}'
-            f'</b>, validation NRMSE {_pct(base["validation_nrmse"])}. Missing effect: '
+            f'</b>, validation NRMSE {_pct(base["validation_nrmse"])}'
+            + (f' (the measurement noise alone: {_pct(floor)})' if floor else '')
+            + '. Missing effect: '
             f'<b>{html.escape(missing) if missing else "none found (no candidate is significant)"}'
-            '</b></p>')
+            '</b></p>'
+            + ''.join(f'<p>{html.escape(line)}</p>' for line in remaining_lines(diagnosis)))
     rows = [[c['effect'], _pct(c['validation_nrmse']), _pct(c['improvement']),
              'yes' if c['significant'] else 'no', c.get('explanation', '')]
             for c in diagnosis['candidates']]
