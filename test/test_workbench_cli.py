@@ -25,6 +25,7 @@ whole file stays well under a minute.
 import json
 import os
 from pathlib import Path
+import re
 import shutil
 import subprocess
 import sys
@@ -108,6 +109,38 @@ def test_fit_json_scores_a_clean_record_well(fitted):
     saved = yaml.safe_load(out.read_text())
     assert saved['effects'] == [] and saved['model']
     assert saved['scores']['validation']['nrmse'] == pytest.approx(doc['validation_nrmse'])
+
+
+def test_fit_and_compare_give_the_noise_beside_the_scores(fitted, tmp_path):
+    data, model, doc = fitted
+    span = np.ptp(np.loadtxt(data, delimiter=',', skiprows=1)[:, 3])
+    # the 3 mrad written into the record, and the model fitted to it: near that noise
+    assert doc['noise_floor_nrmse'] * span == pytest.approx(0.003, rel=0.15)
+    assert doc['train_nrmse'] < 1.5 * doc['noise_floor_nrmse']
+    proc = run('compare', data, '--model', model)
+    assert proc.returncode == 0, proc.stderr
+    scores = proc.stdout.splitlines()
+    noise = next(i for i, line in enumerate(scores) if line.startswith('     noise: NRMSE'))
+    assert scores[noise - 1].startswith('       all: NRMSE')
+    rmse = float(scores[noise].split('  RMSE ')[1].split()[0])
+    assert rmse == pytest.approx(doc['noise_floor_nrmse'] * span, rel=1e-3)
+    times = dict(re.findall(r'(train|validation|all) ([0-9.]+) times', scores[noise]))
+    assert scores[noise].split('  RMSE ')[1].split(',')[0].endswith(' rad')
+    assert set(times) == {'train', 'validation', 'all'}
+    assert all(0.5 < float(x) < 1.5 for x in times.values())      # a model at the noise
+    proc = run('compare', data, '--model', model, '--json', '--report', tmp_path / 'r')
+    assert json.loads(proc.stdout)['noise_floor_nrmse'] == pytest.approx(
+        doc['noise_floor_nrmse'])
+    assert 'noise: NRMSE ' in (tmp_path / 'r' / 'index.html').read_text()
+
+
+def test_the_noise_line_says_how_many_times_the_noise_each_part_is():
+    assert remaining.noise_line(0.0008, 17.0, {'train': 0.00104, 'validation': None,
+                                               'all': 0.0213}, 'mm') == (
+        '     noise: NRMSE 0.08 %  RMSE 0.0136 mm, the measurement noise alone (the model: '
+        'train 1.3 times, all 27 times that)')
+    assert remaining.noise_line(0.001, 2.0, {}) == (
+        '     noise: NRMSE 0.10 %  RMSE 0.002, the measurement noise alone')
 
 
 def test_fit_refuses_to_overwrite_without_force(fitted):

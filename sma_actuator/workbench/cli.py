@@ -46,8 +46,8 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 import numpy as np  # noqa: E402, I100
 
 from .limits import MAX_FIT_RATE_HZ  # noqa: E402, I100
-from .remaining import (lead_line, left_to_explain, percent as _pct, PROG,  # noqa: E402
-                        remaining_lines, untried)
+from .remaining import (lead_line, left_to_explain, noise_line, percent as _pct,  # noqa: E402
+                        PROG, remaining_lines, untried)
 from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 
 EXIT_BAD_INPUT = 2
@@ -444,7 +444,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.out:
         write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
     if args.json:
-        print_json(dict(fit_json(fit, args.out, records), **profile))
+        print_json(dict(fit_json(fit, args.out, records), **profile,
+                        noise_floor_nrmse=_noise_floor(data)))
     else:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
@@ -455,9 +456,31 @@ def cmd_fit(args: argparse.Namespace) -> int:
                              r['role'] != 'train'))
         print(score_line('train', fit.train, unit))
         print(score_line('validation', fit.validation, unit))
+        noise = _noise(data, {'train': fit.train, 'validation': fit.validation}, unit)
+        if noise:
+            print(noise)
     if args.out:
         _note(args, f'wrote {args.out}')
     return 0
+
+
+def _noise_floor(data: Any) -> Optional[float]:
+    """Return the NRMSE the measurement noise alone gives (`engine.noise_floor`; None: static)."""
+    from .engine import noise_floor
+    return noise_floor(data)
+
+
+def _noise(data: Any, scores: Dict[str, Optional[dict]], unit: str) -> Optional[str]:
+    """
+    Return the noise's score line of dynamic data (`remaining.noise_line`), else None.
+
+    scores: {part: scores dict or None}; a held-out part too narrow to score
+    (`"informative": false`) is left out, as its score line leaves it unscored.
+    """
+    floor = _noise_floor(data)
+    shown = ((p, scores.get(p)) for p in ('train', 'validation', 'all'))
+    nrmse = {p: s.get('nrmse') for p, s in shown if s and s.get('informative', True)}
+    return noise_line(floor, data.span(), nrmse, unit) if floor else None
 
 
 def _tau_profile(args: argparse.Namespace, data: Any, fit: Any,
@@ -572,8 +595,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note_quiet_records(args, data, travel)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data, COMPARED)
+    noise = _noise(data, result.scores, result.unit)
     if args.report:
-        _write_report(args, result, title, '; '.join(lines + led_lines), spec)
+        _write_report(args, result, title,
+                      '; '.join(lines + led_lines + ([noise.strip()] if noise else [])), spec)
     if args.json:
         doc = {'data': str(args.data[0]) if len(all_data(args)) == 1 else all_data(args),
                'model': {'effects': spec['effects'], 'kind': spec.get('kind')}}
@@ -581,13 +606,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         doc |= kind.json(data, records)
         if travel:
             doc['model_travel'] = travel
+        doc['noise_floor_nrmse'] = _noise_floor(data)
         print_json(doc)
     else:
         print('\n'.join(lines))
         print(f'model: {model_line(spec["effects"], spec.get("kind") or "modified")}')
         for r in records if len(records) > 1 else []:
             print(score_line(r['data'], r['scores']['all'], result.unit, 0))
-        print('\n'.join(summary_lines(result)))
+        print('\n'.join(summary_lines(result, noise=noise)))
     return 0
 
 

@@ -491,11 +491,16 @@ def _finite(obj: Any) -> Any:
     return obj
 
 
-def summary_lines(comparison: Comparison, top: int = 5) -> list:
-    """Short text summary: scores, where the error concentrates, strongest residual links."""
+def summary_lines(comparison: Comparison, top: int = 5, noise: Optional[str] = None) -> list:
+    """
+    Short text summary: scores, where the error concentrates, strongest residual links.
+
+    noise: a line set under the scores (`remaining.noise_line`: the noise's score).
+    """
     sc = comparison.scores
     lines = [score_line(part, sc[part], comparison.unit)
              for part in ('train', 'validation', 'all') if sc.get(part)]
+    lines += [noise] if noise else []
     if comparison.concentrated:
         lines.append('error concentrates in: ' + ', '.join(
             f"{r['group']} {r['label']} (RMSE x{r['rmse'] / sc['all']['rmse']:.1f})"

@@ -32,6 +32,23 @@ def percent(x: Optional[float]) -> str:
     return 'n/a' if x is None else f'{100 * x:.2f} %'
 
 
+def noise_line(floor: float, span: float, nrmse: Mapping[str, Optional[float]],
+               unit: str = '', width: int = 10) -> str:
+    """
+    Return the noise's score line beside `compare.score_line`'s, and each part's multiple.
+
+    floor: the NRMSE the measurement noise alone gives (`engine.noise_floor`), over the
+    measured range `span` [unit]; nrmse: {part: the model's NRMSE} ('train', 'validation'
+    or 'all'; None is left out). A model within 1.5 times the noise (`NEAR_NOISE`) leaves
+    nothing to find; far beyond it, `sma-model diagnose` looks for what is missing.
+    """
+    times = ', '.join(f'{part} {x / floor:.{1 if x < 10 * floor else 0}f} times'
+                      for part, x in nrmse.items() if x is not None)
+    return (f'{"noise":>{width}}: NRMSE {percent(floor)}  RMSE {floor * span:.4g}'
+            f'{" " + unit if unit else ""}, the measurement noise alone'
+            + (f' (the model: {times} that)' if times else ''))
+
+
 def remaining_lines(doc: Mapping[str, Any]) -> List[str]:
     """
     Return what the first round of a diagnosis document leaves to find, one text per line.
