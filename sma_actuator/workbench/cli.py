@@ -443,9 +443,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
         _note_apart_rests(args, loaded, data)
     if args.out:
         write_model(args.out, dict(fit.to_dict(), **profile), force=args.force)
+    floor = _noise_floor(data)
     if args.json:
-        print_json(dict(fit_json(fit, args.out, records), **profile,
-                        noise_floor_nrmse=_noise_floor(data)))
+        print_json(dict(fit_json(fit, args.out, records), **profile, noise_floor_nrmse=floor))
     else:
         print(f'model: {model_line(fit.effects, fit.kind)} ({fit.n_parameters} parameters)')
         if fit.values:
@@ -456,7 +456,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                              r['role'] != 'train'))
         print(score_line('train', fit.train, unit))
         print(score_line('validation', fit.validation, unit))
-        noise = _noise(data, {'train': fit.train, 'validation': fit.validation}, unit)
+        noise = _noise(floor, data, {'train': fit.train, 'validation': fit.validation}, unit)
         if noise:
             print(noise)
     if args.out:
@@ -470,14 +470,15 @@ def _noise_floor(data: Any) -> Optional[float]:
     return noise_floor(data)
 
 
-def _noise(data: Any, scores: Dict[str, Optional[dict]], unit: str) -> Optional[str]:
+def _noise(floor: Optional[float], data: Any, scores: Dict[str, Optional[dict]],
+           unit: str) -> Optional[str]:
     """
-    Return the noise's score line of dynamic data (`remaining.noise_line`), else None.
+    Return the noise's score line (`remaining.noise_line`), None where `floor` is None.
 
-    scores: {part: scores dict or None}; a held-out part too narrow to score
-    (`"informative": false`) is left out, as its score line leaves it unscored.
+    floor: `_noise_floor(data)`; scores: {part: scores dict or None}; a held-out part too
+    narrow to score (`"informative": false`) is left out, as its score line leaves it
+    unscored.
     """
-    floor = _noise_floor(data)
     shown = ((p, scores.get(p)) for p in ('train', 'validation', 'all'))
     nrmse = {p: s.get('nrmse') for p, s in shown if s and s.get('informative', True)}
     return noise_line(floor, data.span(), nrmse, unit) if floor else None
@@ -595,7 +596,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _note_quiet_records(args, data, travel)
     title = f'{PROG} compare: {names} with {args.model}'
     lines = data_lines(data, COMPARED)
-    noise = _noise(data, result.scores, result.unit)
+    floor = _noise_floor(data)
+    noise = _noise(floor, data, result.scores, result.unit)
     if args.report:
         _write_report(args, result, title,
                       '; '.join(lines + led_lines + ([noise.strip()] if noise else [])), spec)
@@ -606,7 +608,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         doc |= kind.json(data, records)
         if travel:
             doc['model_travel'] = travel
-        doc['noise_floor_nrmse'] = _noise_floor(data)
+        doc['noise_floor_nrmse'] = floor
         print_json(doc)
     else:
         print('\n'.join(lines))
