@@ -428,12 +428,12 @@ class FatigueDrift(Effect):
     """
 
     name = 'fatigue_drift'
+    signature = ('residual trends with time: its mean and amplitude differ between time '
+                 'quartiles; validation error much larger than training error')
 
     def alternative_starts(self, data: Data) -> List[Dict[str, float]]:
         """Also start at a slow (nearly linear) drift: another basin than a quick shakedown."""
         return [{'fatigue_cycles': 500.0}]
-    signature = ('residual trends with time: its mean and amplitude differ between time '
-                 'quartiles; validation error much larger than training error')
 
 
 class CurrentLimit(Effect):

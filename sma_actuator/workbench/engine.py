@@ -54,8 +54,11 @@ held-out error. A candidate is significant only if
      one, beyond `NEAR_TIE`, makes that one not significant too: the records cannot tell
      which of the two they show (`_yield_to_unresolved_rivals`).
 When no candidate is significant, every one without an own grid is also refitted from
-scratch (the better training fit of the two is judged again): with two effects missing,
-the base can sit so far from the data that a warm refit stays in its basin. A base that
+scratch and judged again: with two effects missing, the base can sit so far from the
+data that a warm refit stays in its basin. The fit from scratch is judged where it trains to
+within `NEAR_NOISE` times the noise, as `fit_dynamic` stops there, else the better training
+fit of the two (`prefer_warm`): at the noise the warm refit can train better only by fitting
+noise with the base grid's extra elements. A base that
 already fits its training window to within the noise (`at_noise`) has no such basin: the
 second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
@@ -1099,7 +1102,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     Return the candidate entry of `name` (without its time).
 
     warm: its refit warm from the base, already made; then it is also refitted from
-    scratch and the better training fit of the two is judged.
+    scratch and one of the two is judged (`prefer_warm`).
     """
     eff = get_effect(name)
     reason = data.unsupported(eff)
@@ -1117,7 +1120,7 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
     try:
         fit = fit_model(data, effects, kind=base.kind, base_fit=base if warm is None else None,
                         search=REFIT_SEARCH)
-        if warm is not None and warm.train['rmse'] <= fit.train['rmse']:
+        if warm is not None and prefer_warm(data, warm, fit):
             fit = warm
     except ValueError as err:
         return {'effect': name, 'validation_nrmse': None, 'train_nrmse': None,
@@ -1144,7 +1147,10 @@ def _judge(data: Any, base: ModelFit, name: str, base_length: int,
               f' (training NRMSE {100 * base_refit.train["nrmse"]:.2f} %, BIC change '
               f'{bic_off:+.1f} against it)')
     if warm is not None and fit is not warm:
-        checks += ', refitted from scratch (the warm refit fitted the training window worse)'
+        checks += (', refitted from scratch (the warm refit fitted the training window worse)'
+                   if fit.train['rmse'] < warm.train['rmse'] else
+                   ', refitted from scratch (it fits the training window to the noise; the '
+                   'warm refit only fits the noise better)')
     if evident and not carried:
         checks += ('; not significant: the base refitted on the same grid does about as '
                    'well, so the grid, not the effect, carries the gain')
@@ -1224,6 +1230,21 @@ def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, Optional
         return None
     floor = noise_floor(data)
     return (share, error) if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
+
+
+def prefer_warm(data: DynamicData, warm: ModelFit, scratch: ModelFit) -> bool:
+    """
+    Return True when a candidate's warm refit, not its refit from scratch, is to be judged.
+
+    The rule `identification.fit_dynamic` picks a fit from scratch by: the first coarse
+    grid's fit (`scratch`) stands where it trains to within `NEAR_NOISE` times the noise
+    (`record_noise_rms`), as the model `fit --add` would give; otherwise the one of the
+    two that trains better. Two fits at the noise differ in training by the noise they
+    fit, and the warm one, on the base's grid, can fit it with the base's extra elements.
+    """
+    if scratch.train['rmse'] <= NEAR_NOISE * record_noise_rms(data):
+        return False
+    return bool(warm.train['rmse'] <= scratch.train['rmse'])
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
