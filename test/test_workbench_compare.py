@@ -258,6 +258,30 @@ def test_a_diagnosis_report_says_how_far_the_model_is_from_the_noise(tmp_path):
             'training error too 80 times: an effect the catalog does not hold') in page
 
 
+def test_a_report_of_rounds_ends_with_what_the_final_model_leaves(tmp_path):
+    res = compare(_record(400), _record(400).position)
+    first = {'effect': 'delay', 'validation_nrmse': 0.02, 'train_nrmse': 0.015,
+             'improvement': 0.8, 'significant': True, 'explanation': 'residual leads'}
+    doc = {'baseline': {'effects': [], 'validation_nrmse': 0.1, 'train_nrmse': 0.08,
+                        'noise_floor_nrmse': 0.001},
+           'candidates': [first], 'missing_effect': 'delay',
+           'rounds': [{'added': 'delay', 'validation_nrmse': 0.02},
+                      {'added': 'convection', 'validation_nrmse': 0.0012}],
+           'final': {'effects': ['delay', 'convection'], 'validation_nrmse': 0.0012,
+                     'train_nrmse': 0.0011},
+           'rounds_limit': 3}
+    page = write_report(tmp_path / 'ended', res, 'ended', diagnosis=doc).read_text()
+    # the first round's line, then the rounds: the final model explains the data
+    assert 'with delay the held-out error is 20 times' in page
+    assert 'round 2: + convection' in page and 'then nothing is significant' in page
+    assert ('the held-out error is 1.2 times what the measurement noise alone gives: the '
+            'model explains the data') in page
+    doc['rounds_limit'] = 2
+    page = write_report(tmp_path / 'stopped', res, 'stopped', diagnosis=doc).read_text()
+    assert 'stopped after 2 rounds (--rounds)' in page
+    assert 'with delay + convection the held-out error is 1.2 times' in page
+
+
 def test_joined_records_follow_each_other_and_a_gap_keeps_its_length():
     first, second = _gapped(), _record(300, seed=1)
     data = join([('first', first), ('second', second)])

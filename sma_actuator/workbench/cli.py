@@ -46,8 +46,8 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 import numpy as np  # noqa: E402, I100
 
 from .limits import MAX_FIT_RATE_HZ  # noqa: E402, I100
-from .remaining import (lead_line, left_to_explain, noise_line, percent as _pct,  # noqa: E402
-                        PROG, remaining_lines, untried)
+from .remaining import (noise_line, percent as _pct, PROG, remaining_lines,  # noqa: E402
+                        rounds_lines)
 from ..core.datakinds import DynamicData, Split, StaticData  # noqa: E402
 
 EXIT_BAD_INPUT = 2
@@ -841,6 +841,7 @@ def _diagnosis_doc(args: argparse.Namespace, diags: list, rounds: list, base: An
     doc['baseline'].update(profile)
     if args.rounds > 1:
         doc['rounds'] = rounds
+        doc['rounds_limit'] = args.rounds
         doc['final'] = {'effects': list(base.effects),
                         'validation_nrmse': base.validation['nrmse'],
                         'train_nrmse': base.train['nrmse']}
@@ -882,38 +883,6 @@ def _print_diagnosis(args: argparse.Namespace, doc: dict, first: Any, profile: d
               f'({laws}) is named here')
     if args.rounds > 1:
         print('\n'.join(rounds_lines(doc, args.rounds)))
-
-
-def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
-    """Return the text of the add-and-refit rounds: the validation error falling."""
-    lines = [f'rounds: baseline validation NRMSE {_pct(doc["baseline"]["validation_nrmse"])}']
-    for i, r in enumerate(doc['rounds'], 1):
-        if 'refitted_base_nrmse' in r:
-            lines.append(f'  round {i}: base refitted       validation NRMSE '
-                         f'{_pct(r["refitted_base_nrmse"])}')
-        lines.append(f'  round {i}: + {r["added"]:<20} validation NRMSE '
-                     f'{_pct(r["validation_nrmse"])}')
-    stopped = len(doc['rounds']) >= limit
-    lines.append(f'  stopped after {limit} rounds (--rounds)' if stopped
-                 else '  then nothing is significant')
-    for r in (r for r in doc['rounds'] if r.get('removed')):
-        lines.append(f'  then - {r["added"]:<20} validation NRMSE '
-                     f'{_pct(r["validation_nrmse_without"])} (not significant next to the '
-                     'others)')
-    final = doc.get('final', {})
-    if 'refitted' in final and not stopped:
-        lines.append(f'  final: {final["refitted"]}, validation NRMSE '
-                     f'{_pct(final["validation_nrmse"])}')
-    floor = doc['baseline'].get('noise_floor_nrmse')
-    # stopped by the limit, the last round named an effect: more may be missing
-    added = ' + '.join(e for e in final.get('effects', ())
-                       if e not in doc['baseline']['effects']) if stopped else ''
-    if floor and final.get('validation_nrmse') is not None:
-        lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
-                                            final['train_nrmse'] / floor, untried(doc), added))
-    if final.get('training_lead') and not stopped:
-        lines.append('  ' + lead_line(final['training_lead'], final['train_nrmse']))
-    return lines
 
 
 def diagnosis_lines(doc: Mapping[str, Any], kind: str) -> List[str]:

@@ -49,6 +49,44 @@ def noise_line(floor: float, span: float, nrmse: Mapping[str, Optional[float]],
             + (f' (the model: {times} that)' if times else ''))
 
 
+def rounds_lines(doc: Mapping[str, Any], limit: int) -> List[str]:
+    """
+    Return the text of the add-and-refit rounds: the validation error falling.
+
+    doc: the diagnose JSON document with 'rounds' and 'final'; limit: the rounds asked for
+    (`--rounds`): rounds that reach it were stopped, not ended by a round naming nothing.
+    Ends with what the final model leaves over the noise (`left_to_explain`).
+    """
+    lines = [f'rounds: baseline validation NRMSE {percent(doc["baseline"]["validation_nrmse"])}']
+    for i, r in enumerate(doc['rounds'], 1):
+        if 'refitted_base_nrmse' in r:
+            lines.append(f'  round {i}: base refitted       validation NRMSE '
+                         f'{percent(r["refitted_base_nrmse"])}')
+        lines.append(f'  round {i}: + {r["added"]:<20} validation NRMSE '
+                     f'{percent(r["validation_nrmse"])}')
+    stopped = len(doc['rounds']) >= limit
+    lines.append(f'  stopped after {limit} rounds (--rounds)' if stopped
+                 else '  then nothing is significant')
+    for r in (r for r in doc['rounds'] if r.get('removed')):
+        lines.append(f'  then - {r["added"]:<20} validation NRMSE '
+                     f'{percent(r["validation_nrmse_without"])} (not significant next to the '
+                     'others)')
+    final = doc.get('final', {})
+    if 'refitted' in final and not stopped:
+        lines.append(f'  final: {final["refitted"]}, validation NRMSE '
+                     f'{percent(final["validation_nrmse"])}')
+    floor = doc['baseline'].get('noise_floor_nrmse')
+    # stopped by the limit, the last round named an effect: more may be missing
+    added = ' + '.join(e for e in final.get('effects', ())
+                       if e not in doc['baseline']['effects']) if stopped else ''
+    if floor and final.get('validation_nrmse') is not None:
+        lines.append('  ' + left_to_explain(final['validation_nrmse'] / floor,
+                                            final['train_nrmse'] / floor, untried(doc), added))
+    if final.get('training_lead') and not stopped:
+        lines.append('  ' + lead_line(final['training_lead'], final['train_nrmse']))
+    return lines
+
+
 def remaining_lines(doc: Mapping[str, Any]) -> List[str]:
     """
     Return what the first round of a diagnosis document leaves to find, one text per line.

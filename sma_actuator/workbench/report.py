@@ -37,7 +37,7 @@ from matplotlib.figure import Figure
 import numpy as np
 
 from .compare import Comparison, CONCENTRATION_RATIO, MIN_SHARE
-from .remaining import percent as _pct, remaining_lines
+from .remaining import percent as _pct, remaining_lines, rounds_lines
 
 PathLike = Union[str, os.PathLike]
 
@@ -415,13 +415,23 @@ def _diagnosis_html(diagnosis: Optional[dict]) -> str:
             + '. Missing effect: '
             f'<b>{html.escape(missing) if missing else "none found (no candidate is significant)"}'
             '</b></p>'
-            + ''.join(f'<p>{html.escape(line)}</p>' for line in remaining_lines(diagnosis)))
+            + ''.join(f'<p>{html.escape(line)}</p>' for line in remaining_lines(diagnosis))
+            + _rounds_html(diagnosis))
     rows = [[c['effect'], _pct(c['validation_nrmse']), _pct(c['improvement']),
              'yes' if c['significant'] else 'no', c.get('explanation', '')]
             for c in diagnosis['candidates']]
     return '<h2>Diagnosis: candidate effects, best first</h2>' + head + _table(
         ['effect', 'validation NRMSE', 'improvement', 'significant', 'explanation'], rows,
         hot=[c['significant'] for c in diagnosis['candidates']])
+
+
+def _rounds_html(diagnosis: dict) -> str:
+    # the rounds of `diagnose --rounds`, as the command prints them: the error falling round
+    # by round and what the final model leaves over the noise
+    if not diagnosis.get('rounds'):
+        return ''
+    lines = rounds_lines(diagnosis, diagnosis.get('rounds_limit', len(diagnosis['rounds'])))
+    return '<pre>' + html.escape('\n'.join(lines)) + '</pre>'
 
 
 def render_html(comparison: Comparison, title: str, data_line: str, model: Optional[dict],
