@@ -201,6 +201,10 @@ def test_diagnose_rounds_add_the_delay_and_report_the_error_falling(tmp_path):
     assert doc['final']['validation_nrmse'] == doc['rounds'][0]['validation_nrmse']
     assert doc['final']['validation_nrmse'] < 0.5 * doc['baseline']['validation_nrmse']
     assert 'rounds: ' in proc.stderr and (tmp_path / 'r' / 'rounds.png').stat().st_size > 0
+    assert doc['rounds_limit'] == 2
+    # the report gives the rounds as the text prints them, and how they ended
+    page = (tmp_path / 'r' / 'index.html').read_text()
+    assert 'round 1: + delay' in page and 'then nothing is significant' in page
 
 
 @pytest.mark.parametrize('hidden, says', [
