@@ -1236,11 +1236,12 @@ def prefer_warm(data: DynamicData, warm: ModelFit, scratch: ModelFit) -> bool:
     """
     Return True when a candidate's warm refit, not its refit from scratch, is to be judged.
 
-    The rule `identification.fit_dynamic` picks a fit from scratch by: the first coarse
-    grid's fit (`scratch`) stands where it trains to within `NEAR_NOISE` times the noise
-    (`record_noise_rms`), as the model `fit --add` would give; otherwise the one of the
-    two that trains better. Two fits at the noise differ in training by the noise they
-    fit, and the warm one, on the base's grid, can fit it with the base's extra elements.
+    As `identification.fit_dynamic` chooses among its coarse grids: the refit from scratch
+    on the first coarse grid (`scratch`, the model `fit --add` gives) stands where its
+    training RMSE is within `NEAR_NOISE` times the noise's (`record_noise_rms`); otherwise
+    the one of the two that trains better. Two fits at the noise differ in training by the
+    noise they fit, and the warm one, on the base's grid, can fit it with that grid's extra
+    elements.
     """
     if scratch.train['rmse'] <= NEAR_NOISE * record_noise_rms(data):
         return False

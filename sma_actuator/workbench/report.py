@@ -415,14 +415,13 @@ def _diagnosis_html(diagnosis: Optional[dict]) -> str:
             + '. Missing effect: '
             f'<b>{html.escape(missing) if missing else "none found (no candidate is significant)"}'
             '</b></p>'
-            + ''.join(f'<p>{html.escape(line)}</p>' for line in remaining_lines(diagnosis))
-            + _rounds_html(diagnosis))
+            + ''.join(f'<p>{html.escape(line)}</p>' for line in remaining_lines(diagnosis)))
     rows = [[c['effect'], _pct(c['validation_nrmse']), _pct(c['improvement']),
              'yes' if c['significant'] else 'no', c.get('explanation', '')]
             for c in diagnosis['candidates']]
     return '<h2>Diagnosis: candidate effects, best first</h2>' + head + _table(
         ['effect', 'validation NRMSE', 'improvement', 'significant', 'explanation'], rows,
-        hot=[c['significant'] for c in diagnosis['candidates']])
+        hot=[c['significant'] for c in diagnosis['candidates']]) + _rounds_html(diagnosis)
 
 
 def _rounds_html(diagnosis: dict) -> str:
