@@ -834,6 +834,32 @@ def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
         CATALOG.pop('test_own_grid', None)
 
 
+def test_a_trial_from_scratch_at_the_noise_stands_before_a_warm_trial(monkeypatch):
+    # the rule the second pass judges a candidate's refits by (prefer_warm) also chooses
+    # among its trials: the warm trials here train at the noise, the ones from scratch at
+    # 1.4 or 2 times it
+    data = record(act.ActuatorParams(), seconds=120.0)
+    base = engine.fit_model(data, ())
+    noise = idn.record_noise_rms(data)
+    real = engine.fit_dynamic
+
+    def training_at(times_noise_from_scratch):
+        def spy(*args, **kw):
+            trial = real(*args, **kw)
+            times = 1.0 if kw.get('grid') is base.grid else times_noise_from_scratch
+            return dataclasses.replace(trial, train=dict(trial.train, rmse=times * noise))
+        return spy
+
+    register_effect(OwnGrid)
+    try:
+        for times_noise, from_scratch in ((1.4, True), (2.0, False)):
+            monkeypatch.setattr(engine, 'fit_dynamic', training_at(times_noise))
+            fit = engine.fit_model(data, ['test_own_grid'], base_fit=base)
+            assert (fit.grid is not base.grid) is from_scratch, times_noise
+    finally:
+        CATALOG.pop('test_own_grid', None)
+
+
 def test_fast_dynamics_from_scratch_keeps_the_base_time_constant_the_slow_lag():
     # the two lags in series are interchangeable; from scratch tau stays >= tau_base / 2,
     # so tau >= tau_fast whenever the pair keeps the base fit's mean delay tau + tau_fast

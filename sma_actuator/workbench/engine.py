@@ -58,7 +58,8 @@ scratch and judged again: with two effects missing, the base can sit so far from
 data that a warm refit stays in its basin. The fit from scratch is judged where it trains to
 within `NEAR_NOISE` times the noise, as `fit_dynamic` stops there, else the better training
 fit of the two (`prefer_warm`): at the noise the warm refit can train better only by fitting
-noise with the base grid's extra elements. A base that
+noise with the base grid's extra elements. The same rule chooses, in the first pass, between
+an own-grid candidate's best warm trial and its best trial from scratch. A base that
 already fits its training window to within the noise (`at_noise`) has no such basin: the
 second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
@@ -457,8 +458,10 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
     """
     Fit the effects' free parameters: warm from `base_fit`, its alternative starts.
 
-    pinned: {free parameter: value} held within PIN_TOLERANCE of value; search: how each
-    start searches from scratch.
+    An `own_grid` effect new to `base_fit` is also fitted from scratch from the same
+    starts; of the best warm trial and the best from scratch (lowest training RMSE each),
+    `prefer_warm` chooses. pinned: {free parameter: value} held within PIN_TOLERANCE of
+    value; search: how each start searches from scratch.
     """
     pinned = pinned or {}
     # sorted: a negative value's lower bound is v (1 + tolerance)
@@ -492,15 +495,18 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
                 trials.append((dict(scratch, **eff.scratch_start(params), **alt), False,
                                {k: b for k, b in eff.scratch_bounds(params).items()
                                 if k not in pinned}))
-    res = None
+    best = {}
     for trial_start, warm, bounds in trials:
         trial = fit_dynamic(data, free=dict(free, **bounds), kind=kind,
                             grid=base_fit.grid if warm else None,
                             start=trial_start, input_hook=hook,
                             ref=base_fit.params.hysteresis if warm else None,
                             options=search, loop_ratio=loop_ratio)
-        if res is None or trial.train['rmse'] < res.train['rmse']:
-            res = trial
+        if warm not in best or trial.train['rmse'] < best[warm].train['rmse']:
+            best[warm] = trial
+    res = best.get(False, best.get(True))
+    if True in best and False in best and prefer_warm(data, best[True], best[False]):
+        res = best[True]
     train = data.split_masks(res.split)[0]
     resid = res.prediction[train] - data.position[train]
     t = res.trajectory
@@ -1232,16 +1238,16 @@ def beyond_training(data: Any, base: ModelFit) -> Optional[Tuple[float, Optional
     return (share, error) if floor and base.train['nrmse'] <= NEAR_NOISE * floor else None
 
 
-def prefer_warm(data: DynamicData, warm: ModelFit, scratch: ModelFit) -> bool:
+def prefer_warm(data: DynamicData, warm: Any, scratch: Any) -> bool:
     """
-    Return True when a candidate's warm refit, not its refit from scratch, is to be judged.
+    Return True when a candidate's warm fit, not its fit from scratch, is to be judged.
 
-    As `identification.fit_dynamic` chooses among its coarse grids: the refit from scratch
-    on the first coarse grid (`scratch`, the model `fit --add` gives) stands where its
-    training RMSE is within `NEAR_NOISE` times the noise's (`record_noise_rms`); otherwise
-    the one of the two that trains better. Two fits at the noise differ in training by the
-    noise they fit, and the warm one, on the base's grid, can fit it with that grid's extra
-    elements.
+    warm, scratch: fits with a `train['rmse']` (ModelFit or `identification.DynamicFit`).
+    As `identification.fit_dynamic` chooses among its coarse grids: the fit from scratch
+    (on the first coarse grid, as `fit --add` fits) stands where its training RMSE is within
+    `NEAR_NOISE` times the noise's (`record_noise_rms`); otherwise the one of the two that
+    trains better. Two fits at the noise differ in training by the noise they fit, and the
+    warm one, on the base's grid, can fit it with that grid's extra elements.
     """
     if scratch.train['rmse'] <= NEAR_NOISE * record_noise_rms(data):
         return False
