@@ -353,6 +353,9 @@ def test_argparse_errors_are_one_line_exit_2(tmp_path):
     (['fit', 'dup.csv'], "line 5, column 'time': 0.1 repeats 0.1 on line 4"),
     (['fit', REAL, '--add', 'delay'], 'delay'),
     (['fit', 'dup.csv', '--out', 'dup.csv', '--force'], '--out dup.csv is DATA itself'),
+    # refused before the fit, not after it (the pseudo file system takes no new file)
+    (['fit', REAL, '--out', '/proc/m.yaml'], '/proc/m.yaml: cannot write in /proc ('),
+    (['diagnose', REAL, '--report', '/proc/rep'], '/proc/rep: cannot write in /proc ('),
     (['fit', REAL, '--rate', '-3'], "argument --rate: '-3' is not a positive number"),
     (['excite', '--tau-s', 'nan', '--duty-full', '0.2', '--out', 'e.csv'],
      "argument --tau-s: 'nan' is not a positive number"),

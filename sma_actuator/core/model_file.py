@@ -48,8 +48,8 @@ import yaml
 from .actuator import ActuatorParams
 
 __all__ = ['KINDS', 'ModelFileError', 'ModelFormatWarning', 'check_model', 'check_writable',
-           'is_fitted', 'is_static_model', 'load_model', 'read_model', 'save_model',
-           'to_plain', 'write_model']
+           'creation_problem', 'is_fitted', 'is_static_model', 'load_model', 'read_model',
+           'save_model', 'to_plain', 'write_model']
 
 KINDS = ('classical', 'modified')
 _FIELDS = frozenset(f.name for f in fields(ActuatorParams))
@@ -129,6 +129,9 @@ def check_writable(path: PathLike, force: bool = False, directory: bool = False)
     """
     Raise `ModelFileError` if writing `path` would overwrite a file without force.
 
+    Also if its directory is missing or no file can be made there (`creation_problem`),
+    so that a fit learns it before its work, not after.
+
     directory: `path` may be a directory (a bag's); else an existing directory is refused.
     """
     path = Path(path)
@@ -138,6 +141,25 @@ def check_writable(path: PathLike, force: bool = False, directory: bool = False)
         raise ModelFileError(f'{path}: exists; use --force to overwrite it')
     if not path.parent.is_dir():
         raise ModelFileError(f'{path}: directory {path.parent} does not exist')
+    where = path if path.is_dir() else path.parent
+    problem = creation_problem(where)
+    if problem:
+        raise ModelFileError(f'{path}: cannot write in {where} ({problem})')
+
+
+def creation_problem(directory: PathLike) -> Optional[str]:
+    """
+    Return why no file can be made in `directory` (e.g. 'Permission denied'), or None.
+
+    Found by making and removing a temporary file there: a permission, a read-only or a
+    pseudo file system shows only when a file is made, and the output comes after a fit
+    of minutes.
+    """
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            return None
+    except OSError as err:
+        return err.strerror or str(err)
 
 
 def to_plain(obj: Any) -> Any:

@@ -38,6 +38,7 @@ import numpy as np
 
 from .compare import Comparison, CONCENTRATION_RATIO, MIN_SHARE
 from .remaining import percent as _pct, remaining_lines, rounds_lines
+from ..core.model_file import creation_problem
 
 PathLike = Union[str, os.PathLike]
 
@@ -53,7 +54,12 @@ class ReportError(ValueError):
 
 
 def check_report_dir(directory: PathLike, force: bool = False) -> None:
-    """Raise `ReportError` if `directory` is a file or already holds report files (no force)."""
+    """
+    Raise `ReportError` if `directory` cannot take a report.
+
+    That is: it is a file, already holds report files (without force), or neither it nor
+    its parent can take a new file (`core.model_file.creation_problem`).
+    """
     directory = Path(directory)
     if directory.exists() and not directory.is_dir():
         raise ReportError(f'{directory}: exists and is not a directory')
@@ -63,6 +69,10 @@ def check_report_dir(directory: PathLike, force: bool = False) -> None:
                           '--force to overwrite it')
     if not directory.exists() and not directory.parent.is_dir():
         raise ReportError(f'{directory}: parent directory {directory.parent} does not exist')
+    where = directory if directory.exists() else directory.parent
+    problem = creation_problem(where)
+    if problem:
+        raise ReportError(f'{directory}: cannot write in {where} ({problem})')
 
 
 def write_report(directory: PathLike, comparison: Comparison, title: str, *,
