@@ -357,6 +357,7 @@ def test_argparse_errors_are_one_line_exit_2(tmp_path):
     (['fit', REAL, '--out', '/proc/m.yaml'], '/proc/m.yaml: cannot write in /proc ('),
     (['diagnose', REAL, '--report', '/proc/rep'], '/proc/rep: cannot write in /proc ('),
     (['fit', REAL, '--rate', '-3'], "argument --rate: '-3' is not a positive number"),
+    (['diagnose', REAL, '--rounds', '0'], "argument --rounds: '0' is not a positive integer"),
     (['excite', '--tau-s', 'nan', '--duty-full', '0.2', '--out', 'e.csv'],
      "argument --tau-s: 'nan' is not a positive number"),
     (['excite', '--tau-s', '6.8', '--duty-full', '1.5', '--out', 'e.csv'],

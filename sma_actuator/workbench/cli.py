@@ -1150,7 +1150,7 @@ def _add_diagnose(sub: Any, common: argparse.ArgumentParser) -> None:
     dia.add_argument('--report', metavar='DIR', help='write an HTML report with figures')
     dia.add_argument('--jobs', type=_non_negative_int, default=0, metavar='N',
                      help='processes for the candidate refits (default 0: every core)')
-    dia.add_argument('--rounds', type=_non_negative_int, default=1, metavar='N',
+    dia.add_argument('--rounds', type=_positive_int, default=1, metavar='N',
                      help='add the missing effect, refit and diagnose again, up to N rounds, '
                      'stopping when nothing is significant (default 1)')
     dia.set_defaults(func=cmd_diagnose)
