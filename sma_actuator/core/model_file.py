@@ -129,8 +129,8 @@ def check_writable(path: PathLike, force: bool = False, directory: bool = False)
     """
     Raise `ModelFileError` if writing `path` would overwrite a file without force.
 
-    Also if its directory is missing or no file can be made there (`creation_problem`),
-    so that a fit learns it before its work, not after.
+    Also if its directory is missing or no file can be made there (`creation_problem`):
+    a command checks this before its fit, so that the fit is not lost at the end.
 
     directory: `path` may be a directory (a bag's); else an existing directory is refused.
     """
