@@ -58,8 +58,9 @@ scratch and judged again: with two effects missing, the base can sit so far from
 data that a warm refit stays in its basin. The fit from scratch is judged where it trains to
 within `NEAR_NOISE` times the noise, as `fit_dynamic` stops there, else the better training
 fit of the two (`prefer_warm`): at the noise the warm refit can train better only by fitting
-noise with the base grid's extra elements. The same rule chooses, in the first pass, between
-an own-grid candidate's best warm trial and its best trial from scratch. A base that
+noise with the base grid's extra elements. In the first pass, an own-grid candidate's best
+warm trial and its best trial from scratch are chosen between by the same rule, except that
+a warm trial training clearly better (by `NEAR_TIE`) stands (`warm_trial_stands`). A base that
 already fits its training window to within the noise (`at_noise`) has no such basin: the
 second pass is skipped. And when a
 counterfactual (check 3) is itself a better fit of the base model, by `min_improvement`
@@ -460,7 +461,7 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
 
     An `own_grid` effect new to `base_fit` is also fitted from scratch from the same
     starts; of the best warm trial and the best from scratch (lowest training RMSE each),
-    `prefer_warm` chooses. pinned: {free parameter: value} held within PIN_TOLERANCE of
+    `warm_trial_stands` chooses. pinned: {free parameter: value} held within PIN_TOLERANCE of
     value; search: how each start searches from scratch.
     """
     pinned = pinned or {}
@@ -505,7 +506,7 @@ def _fit_dynamic_raw(data: DynamicData, effects: list, kind: str,
         if warm not in best or trial.train['rmse'] < best[warm].train['rmse']:
             best[warm] = trial
     res = best.get(False, best.get(True))
-    if True in best and False in best and prefer_warm(data, best[True], best[False]):
+    if True in best and False in best and warm_trial_stands(data, best[True], best[False]):
         res = best[True]
     train = data.split_masks(res.split)[0]
     resid = res.prediction[train] - data.position[train]
@@ -1252,6 +1253,22 @@ def prefer_warm(data: DynamicData, warm: Any, scratch: Any) -> bool:
     if scratch.train['rmse'] <= NEAR_NOISE * record_noise_rms(data):
         return False
     return bool(warm.train['rmse'] <= scratch.train['rmse'])
+
+
+def warm_trial_stands(data: DynamicData, warm: Any, scratch: Any) -> bool:
+    """
+    Return True when an own-grid candidate's best warm trial, not its best from scratch, stands.
+
+    The trials are starts of one fit, so the lower training RMSE wins, as in any multi-start,
+    where it is clearly lower: by `NEAR_TIE` (10 %), the bar `_rank_retarders_by_training`
+    also holds two fits of one window to. Otherwise `prefer_warm`: where the two train alike,
+    the trial from scratch at the noise stands, the model `fit --add` gives. The second pass
+    judges its refits by `prefer_warm` alone: there the warm refit has already been judged
+    (in the first pass) and the refit from scratch is the second opinion it asks for.
+    """
+    if warm.train['rmse'] < (1.0 - NEAR_TIE) * scratch.train['rmse']:
+        return True
+    return prefer_warm(data, warm, scratch)
 
 
 def _regridded_base(data: DynamicData, base: ModelFit, fit: ModelFit,
