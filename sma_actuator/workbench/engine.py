@@ -57,8 +57,9 @@ When no candidate is significant, every one without an own grid is also refitted
 scratch and judged again: with two effects missing, the base can sit so far from the
 data that a warm refit stays in its basin. The fit from scratch is judged where it trains to
 within `NEAR_NOISE` times the noise, as `fit_dynamic` stops there, else the better training
-fit of the two (`prefer_warm`): at the noise the warm refit can train better only by fitting
-noise with the base grid's extra elements. In the first pass, an own-grid candidate's best
+fit of the two (`prefer_warm`): at the noise the warm refit, on the base grid, can train
+better by fitting noise with that grid's extra elements, and its better training does not
+say it holds out better. In the first pass, an own-grid candidate's best
 warm trial and its best trial from scratch are chosen between by the same rule, except that
 a warm trial training clearly better (by `NEAR_TIE`) stands (`warm_trial_stands`). A base that
 already fits its training window to within the noise (`at_noise`) has no such basin: the
@@ -1247,8 +1248,9 @@ def prefer_warm(data: DynamicData, warm: Any, scratch: Any) -> bool:
     As `identification.fit_dynamic` chooses among its coarse grids: the fit from scratch
     (on the first coarse grid, as `fit --add` fits) stands where its training RMSE is within
     `NEAR_NOISE` times the noise's (`record_noise_rms`); otherwise the one of the two that
-    trains better. Two fits at the noise differ in training by the noise they fit, and the
-    warm one, on the base's grid, can fit it with that grid's extra elements.
+    trains better. At the noise, the warm one, on the base's grid, can train better by
+    fitting noise with that grid's extra elements; its training lead does not say it holds
+    out better.
     """
     if scratch.train['rmse'] <= NEAR_NOISE * record_noise_rms(data):
         return False
