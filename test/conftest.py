@@ -123,5 +123,5 @@ def ros_context(ros_domain_id):
 
 
 def pytest_configure(config):
-    """Register the `slow` marker (tests of a minute or more; deselect with -m 'not slow')."""
-    config.addinivalue_line('markers', 'slow: takes a minute or more (-m "not slow" skips it)')
+    """Register the `slow` marker (tests of more than about 1.5 s; -m 'not slow' skips them)."""
+    config.addinivalue_line('markers', 'slow: more than about 1.5 s (-m "not slow" skips it)')

@@ -79,6 +79,7 @@ def emulated(ros_context):
             loop.close()
 
 
+@pytest.mark.slow
 def test_duty_topic_drives_the_emulated_wires_and_joint_states_follow(emulated):
     emulator, loop = emulated
     probe = loop.probe
@@ -174,6 +175,7 @@ def test_a_second_duty_publisher_zeroes_the_duty_with_an_error(emulated, ros_con
     assert emulator.mcu.pwm_a == to_counts(0.4)
 
 
+@pytest.mark.slow
 def test_line_noise_is_counted_and_the_stream_resynchronises(ros_context):
     with emulator_thread(baud=1_000_000, seed=2, line_noise_hz=40.0) as (emulator, port):
         loop = Loop(ros_context, port, baud=1_000_000)
@@ -194,6 +196,7 @@ def test_line_noise_is_counted_and_the_stream_resynchronises(ros_context):
             loop.close()
 
 
+@pytest.mark.slow
 def test_unplugged_mcu_gives_error_zero_duty_and_reconnects(ros_context, tmp_path):
     link = str(tmp_path / 'sma_mcu')
     proc, port = start_emulator_process('--link', link, '--baud', '1000000')

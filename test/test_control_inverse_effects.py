@@ -152,6 +152,7 @@ def test_drift_estimator_converges_and_stays_within_its_bounds():
         assert est.stroke == pytest.approx(want_stroke, abs=0.02)
 
 
+@pytest.mark.slow
 def test_drift_correction_helps_when_the_plants_offset_differs_from_the_model():
     model = ActuatorParams()
     plant = model.with_changes(offset_rad=0.08, stroke_rad=0.9)

@@ -43,6 +43,7 @@ def fitted_file(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_load_model_reads_a_sma_model_fit_file_without_warnings(fitted_file):
     with warnings.catch_warnings():
         warnings.simplefilter('error')

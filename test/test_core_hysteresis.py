@@ -135,6 +135,7 @@ def _targets(lo, hi, n=1500, seed=3):
     return lo + (hi - lo) * np.clip(x, 0.02, 0.98)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('form,u0', [('classical', -5.0), ('classical', 0.0),
                                      ('modified', 0.0),
                                      ('modified', -5.0)])

@@ -69,6 +69,7 @@ def test_recorder_hook_records_each_run_to_mcap(ros_context, tmp_path):
     assert 14.0 < span < 16.0, span
 
 
+@pytest.mark.slow
 def test_sine_metrics_give_phase_lag_and_no_settling_time(ros_context, tmp_path):
     summary = demo.run_all(ros_context, tmp_path / 'run', profiles=['sine'], modes=['pi'],
                            record=False, log=lambda *_: None)
@@ -91,6 +92,7 @@ def test_an_existing_name_is_refused_without_force(tmp_path):
     assert (tmp_path / 'runs' / 'taken' / 'summary.json').read_text() == '{"precious": 1}'
 
 
+@pytest.mark.slow
 def test_record_run_is_the_same_bag_on_every_run(tmp_path):
     # the walkthrough's recording: one executor on lockstep sim time, any host load
     from rclpy.serialization import deserialize_message

@@ -57,6 +57,7 @@ def pty_emulator(tmp_path):
     stop_process(proc)
 
 
+@pytest.mark.slow
 def test_pty_handshake_duty_reports_and_real_time_watchdog(pty_emulator):
     _, port, link = pty_emulator
     assert port == link and os.readlink(link).startswith('/dev/pts/')

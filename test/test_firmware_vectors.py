@@ -74,6 +74,7 @@ def test_vectors_file_matches_python_generator_byte_for_byte():
         'firmware/test_vectors.json is stale: run python test/support/firmware_vectors.py --write'
 
 
+@pytest.mark.slow
 def test_firmware_reproduces_every_vector(vector_driver):
     result = subprocess.run([str(vector_driver), str(FIRMWARE / 'test_vectors.json')],
                             capture_output=True, text=True, timeout=60)

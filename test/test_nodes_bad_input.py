@@ -75,6 +75,7 @@ def loop(ros_context):
             n.destroy_node()
 
 
+@pytest.mark.slow
 def test_bad_setpoints_are_rejected_and_last_valid_kept(loop):
     ex, plant, ctrl, tester = loop
     assert spin_until(ex, lambda: tester.sp.get_subscription_count() > 0)

@@ -90,6 +90,7 @@ def listener():
     sock.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name', sorted(NODES))
 def test_help_lists_every_declared_parameter_and_starts_nothing(name, tmp_path, listener,
                                                                 ros_context):
@@ -124,6 +125,7 @@ def test_help_lists_every_declared_parameter_and_starts_nothing(name, tmp_path, 
         listener.accept()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name', sorted(OTHER_SCRIPTS))
 def test_help_of_the_other_scripts_exits_0_and_writes_nothing(name, tmp_path):
     result = _run(name, '--help', cwd=tmp_path)

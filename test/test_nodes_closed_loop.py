@@ -20,6 +20,7 @@ from sma_actuator.control.metrics import summarize
 in_process = pytest.importorskip('sma_actuator.in_process')
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('mode', ['pi', 'pi_inverse'])
 def test_loop_settles_on_a_step(ros_context, mode):
     trace = in_process.run_closed_loop(

@@ -111,6 +111,7 @@ def test_controller_settings_change_at_runtime_and_invalid_ones_are_refused(ros_
         ctrl.destroy_node()
 
 
+@pytest.mark.slow
 def test_setpoint_one_shot_publishes_one_value_and_exits(ros_context, ros_domain_id):
     node = rclpy.create_node('listener', context=ros_context, namespace=c.NAMESPACE)
     got = []

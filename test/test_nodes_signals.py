@@ -139,6 +139,7 @@ def test_spin_until_stopped_returns_when_done_or_the_context_is_shut_down(ros_do
     node.destroy_node()
 
 
+@pytest.mark.slow
 def test_controller_console_script_exits_0_and_zeroes_the_duty_on_sigint_under_traffic(
         ros_context, ros_domain_id):
     """

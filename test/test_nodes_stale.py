@@ -98,6 +98,7 @@ def _stamp(node):
     return Header(stamp=node.get_clock().now().to_msg())
 
 
+@pytest.mark.slow
 def test_killed_controller_leaves_zero_duty_after_the_plant_timeout(ros_context, ros_domain_id):
     ex = SingleThreadedExecutor(context=ros_context)
     plant = PlantSim(context=ros_context, parameter_overrides=[

@@ -22,6 +22,7 @@ and every frame the mutations did not touch is still decoded (resynchronisation)
 import random
 import time
 
+import pytest
 from sma_actuator.hardware import protocol as p
 
 N_RANDOM = 50_000
@@ -105,6 +106,7 @@ def run_fuzz(seed, n_random, n_mutated):
     return failures
 
 
+@pytest.mark.slow
 def test_fuzz_100k_random_and_mutated_inputs():
     start = time.perf_counter()
     failures = run_fuzz(seed=4, n_random=N_RANDOM, n_mutated=N_MUTATED)

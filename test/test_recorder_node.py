@@ -71,6 +71,7 @@ def graph(ros_context):
         node.destroy_node()
 
 
+@pytest.mark.slow
 def test_records_every_contract_topic_byte_for_byte(graph, tmp_path):
     talker, probe, executor, nodes = graph
     pubs = {t: talker.create_publisher(ty, t, qos) for t, (ty, qos, _) in CONTRACT.items()}
@@ -195,6 +196,7 @@ def test_refuses_to_overwrite_and_rejects_unknown_parameters(ros_context, tmp_pa
         RecorderNode(context=ros_context, topic=['/x'])
 
 
+@pytest.mark.slow
 def test_sim_time_recording_logs_the_clock_time(graph, tmp_path):
     """
     Like rosbag2 under use_sim_time.

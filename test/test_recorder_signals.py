@@ -99,6 +99,7 @@ def _on_disk(bag, count):
     return False
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_sigint_and_sigterm_finish_the_bag(recording, sig):
     proc, bag, node, executor = recording
@@ -114,6 +115,7 @@ def test_sigint_and_sigterm_finish_the_bag(recording, sig):
     assert BagReader(bag).recoveries == []
 
 
+@pytest.mark.slow
 def test_sigkill_leaves_a_recoverable_file(recording):
     proc, bag, node, executor = recording
     pub = _publish(node, executor, 300)

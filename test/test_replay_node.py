@@ -167,6 +167,7 @@ def _replay_command():
     return [found] if found else [sys.executable, '-m', 'sma_actuator.nodes.replay']
 
 
+@pytest.mark.slow
 def test_console_script_interrupted_zeroes_duty_before_exit(probe, tmp_path):
     node, executor, got, _ = probe
     _write_bag(tmp_path / 'bag', count=300, period_ms=20)

@@ -61,6 +61,7 @@ def test_effects_catalog_is_complete_and_documented():
         assert info['description'] and 0.0 <= lo <= hi <= richsim.MAX_MAGNITUDE, name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('duty', [0.1, 0.3])
 def test_steady_state_temperature_is_p_over_ha(duty):
     d = run('none', 0.0, (15.0, duty, 0.0))

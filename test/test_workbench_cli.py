@@ -100,6 +100,7 @@ def fitted(tmp_path_factory):
     return data, d / 'fitted.yaml', json.loads(proc.stdout)
 
 
+@pytest.mark.slow
 def test_fit_json_scores_a_clean_record_well(fitted):
     _, out, doc = fitted
     assert {'effects', 'train_nrmse', 'validation_nrmse', 'parameters'} <= set(doc)
@@ -111,6 +112,7 @@ def test_fit_json_scores_a_clean_record_well(fitted):
     assert saved['scores']['validation']['nrmse'] == pytest.approx(doc['validation_nrmse'])
 
 
+@pytest.mark.slow
 def test_fit_and_compare_give_the_noise_beside_the_scores(fitted, tmp_path):
     data, model, doc = fitted
     span = np.ptp(np.loadtxt(data, delimiter=',', skiprows=1)[:, 3])
@@ -143,6 +145,7 @@ def test_the_noise_line_says_how_many_times_the_noise_each_part_is():
         '     noise: NRMSE 0.10 %  RMSE 0.002, the measurement noise alone')
 
 
+@pytest.mark.slow
 def test_fit_refuses_to_overwrite_without_force(fitted):
     data, out, _ = fitted
     before = out.read_bytes()
@@ -151,6 +154,7 @@ def test_fit_refuses_to_overwrite_without_force(fitted):
     assert out.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_compare_json_and_report_on_the_fitting_record(fitted, tmp_path):
     data, model, doc = fitted
     proc = run('compare', data, '--model', model, '--json', '--report', tmp_path / 'rep')
@@ -189,6 +193,7 @@ def test_diagnose_names_a_hidden_delay_and_reports_it(tmp_path):
     assert 'Missing effect: <b>delay</b>' in page and (tmp_path / 'r' / 'time.png').exists()
 
 
+@pytest.mark.slow
 def test_diagnose_rounds_add_the_delay_and_report_the_error_falling(tmp_path):
     data = write_record(tmp_path / 'delay.csv', n=800, seed=3, delay_s=0.4)
     proc = run('diagnose', data, '--candidates', 'delay', '--rounds', '2', '--json',
@@ -207,6 +212,7 @@ def test_diagnose_rounds_add_the_delay_and_report_the_error_falling(tmp_path):
     assert 'round 1: + delay' in page and 'then nothing is significant' in page
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('hidden, says', [
     ({}, 'the model explains the data'),
     ({'delay_s': 0.4}, 'an effect the catalog does not hold, or one too weak to separate'),
@@ -231,6 +237,7 @@ def test_what_is_left_follows_the_errors_over_the_noise():
     assert 'not tried' not in remaining.left_to_explain(1.2, 1.0, lacking)
 
 
+@pytest.mark.slow
 def test_an_effect_the_data_cannot_test_is_named_where_an_error_remains(tmp_path):
     # a delay remains unexplained (the one candidate asked for cannot take it); the record
     # has no ambient column, so ambient_drift is not tried, and the user is told why
@@ -302,6 +309,7 @@ def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():
     assert 'does not show what the training part lacks' in cli.rounds_lines(rounds, 3)[-2]
 
 
+@pytest.mark.slow
 def test_real_loops_classical_base_lacks_saturation_and_adding_it_cuts_the_error(tmp_path):
     model = tmp_path / 'classical.yaml'
     model.write_text('effects: []\nkind: classical\n')
@@ -318,6 +326,7 @@ def test_real_loops_classical_base_lacks_saturation_and_adding_it_cuts_the_error
     assert fit['validation_nrmse'] <= 0.025
 
 
+@pytest.mark.slow
 def test_static_compare_report_draws_curves(tmp_path):
     proc = run('fit', REAL, '--out', tmp_path / 'm.yaml')
     assert proc.returncode == 0, proc.stderr
@@ -327,6 +336,7 @@ def test_static_compare_report_draws_curves(tmp_path):
     assert 'error' in proc.stdout and (tmp_path / 'r' / 'curves.png').exists()
 
 
+@pytest.mark.slow
 # ------------------------------------------------------------------------------ bad input
 def test_malformed_csv_subprocess_exit_2_one_line(tmp_path):
     bad = tmp_path / 'bad.csv'
@@ -576,6 +586,7 @@ def test_progress_bar_only_on_a_terminal():
     assert pipe.text == ''
 
 
+@pytest.mark.slow
 def test_module_is_runnable_with_python_m(tmp_path):
     proc = subprocess.run([sys.executable, '-m', 'sma_actuator.workbench.cli', 'fit', 'x.csv'],
                           capture_output=True, text=True, cwd=tmp_path, timeout=120)

@@ -214,6 +214,7 @@ def test_malformed_inputs_exit_0_with_valid_data_or_2_with_one_line(tmp_path, st
     assert not failures, summary + '\n' + '\n'.join(f[:300] for f in failures[:15])
 
 
+@pytest.mark.slow
 def test_one_line_error_reaches_stderr_of_a_real_process(tmp_path):
     """A handful of inputs that raised tracebacks before, through a real `sma-model` process."""
     good = _dynamic_csv()

@@ -190,6 +190,7 @@ def test_prediction_length_mismatch_is_an_error():
         compare(data, data.position[:-1])
 
 
+@pytest.mark.slow
 def test_report_writes_html_and_pngs_and_refuses_to_overwrite(tmp_path):
     data = _record(400)
     res = compare(data, data.position - 0.02 * np.sin(data.time))
@@ -239,6 +240,7 @@ def test_a_gap_in_a_record_is_neither_scored_nor_drawn_and_keeps_its_time(tmp_pa
     assert (tmp_path / 'r' / 'time.png').is_file()
 
 
+@pytest.mark.slow
 def test_a_diagnosis_report_says_how_far_the_model_is_from_the_noise(tmp_path):
     data = _record(400)
     res = compare(data, data.position - 0.02 * np.sin(data.time))
@@ -258,6 +260,7 @@ def test_a_diagnosis_report_says_how_far_the_model_is_from_the_noise(tmp_path):
             'training error too 80 times: an effect the catalog does not hold') in page
 
 
+@pytest.mark.slow
 def test_a_report_of_rounds_ends_with_what_the_final_model_leaves(tmp_path):
     res = compare(_record(400), _record(400).position)
     first = {'effect': 'delay', 'validation_nrmse': 0.02, 'train_nrmse': 0.015,
@@ -292,6 +295,7 @@ def test_joined_records_follow_each_other_and_a_gap_keeps_its_length():
     assert steps.tolist() == [1] * 149 + [51] + [1] * (350 + 300 - 151)
 
 
+@pytest.mark.slow
 def test_a_diagnosis_report_scores_only_what_the_fit_was_scored_on(tmp_path):
     """`sma-model batch` writes its reports here: a gap is left out as the fit left it out."""
     data = _gapped()

@@ -506,6 +506,7 @@ def test_a_malformed_column_pair_is_refused(pair):
         parse_column_map([pair])
 
 
+@pytest.mark.slow
 def test_a_csv_gap_in_the_positions_is_scored_as_the_same_gap_in_a_bag(tmp_path):
     # one rule for a reading the sensor did not deliver, whichever file holds the record
     from test_workbench_batch import _record, _write_bag, _write_csv
@@ -545,6 +546,7 @@ def _rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
 
 
+@pytest.mark.slow
 def test_a_bag_gap_is_simulated_but_neither_fitted_nor_scored(tmp_path):
     # a 20 s stretch without joint states while the shaft moves: the straight line the
     # arrays hold there is no measurement, and a fit through it misses the plant
@@ -690,6 +692,7 @@ def test_above_100_hz_a_glitch_may_last_30_ms():
 WIRE_STEP = Path(REAL).parent / 'spring_biased_wire' / 'step_a.csv'
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not WIRE_STEP.is_file(), reason='shared data not found')
 def test_sensor_glitches_in_a_measured_record_are_bridged_and_neither_fitted_nor_scored(
         tmp_path, capsys):

@@ -89,6 +89,7 @@ def test_adaptive_grid_follows_the_output_the_data_moves_not_the_raw_weight():
     assert cells_near(bands, 88.0) >= 2 * cells_near(bands, 58.0)
 
 
+@pytest.mark.slow
 def test_base_fit_reaches_the_noise_on_the_plant_models_own_data():
     # regression: on this null record (the package's plant, seed 100) the coarse fit put
     # a large weight on an element near the hottest state; the fine grid followed it and
@@ -100,6 +101,7 @@ def test_base_fit_reaches_the_noise_on_the_plant_models_own_data():
     assert fit.values['tau_s'] == pytest.approx(act.ActuatorParams().tau_s, rel=0.03)
 
 
+@pytest.mark.slow
 def test_the_base_search_tries_other_coarse_grids_while_it_misfits():
     # a null record of one wire against a spring (rich simulator) with no ambient column:
     # from the first coarse grid the search ends at 2.8 times the noise floor (0.54 %
@@ -116,6 +118,7 @@ def test_the_base_search_tries_other_coarse_grids_while_it_misfits():
     assert fit.validation['nrmse'] < 0.7 * first_grid.validation['nrmse']
 
 
+@pytest.mark.slow
 def test_the_base_search_keeps_the_best_coarse_grid_that_reaches_the_noise(monkeypatch):
     # the paper's own model: from the first coarse grid the search ends at 1.8 times the
     # noise, and the best of the other two within 1.5 times is kept
@@ -141,6 +144,7 @@ def test_the_base_search_keeps_the_best_coarse_grid_that_reaches_the_noise(monke
     assert searches and {grid for grid, _ in searches} == {options.coarse}
 
 
+@pytest.mark.slow
 def test_strong_sensor_polynomial_is_fitted_to_the_noise():
     # the plant's strongest potentiometer setting (0.26 rad off at the ends for the old
     # first-order inverse of p in the regression, which left 0.92 % training NRMSE)
@@ -152,6 +156,7 @@ def test_strong_sensor_polynomial_is_fitted_to_the_noise():
     assert fit.validation['nrmse'] < 0.4 * base.validation['nrmse']
 
 
+@pytest.mark.slow
 def test_the_sensor_polynomial_fits_the_same_whatever_the_unit_and_zero():
     # one potentiometer record (rich simulator) read in rad, and as a rig in mm reads it:
     # 8 mm + 5 mm/rad. Expanded about the measured travel the fit is the same; about 0 mm
@@ -511,6 +516,7 @@ def test_unequal_wires_are_found_from_either_side_of_the_equal_pair():
     assert fit.validation['nrmse'] < 0.005
 
 
+@pytest.mark.slow
 def test_strong_latent_heat_is_named_from_its_own_grid():
     # the plant's strongest latent heat (25 K per unit contraction): refitted on the base
     # grid from a small start the search stopped at 8 K (+8 % held-out, not named)
@@ -577,6 +583,7 @@ def test_a_gain_the_regridded_base_fits_as_well_in_training_is_not_the_effects()
     assert 'the grid, not the effect, carries the gain' in entry['explanation']
 
 
+@pytest.mark.slow
 def test_a_gain_from_a_few_moving_held_out_stretches_is_not_an_effect():
     # a null record of another rig (125 um, 0.2 m, 1 s cooling, loop at 55 C, 26 C, 30 Hz):
     # the convection refit leaves the exponent at about 0, gains 20 % over the whole
@@ -621,6 +628,7 @@ def poor_base():
                                      residual=pred[mask] - data.position[mask])
 
 
+@pytest.mark.slow
 def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base(poor_base):
     data, poor = poor_base
     kept = engine.diagnose(data, base=poor, candidates=['convection'], rebase=0)
@@ -636,6 +644,7 @@ def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base(po
     assert summary['seconds'] > diag.candidates[0]['seconds'] > 0
 
 
+@pytest.mark.slow
 def test_an_effect_named_against_a_poor_base_yields_to_a_better_fit_of_the_base(poor_base):
     # the record holds no effect; against the poor base phase resistance gains held out
     data, poor = poor_base
@@ -802,6 +811,7 @@ def test_the_pass_from_scratch_runs_only_where_the_base_is_short_of_the_noise():
         assert ('candidates from scratch' in stages) is not at_noise, stages
 
 
+@pytest.mark.slow
 def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
     data = record(act.ActuatorParams(), seconds=120.0)
     base = engine.fit_model(data, ())
@@ -834,6 +844,7 @@ def test_own_grid_effects_are_also_refitted_from_scratch(monkeypatch):
         CATALOG.pop('test_own_grid', None)
 
 
+@pytest.mark.slow
 def test_a_trial_from_scratch_at_the_noise_stands_before_a_warm_trial_alike_in_training(
         monkeypatch):
     # of an own-grid candidate's trials, the one from scratch at the noise (1.4 times it)

@@ -63,6 +63,7 @@ def all_training(*records):
                        data.scored, len(data))
 
 
+@pytest.mark.slow
 def test_one_step_fits_any_time_constant_and_two_levels_tie_it():
     step = all_training(single_wire([0.35]))
     profile = tau_profile(step, fit_model(step))
@@ -76,6 +77,7 @@ def test_one_step_fits_any_time_constant_and_two_levels_tie_it():
     assert min(profile.train_nrmse) > 2.0 * profile.fitted_nrmse
 
 
+@pytest.mark.slow
 def test_a_pinned_parameter_stays_where_it_is_held():
     data = all_training(single_wire([0.2, 0.5, 0.25]))
     fit = fit_model(data, pinned={'tau_s': 1.7})
@@ -86,6 +88,7 @@ def test_a_pinned_parameter_stays_where_it_is_held():
     assert fit.values['phase_kappa'] == pytest.approx(-0.1, rel=1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'step_a.csv').is_file(), reason='shared data not found')
 def test_fit_says_when_the_measured_step_leaves_the_time_constant_open(tmp_path, capsys):
     out = tmp_path / 'step.yaml'
@@ -145,6 +148,7 @@ def test_a_ramp_to_the_level_counts_only_near_the_level():
         np.mean(np.abs(heated - levels.level) <= LEVEL_TOLERANCE * 0.4))
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'ramp_a.csv').is_file(), reason='shared data not found')
 def test_the_measured_records_are_named_one_level_and_a_staircase_is_told_so(tmp_path, capsys):
     """The three shared records all heat at duty 0.2; a staircase compared with them is noted."""

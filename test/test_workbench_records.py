@@ -98,6 +98,7 @@ def assert_one_line_error(code, err, *fragments):
         assert f in lines[0], lines[0]
 
 
+@pytest.mark.slow
 def test_a_csv_with_its_own_column_names_is_read_through_column(tmp_path, capsys):
     # a logger's own names (time in ns since the epoch, `pwm`, `pot`) and a pandas index
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
@@ -125,6 +126,7 @@ def test_a_csv_with_its_own_column_names_is_read_through_column(tmp_path, capsys
     assert_one_line_error(code, err, "argument --column: 'pwm' is not NAME=HEADER")
 
 
+@pytest.mark.slow
 def test_a_record_without_a_unit_takes_the_unit_of_the_model_or_of_the_other_records(
         tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
@@ -147,6 +149,7 @@ def test_a_record_without_a_unit_takes_the_unit_of_the_model_or_of_the_other_rec
     assert_one_line_error(code, err, 'records fitted together need one unit')
 
 
+@pytest.mark.slow
 def test_a_record_in_another_unit_of_length_is_converted_into_the_models(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     rows = np.loadtxt(a, delimiter=',', skiprows=1)
@@ -172,6 +175,7 @@ def test_a_record_in_another_unit_of_length_is_converted_into_the_models(tmp_pat
     assert yaml.safe_load((tmp_path / 'n.yaml').read_text())['position_unit'] == 'mm'
 
 
+@pytest.mark.slow
 def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys):
     # nothing is labelled rad unless it is rad: the terminal, the JSON and the fleet table
     a = single_wire_csv(tmp_path / 'a.csv', seed=1, zero=0.3)
@@ -191,6 +195,7 @@ def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys
     assert not [k for k in table if k.endswith('_rad')], table
 
 
+@pytest.mark.slow
 def test_fit_several_records_scores_each_and_writes_the_rig(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1, zero=0.3)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2, zero=-0.2)
@@ -267,6 +272,7 @@ def test_fit_leaves_each_record_out_in_turn_and_writes_the_model_fitted_on_all(t
     assert row['scores']['all']['nrmse'] < 0.02 and 'still cooling' in err
 
 
+@pytest.mark.slow
 def test_compare_predicts_an_untared_record_from_its_own_start_rest(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -292,6 +298,7 @@ def test_compare_predicts_an_untared_record_from_its_own_start_rest(tmp_path, ca
     assert scores[moved]['rmse'] < 0.1
 
 
+@pytest.mark.slow
 def test_compare_notes_records_that_move_little_of_the_models_travel(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -312,6 +319,7 @@ def test_compare_notes_records_that_move_little_of_the_models_travel(tmp_path, c
     assert code == 0 and 'the compared records move' not in err, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', [5, 6, 7])
 def test_a_record_that_barely_moves_is_not_cooling_untared_or_at_other_levels(
         tmp_path, capsys, seed):
@@ -336,6 +344,7 @@ def test_a_record_that_barely_moves_is_not_cooling_untared_or_at_other_levels(
     assert 'untared' not in row and row['warm_start'] is False
 
 
+@pytest.mark.slow
 def test_fit_notes_records_whose_start_rests_lie_apart(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -351,6 +360,7 @@ def test_fit_notes_records_whose_start_rests_lie_apart(tmp_path, capsys):
         assert code == 0 and 'note: the records start at rests' not in text, text
 
 
+@pytest.mark.slow
 def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -375,6 +385,7 @@ def test_compare_starts_a_record_begun_mid_run_warm(tmp_path, capsys):
         rows[str(warm)]['scores']['all']['rmse'], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_a_record_whose_duty_came_on_shortly_before_it_began_is_led_in_so(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -391,6 +402,7 @@ def test_a_record_whose_duty_came_on_shortly_before_it_began_is_led_in_so(tmp_pa
     assert 'simulated with those duties on for 3' in (tmp_path / 'report/index.html').read_text()
 
 
+@pytest.mark.slow
 def test_compare_takes_a_step_from_the_first_sample_that_fit_refuses(tmp_path, capsys):
     out = tmp_path / 'm.yaml'
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
@@ -429,6 +441,7 @@ def test_fit_and_diagnose_lead_a_record_begun_mid_run_in_warm(tmp_path, capsys):
     assert json.loads(text)['baseline']['validation_nrmse'] < 0.01
 
 
+@pytest.mark.slow
 def test_a_record_begun_while_the_wire_still_cools_is_led_in_cooling(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -468,6 +481,7 @@ def test_a_record_that_shows_no_rest_takes_the_sensor_zero_of_those_that_do(tmp_
     assert zeros(alone, 0.25)[0] == 0.25 and zeros(alone)[0] > 4.0   # its hot first reading
 
 
+@pytest.mark.slow
 def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_path, capsys):
     scores = {}
     for sign in (1.0, -1.0):
@@ -482,6 +496,7 @@ def test_a_sensor_that_reads_the_other_way_is_fitted_with_a_negative_stroke(tmp_
     np.testing.assert_allclose(scores[-1.0], scores[1.0], rtol=0.3)
 
 
+@pytest.mark.slow
 def test_a_slow_wire_is_fitted_with_its_time_constant(tmp_path, capsys):
     # τ = 30 s: beyond the search's starts (0.66-6.6 s)
     record = single_wire_csv(tmp_path / 'a.csv', n=1600, dt=0.25, hold_s=40.0, tau_s=30.0)
@@ -510,6 +525,7 @@ def test_the_real_wire_four_times_slower_is_joined_with_a_longer_rest(tmp_path, 
     assert max(r['scores']['all']['nrmse'] for r in doc['records']) < 0.04
 
 
+@pytest.mark.slow
 def test_validate_on_names_the_held_out_records(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -532,6 +548,7 @@ def test_units_and_layout_come_from_the_data(tmp_path, capsys):
     assert ' deg' in text and 'rad' not in text
 
 
+@pytest.mark.slow
 def test_records_at_another_rate_are_resampled(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2, n=1000, dt=DT / 2)
@@ -570,6 +587,7 @@ def test_records_at_or_below_the_fitting_rate_are_kept_and_faster_ones_decimated
     assert at_fit_rate(short) == (short, None)       # 9 samples would be too few to fit
 
 
+@pytest.mark.slow
 def test_a_fast_record_is_fitted_at_the_fitting_rate_unless_asked_otherwise(tmp_path, capsys):
     fast = single_wire_csv(tmp_path / 'fast.csv', n=12000, dt=0.005, seed=3)   # 200 Hz, 60 s
     fits = {}
@@ -630,6 +648,7 @@ def test_bad_record_sets_are_one_line_errors(tmp_path, capsys, case):
     assert out.read_text() == 'keep'
 
 
+@pytest.mark.slow
 def test_a_quiet_validation_window_is_uninformative_not_a_huge_error(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     rows = np.loadtxt(a, delimiter=',', skiprows=1)
@@ -651,6 +670,7 @@ def test_a_quiet_validation_window_is_uninformative_not_a_huge_error(tmp_path, c
     assert '<td class="l">validation</td><td>uninformative</td>' in page
 
 
+@pytest.mark.slow
 def test_a_quiet_record_left_out_is_uninformative_not_scored(tmp_path, capsys):
     a = single_wire_csv(tmp_path / 'a.csv', seed=1)
     b = single_wire_csv(tmp_path / 'b.csv', seed=2)
@@ -668,6 +688,7 @@ def test_a_quiet_record_left_out_is_uninformative_not_scored(tmp_path, capsys):
     assert 'uninformative' not in line[str(a)] and 'NRMSE' in line[str(a)]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_trained_without_full_cooling_the_model_cools_to_the_measured_rest():
     """
@@ -686,6 +707,7 @@ def test_trained_without_full_cooling_the_model_cools_to_the_measured_rest():
     assert fit.validation['nrmse'] < 0.04
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_trained_on_records_that_never_cool_the_cooling_follows_the_datasheet_loop():
     """
@@ -714,6 +736,7 @@ def test_trained_on_records_that_never_cool_the_cooling_follows_the_datasheet_lo
         assert abs(model - measured) < 1.5, (share, measured, model)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (WIRE / 'square_a.csv').is_file(), reason='shared data not found')
 def test_latent_heat_predicts_the_cooling_that_training_never_showed():
     """
