@@ -120,8 +120,3 @@ def ros_context(ros_domain_id):
     yield context
     if context.ok():
         rclpy.shutdown(context=context)
-
-
-def pytest_configure(config):
-    """Register the `slow` marker (tests of more than about 1.5 s; -m 'not slow' skips them)."""
-    config.addinivalue_line('markers', 'slow: more than about 1.5 s (-m "not slow" skips it)')
