@@ -35,6 +35,8 @@ import numpy as np
 import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins, remaining
+from sma_actuator.workbench.commands.diagnose import diagnosis_lines
+from sma_actuator.workbench.commands.steps import Progress
 from sma_actuator.workbench.effects import CATALOG
 from support.plugin_effect import DEAD_TIME_PLUGIN, install_entry_point
 import yaml
@@ -266,7 +268,7 @@ def test_a_named_effect_says_what_the_model_with_it_still_leaves():
                                   'significant': False, 'data_lack': lacking,
                                   'explanation': f'not applicable: {lacking}'}],
            'missing_effect': 'fast_dynamics'}
-    lines = cli.diagnosis_lines(doc, 'modified')
+    lines = diagnosis_lines(doc, 'modified')
     assert lines[-3:] == [
         '  held-out NRMSE ...',
         '  with fast_dynamics the held-out error is 101 times what the measurement noise '
@@ -275,7 +277,7 @@ def test_a_named_effect_says_what_the_model_with_it_still_leaves():
         f'not tried, for what the data lack: ambient_drift: {lacking}',
         '  next: sma-model fit DATA --add fast_dynamics ... --out FITTED.yaml']
     named.update(validation_nrmse=0.0025, train_nrmse=0.0022)
-    assert cli.diagnosis_lines(doc, 'modified')[-2] == (
+    assert diagnosis_lines(doc, 'modified')[-2] == (
         '  with fast_dynamics the held-out error is 1.2 times what the measurement noise '
         'alone gives: the model explains the data')
     # the rounds stopped by their limit: the last name may not be the last effect missing
@@ -283,11 +285,11 @@ def test_a_named_effect_says_what_the_model_with_it_still_leaves():
                        {'added': 'delay', 'validation_nrmse': 0.1500}],
                final={'effects': ['fast_dynamics', 'delay'], 'validation_nrmse': 0.1500,
                       'train_nrmse': 0.0900})
-    assert cli.rounds_lines(doc, 2)[-1].startswith(
+    assert remaining.rounds_lines(doc, 2)[-1].startswith(
         '  with fast_dynamics + delay the held-out error is 71 times what the measurement '
         'noise alone gives, the training error too 43 times: the model with fast_dynamics + '
         'delay does not explain all of the data yet')
-    assert 'an effect the catalog does not hold' in cli.rounds_lines(doc, 3)[-1]
+    assert 'an effect the catalog does not hold' in remaining.rounds_lines(doc, 3)[-1]
 
 
 def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():
@@ -296,7 +298,7 @@ def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():
     doc = {'baseline': {'effects': [], 'validation_nrmse': 0.0020, 'train_nrmse': 0.0158,
                         'noise_floor_nrmse': 0.0019},
            'candidates': [], 'missing_effect': None, 'training_lead': lead}
-    lines = cli.diagnosis_lines(doc, 'modified')
+    lines = diagnosis_lines(doc, 'modified')
     assert 'missing effect: none (no candidate cuts the held-out error clearly)' in lines
     assert lines[-1] == ('  the training window is fitted best with delay (training NRMSE '
                          '1.58 % -> 0.20 %, BIC change -55430; held out 0.20 %), which the '
@@ -305,8 +307,8 @@ def test_a_training_lead_is_printed_as_a_hint_to_test_not_a_name():
                          'not a name')
     rounds = dict(doc, rounds=[], final={'effects': [], 'validation_nrmse': 0.0020,
                                          'train_nrmse': 0.0158, 'training_lead': lead})
-    assert cli.rounds_lines(rounds, 3)[-1] == lines[-1]
-    assert 'does not show what the training part lacks' in cli.rounds_lines(rounds, 3)[-2]
+    assert remaining.rounds_lines(rounds, 3)[-1] == lines[-1]
+    assert 'does not show what the training part lacks' in remaining.rounds_lines(rounds, 3)[-2]
 
 
 @pytest.mark.slow
@@ -579,7 +581,7 @@ def test_progress_bar_only_on_a_terminal():
             pass
     tty, pipe = Stream(True), Stream(False)
     for stream in (tty, pipe):
-        bar = cli.Progress('diagnose', stream)
+        bar = Progress('diagnose', stream)
         bar(3, 6, 'delay')
         bar.close()
     assert '[############            ] 3/6 delay' in tty.text and tty.text.endswith('\033[K')
@@ -616,20 +618,20 @@ def test_rounds_text_shows_the_base_refits_and_the_error_falling():
                        'refitted_base_nrmse': 0.0224}],
            'final': {'effects': ['asymmetric_wires', 'fast_dynamics'],
                      'validation_nrmse': 0.0008, 'refitted': why}}
-    lines = cli.rounds_lines(doc, 3)
+    lines = remaining.rounds_lines(doc, 3)
     assert lines[0] == 'rounds: baseline validation NRMSE 10.86 %'
     assert [line.split()[-2] for line in lines[1:4]] == ['7.59', '2.24', '0.09']
     assert 'round 2: base refitted' in lines[2] and '+ fast_dynamics' in lines[3]
     assert lines[4:] == ['  then nothing is significant',
                          f'  final: {why}, validation NRMSE 0.08 %']
-    assert cli.rounds_lines(doc, 2)[-1] == '  stopped after 2 rounds (--rounds)'
+    assert remaining.rounds_lines(doc, 2)[-1] == '  stopped after 2 rounds (--rounds)'
     # with the noise known, the last line says what the final model leaves
     noisy = dict(doc, baseline=dict(doc['baseline'], noise_floor_nrmse=0.0006),
                  final=dict(doc['final'], train_nrmse=0.0007))
-    assert 'the model explains the data' in cli.rounds_lines(noisy, 3)[-1]
+    assert 'the model explains the data' in remaining.rounds_lines(noisy, 3)[-1]
     doc['baseline']['refitted'] = why
-    assert cli.diagnosis_lines(dict(doc, candidates=[], missing_effect=None),
-                               'modified')[1] == f'  {why}'
+    assert diagnosis_lines(dict(doc, candidates=[], missing_effect=None),
+                           'modified')[1] == f'  {why}'
 
 
 def test_rounds_text_and_plot_show_an_effect_removed_after_the_rounds(tmp_path):
@@ -640,7 +642,7 @@ def test_rounds_text_and_plot_show_an_effect_removed_after_the_rounds(tmp_path):
                       {'added': 'fast_dynamics', 'validation_nrmse': 0.0011}],
            'final': {'effects': ['asymmetric_wires', 'fast_dynamics'],
                      'validation_nrmse': 0.0011}}
-    lines = cli.rounds_lines(doc, 3)
+    lines = remaining.rounds_lines(doc, 3)
     assert lines[-2:] == ['  stopped after 3 rounds (--rounds)',
                           '  then - current_limit        validation NRMSE 0.11 % (not '
                           'significant next to the others)']

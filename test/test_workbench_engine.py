@@ -26,8 +26,9 @@ import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
-from sma_actuator.workbench import cli, engine
+from sma_actuator.workbench import engine
 from sma_actuator.workbench.batch import round_summary
+from sma_actuator.workbench.commands.diagnose import diagnosis_lines
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
 from support import plant_records
 from support.richsim import parse_rig, simulate
@@ -340,7 +341,7 @@ def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
     assert doc['candidates'][0]['not_resolved'] == why[0]
     assert doc['candidates'][1]['rival'] == 'delay'
     assert any('fast_dynamics passed every check, but delay' in line
-               for line in cli.diagnosis_lines(doc, 'modified'))
+               for line in diagnosis_lines(doc, 'modified'))
     # ranked again (a later pass): said once, still not named
     assert engine.rank_candidates(None, diag.candidates).missing_effect is None
     assert lag['explanation'].count('fits the held-out window better') == 1

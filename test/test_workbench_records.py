@@ -28,6 +28,7 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.identification import DynamicData
 from sma_actuator.workbench import cli
 from sma_actuator.workbench.batch import final_parameters
+from sma_actuator.workbench.commands.fit import fit_json
 from sma_actuator.workbench.data import load_data
 from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model, load_fit,
                                            prune_effects, record_scores)
@@ -187,7 +188,7 @@ def test_a_fitted_position_is_named_in_the_records_unit_not_rad(tmp_path, capsys
     model = yaml.safe_load(out.read_text())
     assert 'sensor_c2_rad' in model['parameters']   # the model file keeps its field names
     fit = load_fit(model)
-    assert set(cli.fit_json(fit, None)['parameters']) == {
+    assert set(fit_json(fit, None)['parameters']) == {
         'sensor_c2', 'sensor_c3', 'sensor_c4', 'sensor_c5', 'tau_s'}
     table = final_parameters(fit)
     assert table['stroke_mm'] == model['model']['stroke_rad']

@@ -175,6 +175,18 @@ def to_plain(obj: Any) -> Any:
     return obj
 
 
+def json_safe(obj: Any) -> Any:
+    """Return plain JSON data (`to_plain`), non-finite floats as None (strict JSON has no NaN)."""
+    obj = to_plain(obj)
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
 def write_model(path: PathLike, spec: Mapping[str, Any], force: bool = False) -> Path:
     """Write the model dict to `path` as YAML (atomically: temporary file, then rename)."""
     check_writable(path, force)

@@ -465,7 +465,7 @@ def load_result(directory: Union[str, Path], stamp: str,
 
 def save_result(directory: Union[str, Path], doc: dict) -> None:
     """Write a record's result atomically (a reader never sees half a file)."""
-    from .cli import json_safe
+    from ..core.model_file import json_safe
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     tmp = directory / (RESULT_FILE + '.tmp')
