@@ -189,7 +189,7 @@ def register_effects(plugins: tuple) -> None:
     Register the entry-point effects and `plugins` (`worker_plugins`) in this process, once.
 
     A worker process starts with the package's catalog only: what the client registered
-    (`cli.setup_effects`) is registered here too before a record's first fit.
+    (`commands.steps.setup_effects`) is registered here too before a record's first fit.
     """
     from . import plugins as plugin_loader
     plugin_loader.load_entry_points()
@@ -335,8 +335,9 @@ def compare_reference(spec: dict, data: Any) -> Optional[float]:
     Return the NRMSE of a fitted model (`sma-model fit --out` spec) over the whole record.
 
     A record in another unit of the same quantity (um beside the model's mm) is converted
-    into the model's, as `sma-model compare` converts it (`cli.convert_to_one_unit`). None
-    for a record of another rig: its layout, or its position's quantity, is not the model's.
+    into the model's, as `sma-model compare` converts it
+    (`commands.steps.convert_to_one_unit`). None for a record of another rig: its layout, or
+    its position's quantity, is not the model's.
     """
     from .data import in_unit
     from .engine import load_fit

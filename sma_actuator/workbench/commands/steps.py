@@ -33,13 +33,8 @@ import numpy as np
 from ..remaining import noise_line, PROG
 from ...core.datakinds import DynamicData, Split, StaticData
 
-
 EXIT_BAD_INPUT = 2
-
-
 EXIT_INTERRUPTED = 130
-
-
 # the role of each record `compare` scores: neither trained on nor held out by it
 COMPARED = 'compared'
 
@@ -177,10 +172,10 @@ def load_checked_records(args: argparse.Namespace,
     loaded = []
     for path in paths:
         notes = []
-        d, note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
-                                        notes=notes, default_unit='', renames=renames,
-                                        keep_glitches=args.keep_glitches), args.max_rate)
-        for line in notes + ([f'{path}: {note}'] if note else []):
+        d, rate_note = at_fit_rate(load_data(path, rate_hz=args.rate, position_unit=unit,
+                                             notes=notes, default_unit='', renames=renames,
+                                             keep_glitches=args.keep_glitches), args.max_rate)
+        for line in notes + ([f'{path}: {rate_note}'] if rate_note else []):
             note(args, line)
         check_excitation(d, path, to_fit=getattr(args, 'command', '') != 'compare')
         loaded.append((path, d))
@@ -344,7 +339,7 @@ class _StaticKind:
         return {}
 
 
-# the command-line handling of each data kind (like compare's _VIEWS: it needs workbench code)
+# the command-line handling of each data kind (like workbench.compare's _VIEWS)
 DATA_KINDS = {DynamicData.kind: _DynamicKind, StaticData.kind: _StaticKind}
 
 
