@@ -36,7 +36,7 @@ import pytest
 from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.workbench import cli, plugins, remaining
 from sma_actuator.workbench.commands.diagnose import diagnosis_lines
-from sma_actuator.workbench.commands.steps import Progress
+from sma_actuator.workbench.commands.steps import load_checked_records, Progress
 from sma_actuator.workbench.effects import CATALOG
 from support.plugin_effect import DEAD_TIME_PLUGIN, install_entry_point
 import yaml
@@ -564,6 +564,28 @@ def test_effects_lists_catalog_and_plugins(tmp_path, capsys, catalog_guard):
     assert set(CATALOG) == set(doc) and 'pwm_dead_time' in doc and 'delay' in doc
     assert doc['pwm_dead_time']['parameters'] == {'dead_duty': [0.0, 0.4]}
     assert doc['delay']['signature'] == CATALOG['delay'].signature
+
+
+def test_what_reading_did_to_each_record_is_said_on_the_note_stream(tmp_path, capsys):
+    # a 200 Hz record is decimated for fitting, and a clock that jitters is resampled: each
+    # record's reading says so in a line of its own (on stderr when stdout holds JSON)
+    fast = write_record(tmp_path / 'fast.csv', n=2400)
+    rows = np.loadtxt(fast, delimiter=',', skiprows=1)
+    rows[:, 0] = np.arange(len(rows)) / 200.0
+    np.savetxt(fast, rows, delimiter=',', header='time,duty_a,duty_b,position', comments='',
+               fmt='%.6f')
+    rows = np.loadtxt(write_record(tmp_path / 'jitter.csv'), delimiter=',', skiprows=1)
+    rows[1:-1, 0] += np.random.default_rng(3).uniform(-0.3, 0.3, len(rows) - 2) * DT
+    np.savetxt(tmp_path / 'jitter.csv', rows, delimiter=',',
+               header='time,duty_a,duty_b,position', comments='', fmt='%.6f')
+    for option, stream in (([], 'out'), (['--json'], 'err')):
+        args = cli.build_parser().parse_args(['compare', str(fast), str(tmp_path / 'jitter.csv'),
+                                              '--model', 'm.yaml', *option])
+        loaded = load_checked_records(args)
+        assert [p for p, _ in loaded] == [str(fast), str(tmp_path / 'jitter.csv')]
+        said = getattr(capsys.readouterr(), stream)
+        assert f'{fast}: decimated from 200 Hz to 100 Hz' in said
+        assert re.search(r'jitter\.csv: time steps vary by up to \d+ %', said), said
 
 
 def test_progress_bar_only_on_a_terminal():
