@@ -20,6 +20,7 @@
     sma-model diagnose DATA [DATA ...] [--model MODEL.yaml] [--rounds N] [--report DIR]
     sma-model batch DATA... --out DIR [--model MODEL.yaml] [--rounds N] [--scheduler ADDRESS]
     sma-model effects [--json]        (the catalog, with plug-ins)
+    sma-model excite (--tau-s S --duty-full D | --model FITTED.yaml) --out OUT.csv|BAG
 
 Every command also takes --plugin FILE.py|MODULE (repeatable) to add user effects, and
 --force to overwrite existing output files; DATA commands take --validate-on DATA ...,
