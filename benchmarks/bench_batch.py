@@ -37,7 +37,8 @@ from sma_actuator.core.actuator import ActuatorParams, simulate
 from sma_actuator.core.excitation import multilevel
 from sma_actuator.workbench import batch
 from sma_actuator.workbench.data import check_excitation, load_data
-from sma_actuator.workbench.engine import diagnose, fit_model
+from sma_actuator.workbench.diagnosis import diagnose
+from sma_actuator.workbench.engine import fit_model
 
 
 COLUMNS = ('time', 'duty_a', 'duty_b', 'position')

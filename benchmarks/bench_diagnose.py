@@ -41,8 +41,9 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 import numpy as np  # noqa: E402, I100
 from sma_actuator.core.actuator import ActuatorParams, simulate  # noqa: E402
 from sma_actuator.core.identification import DynamicData  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
 from sma_actuator.workbench.effects import CATALOG  # noqa: E402
-from sma_actuator.workbench.engine import diagnose, fit_model  # noqa: E402
+from sma_actuator.workbench.engine import fit_model  # noqa: E402
 
 TARGET_S = 60.0
 

@@ -42,7 +42,8 @@ one_blas_thread()
 if sys.argv[1] == 'keep':
     keep_freed_memory()
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.engine import diagnose, fit_model
+from sma_actuator.workbench.diagnosis import diagnose
+from sma_actuator.workbench.engine import fit_model
 from support.richsim import simulate
 d = simulate('delay', magnitude=1.5, excitation='closed', duration_s=float(sys.argv[2]),
              rate_hz=40, noise_rad=0.002, seed=15)

@@ -18,7 +18,7 @@ Detection limits of `sma-model diagnose` on data with one hidden effect.
 For every catalog effect and a few magnitudes, generate a record with that one hidden
 effect, run diagnose, and print: the base model's held-out NRMSE, whether the hidden effect
 is named first and significant, its held-out improvement, and what was named instead;
-then the named candidate's typical gain (`engine.typical_gain`, the median over 5 blocks of
+then the named candidate's typical gain (`judging.typical_gain`, the median over 5 blocks of
 held-out time) and its RMSE against the base's in each block (base/named [rad]), which say
 whether the name rests on one block. Also the null case. Two sources of records:
   --source richsim (default): the independent rich simulator over its magnitude range
@@ -52,9 +52,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.excitation import rig_excitation  # noqa: E402, I100
 from sma_actuator.core.identification import DynamicData  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
 from sma_actuator.workbench.effects import get_effect  # noqa: E402
-from sma_actuator.workbench.engine import (  # noqa: E402
-    diagnose, held_out_block_rmse, typical_gain)
+from sma_actuator.workbench.judging import held_out_block_rmse, typical_gain  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import (  # noqa: E402

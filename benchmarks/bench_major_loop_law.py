@@ -45,7 +45,8 @@ from scipy.signal import lfilter  # noqa: E402
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402
 from sma_actuator.core.major_loop import MajorLoopHysteresis  # noqa: E402
-from sma_actuator.workbench.engine import diagnose, noise_floor  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
+from sma_actuator.workbench.engine import noise_floor  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim_excitation import open_loop_duty  # noqa: E402
 

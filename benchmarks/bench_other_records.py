@@ -44,7 +44,8 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 import numpy as np  # noqa: E402, I100
-from sma_actuator.workbench.engine import diagnose, fit_model, record_scores  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
+from sma_actuator.workbench.engine import fit_model, record_scores  # noqa: E402
 from sma_actuator.workbench.records import join  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import EFFECTS, rig_from_command_line  # noqa: E402

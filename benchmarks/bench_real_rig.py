@@ -38,7 +38,8 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 import numpy as np  # noqa: E402, I100
 from sma_actuator.workbench.crossval import cross_validate  # noqa: E402
 from sma_actuator.workbench.data import load_data  # noqa: E402
-from sma_actuator.workbench.engine import diagnose, fit_model  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
+from sma_actuator.workbench.engine import fit_model  # noqa: E402
 from sma_actuator.workbench.records import join  # noqa: E402
 
 NAMES = ('square_a', 'step_a', 'ramp_a')

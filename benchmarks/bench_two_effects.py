@@ -23,9 +23,9 @@ middle and high end of each effect's magnitude range. For the rich simulator, `-
 `--duration`, `--excitation closed` and `--param KEY=VALUE` (another rig, as in
 `bench_hidden_effects.py`) change the records; the seeds stay those of the 40 Hz table.
 For each pair: the effects added round by round (up to 3 rounds) and then removed as
-redundant next to the others (`- name`, `engine.prune_effects`), the held-out NRMSE
+redundant next to the others (`- name`, `diagnosis.prune_effects`), the held-out NRMSE
 after each (in brackets: a base refitted before a round's effect was named, see
-`engine.better_base`), the seconds, and `ok` when the final model holds exactly the two
+`diagnosis.better_base`), the seconds, and `ok` when the final model holds exactly the two
 hidden effects.
 
     python benchmarks/bench_two_effects.py [--jobs 2] [--rounds 3] [--source richsim]
@@ -44,7 +44,8 @@ keep_freed_memory()   # fits reuse their freed arrays (see workbench.parallel)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.identification import DynamicData  # noqa: E402, I100
-from sma_actuator.workbench.engine import diagnose_rounds, fit_model  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose_rounds  # noqa: E402
+from sma_actuator.workbench.engine import fit_model  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
 from support.richsim import (  # noqa: E402

@@ -25,7 +25,8 @@ import pytest
 from sma_actuator.core.identification import DynamicData, scores
 from sma_actuator.workbench.compare import (compare, cross_correlation, loop_masks,
                                             residual_tests, reversals)
-from sma_actuator.workbench.engine import Diagnosis, fit_model, part_scores
+from sma_actuator.workbench.diagnosis import Diagnosis
+from sma_actuator.workbench.engine import fit_model, part_scores
 from sma_actuator.workbench.records import join
 from sma_actuator.workbench.report import (plot_time, ReportError, write_diagnosis_report,
                                            write_report)

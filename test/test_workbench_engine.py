@@ -26,7 +26,7 @@ import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
 from sma_actuator.core.hysteresis import PlayHysteresis
-from sma_actuator.workbench import engine
+from sma_actuator.workbench import diagnosis, engine, judging
 from sma_actuator.workbench.batch import round_summary
 from sma_actuator.workbench.commands.diagnose import diagnosis_lines
 from sma_actuator.workbench.effects import CATALOG, Effect, get_effect, register_effect
@@ -140,8 +140,8 @@ def test_the_base_search_keeps_the_best_coarse_grid_that_reaches_the_noise(monke
     assert fit.train['rmse'] == min(rmse for _, rmse in searches[1:]) <= near_noise
     # a candidate's refits from scratch, beside its warm one, search the first grid only
     searches.clear()
-    task, = engine.candidate_tasks(data, fit, ['latent_heat'])
-    engine.judge_candidate(task)
+    task, = judging.candidate_tasks(data, fit, ['latent_heat'])
+    judging.judge_candidate(task)
     assert searches and {grid for grid, _ in searches} == {options.coarse}
 
 
@@ -192,7 +192,7 @@ def test_the_refit_from_scratch_tries_every_start_a_fresh_fit_tries():
                  noise_rad=0.002, seed=221, params=RIG_B)
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
-    diag = engine.diagnose(data, candidates=['delay'])
+    diag = diagnosis.diagnose(data, candidates=['delay'])
     assert diag.missing_effect == 'delay'
     named = diag.candidates[0]['fit']
     assert named.values['delay_s'] == pytest.approx(0.2 * 1.375, rel=0.03)
@@ -213,12 +213,12 @@ def test_the_typical_gain_is_the_median_over_held_out_blocks():
     # 4 of 5 held-out blocks at a quarter of the base's error, one ten times worse
     err = np.full(n, 0.025)
     err[50:60] = 1.0
-    assert engine.typical_gain(data, base, fit(err)) == pytest.approx(0.75)
-    rmse = engine.held_out_block_rmse(data, base, fit(err))
+    assert judging.typical_gain(data, base, fit(err)) == pytest.approx(0.75)
+    rmse = judging.held_out_block_rmse(data, base, fit(err))
     np.testing.assert_allclose(rmse, [[0.1] * 5, [1.0] + [0.025] * 4])
     whole = np.sqrt(np.mean(err[50:] ** 2)) / 0.1
     assert whole > 1.0     # the whole held-out window calls it worse than the base
-    assert engine.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
+    assert judging.typical_gain(data, base, fit(np.full(n, 0.2))) == pytest.approx(-1.0)
 
 
 def test_the_typical_pass_leaves_a_gain_that_quiet_blocks_carry():
@@ -242,9 +242,9 @@ def test_the_typical_pass_leaves_a_gain_that_quiet_blocks_carry():
         entry = {'effect': 'sensor_nonlinearity', 'significant': False, 'bic_change': -50.0,
                  'fit': fit(error, 0.05, ['sensor_nonlinearity']), 'improvement': 0.1,
                  'base_refit': fit(np.full(n, 0.1), 0.1), 'explanation': ''}
-        assert engine.typical_gain(data, base, entry['fit']) == pytest.approx(0.5)
-        named = engine.typical_pass(data, base, [entry], engine.MIN_IMPROVEMENT)
-        return named, engine.moving_block_gains(data, base, entry['fit']), entry
+        assert judging.typical_gain(data, base, entry['fit']) == pytest.approx(0.5)
+        named = diagnosis.typical_pass(data, base, [entry], judging.MIN_IMPROVEMENT)
+        return named, judging.moving_block_gains(data, base, entry['fit']), entry
 
     named, gains, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 3),
                                                  np.zeros(20)]))
@@ -253,7 +253,7 @@ def test_the_typical_pass_leaves_a_gain_that_quiet_blocks_carry():
     assert named == [] and not entry['significant']
     # the same errors where every block moves: the candidate is better in most of them
     named, gains, entry = judged(np.concatenate([np.sin(np.arange(50)), np.tile(ramp, 5)]))
-    assert len(gains) == engine.HELD_OUT_BLOCKS
+    assert len(gains) == judging.HELD_OUT_BLOCKS
     assert named == ['sensor_nonlinearity'] and entry['typical_gain'] == pytest.approx(0.5)
 
 
@@ -268,24 +268,24 @@ def test_bic_counts_independent_samples_on_the_whiter_residual():
 
     base = fit([], noise + drift)
     with_drift = fit(['fatigue_drift'], noise)
-    long, short = (engine.correlation_length(f.residual) for f in (base, with_drift))
+    long, short = (judging.correlation_length(f.residual) for f in (base, with_drift))
     assert long > 1000 and short <= 2
     # counted on the base residual alone, n / long samples: the drift could never pass
     n_eff = n / long
-    alone = engine.bic(with_drift.residual, 4, n_eff) - engine.bic(base.residual, 0, n_eff)
-    assert alone > -engine.BIC_MARGIN
+    alone = judging.bic(with_drift.residual, 4, n_eff) - judging.bic(base.residual, 0, n_eff)
+    assert alone > -judging.BIC_MARGIN
     # counted on the whiter residual (the model with the effect), it passes by far
-    assert engine.bic_gain(base, with_drift) < -100 * engine.BIC_MARGIN
-    assert engine.bic_gain(base, with_drift, long) == engine.bic_gain(base, with_drift)
+    assert judging.bic_gain(base, with_drift) < -100 * judging.BIC_MARGIN
+    assert judging.bic_gain(base, with_drift, long) == judging.bic_gain(base, with_drift)
     # a candidate that leaves the drift in keeps the base's count, and its 2 % lower RSS
     # does not pay for 4 parameters
     shaved = fit(['sensor_nonlinearity'], noise + 0.98 * drift)
-    assert engine.correlation_length(shaved.residual) > 1000
-    assert engine.bic_gain(base, shaved) > -engine.BIC_MARGIN
+    assert judging.correlation_length(shaved.residual) > 1000
+    assert judging.bic_gain(base, shaved) > -judging.BIC_MARGIN
 
 
 def _entry(name, gain, significant, bic_change, train=None):
-    """Return a judged candidate entry as `engine.rank_candidates` takes it (training NRMSE)."""
+    """Return a judged candidate entry as `diagnosis.rank_candidates` takes it (training NRMSE)."""
     entry = {'effect': name, 'improvement': gain, 'significant': significant,
              'bic_change': bic_change, 'explanation': name + '.'}
     if train is not None:
@@ -294,8 +294,8 @@ def _entry(name, gain, significant, bic_change, train=None):
 
 
 def _ranked(*entries):
-    """Return (name, order, entries) of `engine.rank_candidates` on `entries`."""
-    diag = engine.rank_candidates(None, list(entries))
+    """Return (name, order, entries) of `diagnosis.rank_candidates` on `entries`."""
+    diag = diagnosis.rank_candidates(None, list(entries))
     return diag.missing_effect, [c['effect'] for c in diag.candidates], diag.candidates
 
 
@@ -309,7 +309,7 @@ def test_near_tied_candidates_keep_their_held_out_order_and_say_so():
     assert (name, order) == ('a', ['a', 'b', 'c'])
     assert all('Near tie: a, b' in c['explanation'] for c in out[:2])
     assert 'Near tie' not in out[2]['explanation']
-    engine.rank_candidates(None, out)   # ranked again (a later pass): said once
+    diagnosis.rank_candidates(None, out)   # ranked again (a later pass): said once
     assert out[0]['explanation'].count('Near tie') == 1
     # further apart: no tie is said
     name, order, out = _ranked(_entry('a', 0.61, True, -40.0), _entry('b', 0.50, True, -45.0))
@@ -326,9 +326,9 @@ def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
     # at 10 Hz a 72 ms delay (below one sample) fits better than the significant lag
     why = ('the fitted delay 72 ms is below one sample period (100 ms)',
            'at this sample rate the two are not told apart; record faster')
-    diag = engine.rank_candidates(None, [entry('delay', 0.60, False, why),
-                                         entry('fast_dynamics', 0.46, True),
-                                         entry('convection', 0.05, False)])
+    diag = diagnosis.rank_candidates(None, [entry('delay', 0.60, False, why),
+                                            entry('fast_dynamics', 0.46, True),
+                                            entry('convection', 0.05, False)])
     assert diag.missing_effect is None
     lag = next(c for c in diag.candidates if c['effect'] == 'fast_dynamics')
     assert not lag['significant'] and lag['rival'] == 'delay'
@@ -336,25 +336,25 @@ def test_an_effect_that_an_unresolved_candidate_outgains_is_not_named():
             in lag['explanation'])
     assert f'({why[0]}): {why[1]} to separate them.' in lag['explanation']
     doc = {'baseline': {'effects': [], 'validation_nrmse': 0.01, 'train_nrmse': 0.01},
-           'candidates': [engine.candidate_json(c) for c in diag.candidates],
+           'candidates': [diagnosis.candidate_json(c) for c in diag.candidates],
            'missing_effect': diag.missing_effect}
     assert doc['candidates'][0]['not_resolved'] == why[0]
     assert doc['candidates'][1]['rival'] == 'delay'
     assert any('fast_dynamics passed every check, but delay' in line
                for line in diagnosis_lines(doc, 'modified'))
     # ranked again (a later pass): said once, still not named
-    assert engine.rank_candidates(None, diag.candidates).missing_effect is None
+    assert diagnosis.rank_candidates(None, diag.candidates).missing_effect is None
     assert lag['explanation'].count('fits the held-out window better') == 1
     # within a near tie of it (25 Hz: a 36 ms delay +48 %, the lag +45 %): named, rival said
-    diag = engine.rank_candidates(None, [entry('delay', 0.48, False, why),
-                                         entry('fast_dynamics', 0.45, True)])
+    diag = diagnosis.rank_candidates(None, [entry('delay', 0.48, False, why),
+                                            entry('fast_dynamics', 0.45, True)])
     assert diag.missing_effect == 'fast_dynamics'
     assert diag.candidates[0]['explanation'] == (
         f'fast_dynamics. delay fits the held-out window better (+48 % against +45 %) but is '
         f'not resolved ({why[0]}): {why[1]} to separate them.')
     # an unresolved candidate that gains less: named, nothing said
-    diag = engine.rank_candidates(None, [entry('delay', 0.40, False, why),
-                                         entry('fast_dynamics', 0.86, True)])
+    diag = diagnosis.rank_candidates(None, [entry('delay', 0.40, False, why),
+                                            entry('fast_dynamics', 0.86, True)])
     assert diag.missing_effect == 'fast_dynamics'
     assert diag.candidates[0]['explanation'] == 'fast_dynamics.'
 
@@ -366,10 +366,10 @@ def _judged(name, bic_change, train, held_out, **values):
 
 
 def _lead(train, held_out, *entries, named=None):
-    """Return `engine.training_lead` over a base with these NRMSE; noise floor 0.19 %, 40 Hz."""
+    """Return `diagnosis.training_lead` over a base with these NRMSE; noise floor 0.19 %, 40 Hz."""
     base = SimpleNamespace(train={'nrmse': train}, validation={'nrmse': held_out})
-    diag = engine.Diagnosis(base, list(entries), named, noise_floor_nrmse=0.0019)
-    return engine.training_lead(SimpleNamespace(dt=0.025), diag, engine.MIN_IMPROVEMENT)
+    diag = diagnosis.Diagnosis(base, list(entries), named, noise_floor_nrmse=0.0019)
+    return diagnosis.training_lead(SimpleNamespace(dt=0.025), diag, judging.MIN_IMPROVEMENT)
 
 
 def test_a_training_window_the_held_out_one_cannot_judge_gives_a_lead_not_a_name():
@@ -393,7 +393,7 @@ def test_a_training_window_the_held_out_one_cannot_judge_gives_a_lead_not_a_name
                                          convection_exponent=0.1)) is None
     # the JSON and the batch's round summary carry it beside a null missing_effect
     base = SimpleNamespace(effects=[], train={'nrmse': 0.0158}, validation={'nrmse': 0.0020})
-    diag = engine.Diagnosis(base, [delay], None, noise_floor_nrmse=0.0019, training_lead=lead)
+    diag = diagnosis.Diagnosis(base, [delay], None, noise_floor_nrmse=0.0019, training_lead=lead)
     assert diag.to_json()['training_lead'] == lead and diag.to_json()['missing_effect'] is None
     assert round_summary(diag, {})['training_lead'] == 'delay'
 
@@ -412,7 +412,7 @@ def test_a_delay_and_a_lag_both_significant_are_ranked_by_their_training_fit():
             'change -1505.0 against -776.0)')
     assert said in out[0]['explanation']
     assert out[1]['explanation'] == 'fast_dynamics.'
-    engine.rank_candidates(None, out)   # ranked again (a later pass): said once
+    diagnosis.rank_candidates(None, out)   # ranked again (a later pass): said once
     assert out[0]['explanation'].count('Ranked before') == 1
     # an effect of another kind that gains most stays first; the two retarders swap behind it
     name, order, _ = _ranked(_entry('convection', 0.80, True, -100.0, 0.005),
@@ -445,7 +445,7 @@ def test_a_delay_held_out_behind_one_excursion_is_named_by_its_typical_gain():
                  noise_rad=0.002, seed=706, also=[('stress_coupling', 1.15)])
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
-    diag = engine.diagnose(data, candidates=['delay'])
+    diag = diagnosis.diagnose(data, candidates=['delay'])
     named = diag.candidates[0]
     assert diag.missing_effect == 'delay'
     assert named['improvement'] < 0.2 <= named['typical_gain']
@@ -466,7 +466,7 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
     # misses by 8.3 % held out, and each candidate refitted warm from it stays near there
     # (stress coupling 8.2 %, delay 7.7 %), so the first pass names nothing
     data = _plant_record_with('delay', 'stress_coupling', seed=706)
-    diag = engine.diagnose(data, candidates=['stress_coupling', 'delay'])
+    diag = diagnosis.diagnose(data, candidates=['stress_coupling', 'delay'])
     assert diag.missing_effect == 'stress_coupling'
     named = diag.candidates[0]['fit']
     assert 'refitted from scratch' in diag.candidates[0]['explanation']
@@ -497,7 +497,7 @@ def test_a_drift_the_bases_grid_absorbs_is_named_from_scratch():
     order = [e for e in plant_records.EFFECTS if e != 'none']
     d = plant_records.simulate('fatigue_drift', 2, seed=202 + 10 * order.index('fatigue_drift'))
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
-    diag = engine.diagnose(data, candidates=['fatigue_drift'])
+    diag = diagnosis.diagnose(data, candidates=['fatigue_drift'])
     base, named = diag.baseline, diag.candidates[0]
     assert base.train['nrmse'] <= idn.NEAR_NOISE * diag.noise_floor_nrmse
     assert diag.missing_effect == 'fatigue_drift', named['explanation']
@@ -523,7 +523,7 @@ def test_strong_latent_heat_is_named_from_its_own_grid():
     # grid from a small start the search stopped at 8 K (+8 % held-out, not named)
     d = plant_records.simulate('latent_heat', 2, duration_s=240.0, seed=252)
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
-    diag = engine.diagnose(data, candidates=['latent_heat', 'convection'])
+    diag = diagnosis.diagnose(data, candidates=['latent_heat', 'convection'])
     assert diag.missing_effect == 'latent_heat'
     named = next(c for c in diag.candidates if c['effect'] == 'latent_heat')
     # the loop's fitted width trades against λ: 240 s fit the training window to the noise
@@ -561,10 +561,10 @@ def test_the_base_refitted_on_the_candidates_grid_does_not_reach_a_real_effects_
     data = record(act.ActuatorParams(delay_s=0.25), seconds=240.0, seed=8)
     base = engine.fit_model(data, ())
     fit = engine.fit_model(data, ['delay'], base_fit=base)
-    v_off = engine._regridded_base(data, base, fit, get_effect('delay')).validation['nrmse']
+    v_off = judging.regridded_base(data, base, fit, get_effect('delay')).validation['nrmse']
     assert fit.validation['nrmse'] < 0.5 * base.validation['nrmse']
     assert v_off > 2.0 * fit.validation['nrmse']      # without the delay, the gain is gone
-    assert engine._regridded_base(data, base, fit, get_effect('saturation')) is None
+    assert judging.regridded_base(data, base, fit, get_effect('saturation')) is None
 
 
 @pytest.mark.slow
@@ -576,10 +576,10 @@ def test_a_gain_the_regridded_base_fits_as_well_in_training_is_not_the_effects()
                  rate_hz=25.0, noise_rad=0.002, seed=260)
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
-    diag = engine.diagnose(data, candidates=['sensor_nonlinearity'], jobs=1)
+    diag = diagnosis.diagnose(data, candidates=['sensor_nonlinearity'], jobs=1)
     entry = diag.candidates[0]
-    assert entry['improvement'] > 0.2 and entry['bic_change'] < -engine.BIC_MARGIN
-    assert engine.bic_gain(entry['base_refit'], entry['fit']) > -engine.BIC_MARGIN
+    assert entry['improvement'] > 0.2 and entry['bic_change'] < -judging.BIC_MARGIN
+    assert judging.bic_gain(entry['base_refit'], entry['fit']) > -judging.BIC_MARGIN
     assert diag.missing_effect is None
     assert 'the grid, not the effect, carries the gain' in entry['explanation']
 
@@ -600,18 +600,18 @@ def test_a_gain_from_a_few_moving_held_out_stretches_is_not_an_effect():
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
     base = engine.fit_model(data)
-    task, = engine.candidate_tasks(data, base, ['convection'])
-    entry = engine.judge_candidate(task)
+    task, = judging.candidate_tasks(data, base, ['convection'])
+    entry = judging.judge_candidate(task)
     assert abs(entry['fit'].values['convection_exponent']) < 0.01
-    assert entry['improvement'] >= engine.MIN_IMPROVEMENT
-    assert entry['bic_change'] < -engine.BIC_MARGIN
-    assert engine.bic_gain(entry['base_refit'], entry['fit']) < -engine.BIC_MARGIN
-    gains = engine.moving_block_gains(data, base, entry['fit'])
-    assert len(gains) == engine.HELD_OUT_BLOCKS
+    assert entry['improvement'] >= judging.MIN_IMPROVEMENT
+    assert entry['bic_change'] < -judging.BIC_MARGIN
+    assert judging.bic_gain(entry['base_refit'], entry['fit']) < -judging.BIC_MARGIN
+    gains = judging.moving_block_gains(data, base, entry['fit'])
+    assert len(gains) == judging.HELD_OUT_BLOCKS
     assert np.sum(gains < 0) >= 3
     assert not entry['significant']
     assert 'so a few stretches, not the effect, carry the gain' in entry['explanation']
-    assert engine.diagnose(data, base, candidates=['convection'], jobs=1).missing_effect is None
+    assert diagnosis.diagnose(data, base, candidates=['convection'], jobs=1).missing_effect is None
 
 
 @pytest.fixture(scope='module')
@@ -632,9 +632,9 @@ def poor_base():
 @pytest.mark.slow
 def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base(poor_base):
     data, poor = poor_base
-    kept = engine.diagnose(data, base=poor, candidates=['convection'], rebase=0)
+    kept = diagnosis.diagnose(data, base=poor, candidates=['convection'], rebase=0)
     assert kept.baseline is poor and not kept.refitted
-    diag = engine.diagnose(data, base=poor, candidates=['convection'])
+    diag = diagnosis.diagnose(data, base=poor, candidates=['convection'])
     assert diag.missing_effect is None and diag.baseline.effects == []
     assert diag.baseline.validation['nrmse'] < 0.1 * poor.validation['nrmse']
     assert 'refitted from where the convection refit ended' in diag.to_json()['baseline'][
@@ -649,18 +649,18 @@ def test_a_better_fit_of_the_base_found_by_a_counterfactual_replaces_the_base(po
 def test_an_effect_named_against_a_poor_base_yields_to_a_better_fit_of_the_base(poor_base):
     # the record holds no effect; against the poor base phase resistance gains held out
     data, poor = poor_base
-    named = engine.diagnose(data, base=poor, candidates=['phase_resistance'], rebase=0)
+    named = diagnosis.diagnose(data, base=poor, candidates=['phase_resistance'], rebase=0)
     assert named.missing_effect == 'phase_resistance'
     # latent heat's counterfactual (the base refitted from its refit) predicts better than
     # the named effect: the gain was the poor base's, and diagnose starts again from it
-    diag = engine.diagnose(data, base=poor, candidates=['phase_resistance', 'latent_heat'])
+    diag = diagnosis.diagnose(data, base=poor, candidates=['phase_resistance', 'latent_heat'])
     assert diag.missing_effect is None and diag.baseline.effects == []
     assert 'refitted from where the latent_heat refit ended' in diag.refitted
     assert diag.baseline.validation['nrmse'] < named.candidates[0]['validation_nrmse']
 
 
 def stand_in_fit(train_nrmse, validation_nrmse):
-    """Return the scores `engine.better_base` reads of a fit (RMSE = NRMSE, span 1)."""
+    """Return the scores `diagnosis.better_base` reads of a fit (RMSE = NRMSE, span 1)."""
     return SimpleNamespace(train={'rmse': train_nrmse, 'nrmse': train_nrmse},
                            validation={'nrmse': validation_nrmse})
 
@@ -671,18 +671,18 @@ def test_a_named_effect_yields_to_a_better_base_only_by_a_clear_held_out_margin(
     base, refit = stand_in_fit(0.0049, 0.0022), stand_in_fit(0.0018, 0.0012)
     entries = [{'effect': 'sensor_nonlinearity', 'base_refit': refit},
                {'effect': 'convection', 'validation_nrmse': 0.0013}]
-    bar = 1.0 - engine.MIN_IMPROVEMENT
-    assert engine.better_base(base, entries, engine.MIN_IMPROVEMENT)[0] is refit
+    bar = 1.0 - judging.MIN_IMPROVEMENT
+    assert diagnosis.better_base(base, entries, judging.MIN_IMPROVEMENT)[0] is refit
     # convection's own model fits training at 0.11 %, better than the refit's 0.18 %
     for named_nrmse, replaced in ((0.0013, False), (1.01 * 0.0012 / bar, True)):
-        better = engine.better_base(base, entries, engine.MIN_IMPROVEMENT,
-                                    named={'effect': 'convection',
-                                           'validation_nrmse': named_nrmse,
-                                           'fit': stand_in_fit(0.0011, named_nrmse)})
+        better = diagnosis.better_base(base, entries, judging.MIN_IMPROVEMENT,
+                                       named={'effect': 'convection',
+                                              'validation_nrmse': named_nrmse,
+                                              'fit': stand_in_fit(0.0011, named_nrmse)})
         assert (better is not None) == replaced
     # a refit that fits training less than MIN_IMPROVEMENT better is no better fit at all
     close = [{'effect': 'delay', 'base_refit': stand_in_fit(0.0049 * (bar + 0.01), 0.0012)}]
-    assert engine.better_base(base, close, engine.MIN_IMPROVEMENT) is None
+    assert diagnosis.better_base(base, close, judging.MIN_IMPROVEMENT) is None
 
 
 def test_a_named_effect_yields_to_a_base_fit_that_beats_its_model_in_training_and_held_out():
@@ -691,20 +691,20 @@ def test_a_named_effect_yields_to_a_base_fit_that_beats_its_model_in_training_an
     # `fast_dynamics` refit fits training at 0.23 % and holds out 1.20 % (14 % better only)
     base, refit = stand_in_fit(0.0140, 0.0209), stand_in_fit(0.0023, 0.0120)
     entries = [{'effect': 'fast_dynamics', 'base_refit': refit}]
-    bar = 1.0 - engine.MIN_IMPROVEMENT
+    bar = 1.0 - judging.MIN_IMPROVEMENT
 
     def named(train_nrmse, validation_nrmse):
         return {'effect': 'sensor_nonlinearity', 'validation_nrmse': validation_nrmse,
                 'fit': stand_in_fit(train_nrmse, validation_nrmse)}
 
-    assert engine.better_base(base, entries, engine.MIN_IMPROVEMENT,
-                              named=named(0.0129, 0.0140))[0] is refit
+    assert diagnosis.better_base(base, entries, judging.MIN_IMPROVEMENT,
+                                 named=named(0.0129, 0.0140))[0] is refit
     # the named model fitting training within the bar of the refit keeps its name ...
-    assert engine.better_base(base, entries, engine.MIN_IMPROVEMENT,
-                              named=named(0.99 * 0.0023 / bar, 0.0140)) is None
+    assert diagnosis.better_base(base, entries, judging.MIN_IMPROVEMENT,
+                                 named=named(0.99 * 0.0023 / bar, 0.0140)) is None
     # ... and so does one that holds out better than the refit
-    assert engine.better_base(base, entries, engine.MIN_IMPROVEMENT,
-                              named=named(0.0129, 0.0119)) is None
+    assert diagnosis.better_base(base, entries, judging.MIN_IMPROVEMENT,
+                                 named=named(0.0129, 0.0119)) is None
 
 
 class DeadTime(Effect):
@@ -734,7 +734,7 @@ def test_a_plugin_is_judged_against_the_base_refitted_without_it():
     data = dead_time_record()
     register_effect(DeadTime)
     try:
-        diag = engine.diagnose(data, candidates=['test_dead_time', 'delay'])
+        diag = diagnosis.diagnose(data, candidates=['test_dead_time', 'delay'])
         top = diag.candidates[0]
         assert diag.missing_effect == 'test_dead_time' and top['improvement'] > 0.3
         assert "for the base refitted on the candidate's grid" in top['explanation']
@@ -805,10 +805,10 @@ def test_the_pass_from_scratch_runs_only_where_the_base_is_short_of_the_noise():
         data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
         base = engine.fit_model(data, ())
         stages = []
-        diag = engine.diagnose(data, base=base, candidates=candidates,
-                               progress=lambda i, n, stage: stages.append(stage))
+        diag = diagnosis.diagnose(data, base=base, candidates=candidates,
+                                  progress=lambda i, n, stage: stages.append(stage))
         assert diag.missing_effect is None, diag.candidates
-        assert engine.at_noise(base, data, engine.MIN_IMPROVEMENT) is at_noise
+        assert diagnosis.at_noise(base, data, judging.MIN_IMPROVEMENT) is at_noise
         assert ('candidates from scratch' in stages) is not at_noise, stages
 
 
@@ -929,8 +929,8 @@ def test_candidates_refitted_on_two_cores_equal_one_core_and_plugins_stay_local(
     register_effect(DeadTime)          # registered here only: a worker process lacks it
     try:
         names = ['delay', 'convection', 'test_dead_time']
-        one = engine.diagnose(data, base=base, candidates=names, jobs=1)
-        two = engine.diagnose(data, base=base, candidates=names, jobs=2)
+        one = diagnosis.diagnose(data, base=base, candidates=names, jobs=1)
+        two = diagnosis.diagnose(data, base=base, candidates=names, jobs=2)
     finally:
         CATALOG.pop('test_dead_time', None)
     assert [c['effect'] for c in one.candidates] == [c['effect'] for c in two.candidates]

@@ -26,7 +26,7 @@ magnitudes: 34 records, more than CI has the time for.
 """
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.engine import diagnose
+from sma_actuator.workbench.diagnosis import diagnose
 from support.parallel import imap_on_cores
 from support.richsim import simulate
 

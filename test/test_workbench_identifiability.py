@@ -32,9 +32,11 @@ from sma_actuator.workbench import cli
 from sma_actuator.workbench.branches import (
     branch_of, extrapolated_error_share, extrapolated_share, MOSTLY_EXTRAPOLATED)
 from sma_actuator.workbench.data import load_data
+from sma_actuator.workbench.diagnosis import diagnose
 from sma_actuator.workbench.effects import get_effect
-from sma_actuator.workbench.engine import diagnose, fit_model, noise_floor, unresolved_by
+from sma_actuator.workbench.engine import fit_model, noise_floor
 from sma_actuator.workbench.identifiability import MIN_PROFILE_RISE, tau_profile
+from sma_actuator.workbench.judging import unresolved_by
 from sma_actuator.workbench.levels import duty_levels, LEVEL_TOLERANCE, ONE_LEVEL_SHARE
 from sma_actuator.workbench.records import join
 from support import rig_profiles

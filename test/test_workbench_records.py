@@ -30,8 +30,8 @@ from sma_actuator.workbench import cli
 from sma_actuator.workbench.batch import final_parameters
 from sma_actuator.workbench.commands.fit import fit_json
 from sma_actuator.workbench.data import load_data
-from sma_actuator.workbench.engine import (diagnose, diagnose_rounds, fit_model, load_fit,
-                                           prune_effects, record_scores)
+from sma_actuator.workbench.diagnosis import diagnose, diagnose_rounds, prune_effects
+from sma_actuator.workbench.engine import fit_model, load_fit, record_scores
 from sma_actuator.workbench.records import (at_fit_rate, join, loop_prior, segment_of,
                                             zeros)
 from support import richsim

@@ -20,7 +20,9 @@ Modules (see docs/workbench.md for the user walkthrough):
 * `data`      – load DATA: dynamic CSV, static curve CSV or MCAP bag, with clear errors
 * `records`   – join several dynamic records of one rig into one record set
 * `limits`    – input limits of DATA, strict number parsing, load progress
-* `engine`    – fit a model with a set of effects, diagnose which effect is missing
+* `engine`    – fit a model with a set of effects and score it on its records
+* `judging`   – refit the model with one candidate effect and test what it gains
+* `diagnosis` – judge every candidate, rank them, name the missing effect; the rounds
 * `effects`   – the effect catalog (`CATALOG`, `Effect`, `register_effect`)
 * `compare`   – error breakdown by regime and residual correlation tests
 * `report`    – HTML report with PNG figures

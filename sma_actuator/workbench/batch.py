@@ -15,7 +15,7 @@
 Fit, compare and diagnose many recordings at once on a Dask cluster (`sma-model batch`).
 
 Each record is one task that runs `sma-model diagnose`'s own rounds
-(`engine.diagnose_rounds`) and hands every candidate refit back to the cluster as a task
+(`diagnosis.diagnose_rounds`) and hands every candidate refit back to the cluster as a task
 of its own, so a large cluster spreads one record's refits over its workers, not only
 whole records:
 
@@ -253,7 +253,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     Worker: fit the record, diagnose it in rounds, write its report.
 
     A record that does not start at rest (a chunk of a longer log) is led in, as `sma-model
-    diagnose` does (`leadins.refit_led`). The rounds are `engine.diagnose_rounds` (the one
+    diagnose` does (`leadins.refit_led`). The rounds are `diagnosis.diagnose_rounds` (the one
     implementation `sma-model diagnose` uses); its candidate refits go back to the cluster as
     tasks of their own, so one record's refits spread over the workers. Returns {'rounds':
     [round summary, ...], 'parameters': the final model's parameters {name: value}, units in
@@ -261,7 +261,7 @@ def task_record(path: str, stamp: str, options: BatchOptions, report_dir: str) -
     """
     from dask.distributed import worker_client
     from .data import describe
-    from .engine import diagnose_rounds
+    from .diagnosis import diagnose_rounds
     from .report import write_diagnosis_report
     register_effects(options.plugins)
     started = time.perf_counter()
@@ -311,7 +311,7 @@ def lead_columns(path: str, lead: dict) -> dict:
 def _judge_on_cluster(client: Client, path: str, stamp: str, reading: tuple, lead: tuple,
                       tasks: list) -> Iterator[dict]:
     """
-    Yield the `engine.judge_candidate` entries of `tasks`, each refit a cluster task.
+    Yield the `judging.judge_candidate` entries of `tasks`, each refit a cluster task.
 
     The tasks travel without the record: each worker reads it by its path (cached), and
     leads it in as `lead` (`lead_items`) says.
@@ -325,8 +325,8 @@ def _judge_on_cluster(client: Client, path: str, stamp: str, reading: tuple, lea
 
 def task_candidate(path: str, stamp: str, reading: tuple, task: tuple,
                    lead: tuple = ()) -> dict:
-    """Run one `engine.judge_candidate` task (without its data) on the record at `path`."""
-    from .engine import judge_candidate
+    """Run one `judging.judge_candidate` task (without its data) on the record at `path`."""
+    from .judging import judge_candidate
     return judge_candidate((_load(path, reading, stamp, lead),) + tuple(task))
 
 

@@ -63,11 +63,11 @@ class Effect:
     # acts between the two wires: not applicable to a single wire against a bias spring
     needs_two_wires = False
     # changes how the duty becomes temperature: not identified by records that heat at one
-    # duty level, so diagnose does not name it there (`engine.unresolved_by`)
+    # duty level, so diagnose does not name it there (`judging.unresolved_by`)
     heating_law = False
     # retards the response to the duty: a dead time d and a first-order lag of about d shift
     # it alike to first order in ω d, so diagnose ranks two such rivals by their training
-    # fit where one fits it clearly better (`engine.rank_candidates`)
+    # fit where one fits it clearly better (`diagnosis.rank_candidates`)
     retards_response = False
     # plug-in parameters of its own: name -> `core.actuator.ParamSpec` (its fit is used)
     declares = {}

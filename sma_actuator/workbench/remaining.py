@@ -156,7 +156,7 @@ def left_to_explain(held_out: float, train: float, not_tried: Sequence[str] = ()
 
 
 def lead_line(lead: Mapping[str, Any], train: float) -> str:
-    """Return the text of a diagnosis' training lead (`engine.training_lead`), a hint."""
+    """Return the text of a diagnosis' training lead (`diagnosis.training_lead`), a hint."""
     return (f'the training window is fitted best with {lead["effect"]} (training NRMSE '
             f'{percent(train)} -> {percent(lead["train_nrmse"])}, BIC change '
             f'{lead["bic_change"]:+.0f}; held out {percent(lead["validation_nrmse"])}), '

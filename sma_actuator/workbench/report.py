@@ -112,7 +112,7 @@ def write_diagnosis_report(directory: PathLike, data: Any, diagnosis: Any, title
                            data_line: str, force: bool = False,
                            doc: Optional[dict] = None) -> Path:
     """
-    Write the report of a `engine.Diagnosis` on `data`; returns the path of index.html.
+    Write the report of a `diagnosis.Diagnosis` on `data`; returns the path of index.html.
 
     The base model is compared with the data, and the model with the missing effect added
     (if one was named) is drawn beside it. doc: the diagnosis as shown (default
@@ -141,7 +141,7 @@ def save_rounds_plot(directory: PathLike, doc: dict) -> Path:
     Write rounds.png: validation NRMSE [%] after each round of `diagnose --rounds`.
 
     doc: the diagnose JSON document with 'baseline' and 'rounds'; an effect removed after
-    the rounds (`engine.prune_effects`) is a last point; returns the path.
+    the rounds (`diagnosis.prune_effects`) is a last point; returns the path.
     """
     removed = [r for r in doc['rounds'] if r.get('removed')]
     labels = (['base'] + [f'+ {r["added"]}' for r in doc['rounds']]

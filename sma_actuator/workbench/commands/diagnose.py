@@ -26,7 +26,8 @@ from ..remaining import percent as _pct, PROG, remaining_lines, rounds_lines
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run `sma-model diagnose`: refit with each candidate effect, rank by held-out improvement."""
-    from ..engine import diagnose_rounds, fit_model
+    from ..diagnosis import diagnose_rounds
+    from ..engine import fit_model
     catalog = prepare_outputs(args)
     spec = read_model_spec(args.model, catalog) if args.model else {'effects': []}
     if args.candidates:
