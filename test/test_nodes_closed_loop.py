@@ -34,3 +34,29 @@ def test_loop_settles_on_a_step(ros_context, mode):
     assert np.allclose(np.diff(a['time_s']), 0.025, atol=1e-6)
     assert np.nanmax(a['theta']) < 110.0
     assert (np.minimum(a['duty'][:, 0], a['duty'][:, 1]) <= 0.05).all()
+
+
+@pytest.mark.slow
+def test_the_nodes_close_the_loop_as_the_ros_free_loop_does_sample_for_sample(ros_context):
+    # plant_sim and the controller node, on lockstep sim time, against the core controller
+    # on the core plant (`control.closed_loop`): the same readings to the last ADC count.
+    # The plant's dead-time interlock and the controller's release a wire on the same
+    # sample; one sample later in the plant and the controller's model heats a wire the
+    # plant holds off, its estimate runs 1 K ahead and the step creeps (0.9 s to rise)
+    from sma_actuator.control.closed_loop import CorePlant, run_tracking
+    from sma_actuator.control.law import ControllerCore, ControllerSettings
+    from sma_actuator.core.actuator import ActuatorParams
+    from sma_actuator.core.model_file import load_model
+    from sma_actuator.nodes.common import config_path
+    step = {'profile': 'step', 'amplitude': 0.4, 'offset': 0.0, 'delay_s': 1.0}
+    trace = in_process.run_closed_loop(ros_context, step, 6.0, mode='pi_inverse',
+                                       real_time_factor=100.0, plant={'seed': 0})
+    nodes = trace.arrays()['position']
+    model = load_model(config_path('controller_model.yaml'))
+    core = ControllerCore(model, ControllerSettings('pi_inverse'))
+    alone = run_tracking(core, CorePlant(ActuatorParams(), seed=0),
+                         lambda t: 0.4 if t >= 1.0 else 0.0, 6.0).position
+    n = min(len(nodes), len(alone) - 1)
+    assert n > 200 and np.ptp(nodes[:n]) > 0.35
+    # the probe's first sample is the plant's reading before the first step
+    np.testing.assert_array_equal(nodes[1:n], alone[2:n + 1])

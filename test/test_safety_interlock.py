@@ -63,6 +63,26 @@ def test_dead_time_rule_on_a_wrapping_microsecond_counter():
     assert lock.apply(0, 1000, (start + 150_000) & 0xFFFFFFFF) == ((0, 1000), None)
 
 
+def test_a_dead_time_of_two_periods_ends_on_the_third_sample_on_any_summed_clock():
+    # plant_sim sums its 25 ms period in floating point, the controller its stamps' dt: two
+    # periods from most sample times come a rounding error short of 0.05 s, and the plant
+    # and the controller must release the wire on the same sample, or the controller's
+    # model heats a wire the plant still holds off
+    summed = [0.0]
+    for k in range(1, 2000):
+        summed.append(summed[-1] + 0.025)
+    product = [k * 0.025 for k in range(2000)]
+    short = sum(summed[k + 2] - summed[k] < 0.05 for k in range(1997))
+    assert short > 1000                       # the ties this is about
+    for clock in (summed, product):
+        for k in range(1996):
+            lock = DeadTimeInterlock(0.05)
+            assert lock.apply(0.0, 0.3, clock[k])[0] == (0.0, 0.3)
+            assert lock.apply(0.0, 0.0, clock[k + 1])[0] == (0.0, 0.0)     # b goes off
+            assert lock.apply(0.3, 0.0, clock[k + 2]) == ((0.0, 0.0), DEAD_TIME), k
+            assert lock.apply(0.3, 0.0, clock[k + 3]) == ((0.3, 0.0), None), k
+
+
 def test_zero_dead_time_still_refuses_both_at_once():
     lock = DeadTimeInterlock(0.0)
     assert lock.apply(0.4, 0.0, 0.0)[0] == (0.4, 0.0)

@@ -16,8 +16,9 @@
 Dead-time interlock on the duty a wire actually gets (docs/safety.md).
 
 Rule: a wire may heat (duty > 0) only when the other wire has had zero applied duty
-for at least the dead time. A request to heat both at once applies zero to both (there
-is no way to know which one was meant). Turning a wire off is always allowed at once.
+for at least the dead time (to within `TIE_SHARE` of it: float rounding). A request to
+heat both at once applies zero to both (there is no way to know which one was meant).
+Turning a wire off is always allowed at once.
 
 This is the one Python implementation, used by plant_sim, the hardware bridge and the
 MCU emulator's `McuCore`; `firmware/sma_mcu/sma_mcu_core.cpp` (`DeadTimeInterlock`) is
@@ -33,6 +34,11 @@ from typing import Callable, Optional, Tuple
 
 BOTH_REQUESTED = 'both wires requested at once'
 DEAD_TIME = 'other wire still inside the dead time'
+# a dead time missed by this share counts as elapsed: a clock that sums its periods in
+# floating point puts n periods a rounding error short of n dt (0.025 s + 0.025 s from
+# 1.05 s is 0.04999999999999999 s), and every clock must release a wire on the same sample
+# (the controller's estimate assumes the duty it sent was applied); integer ticks are exact
+TIE_SHARE = 1e-6
 
 
 class DeadTimeInterlock:
@@ -80,7 +86,8 @@ class DeadTimeInterlock:
         """Forget turn-off times older than the dead time (call often on a wrapping clock)."""
         for wire in (0, 1):
             then = self.off_since[wire]
-            if then is not None and self.elapsed(now, then) >= self.dead_time:
+            if (then is not None
+                    and self.elapsed(now, then) >= (1.0 - TIE_SHARE) * self.dead_time):
                 self.off_since[wire] = None
 
     def reset(self, now: float) -> Tuple[float, float]:

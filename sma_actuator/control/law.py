@@ -97,11 +97,6 @@ ANTAGONIST_LAG_SHARE = 0.05
 TAU_C_INVERSE_S = 0.25
 
 
-def _elapsed(now: float, then: float) -> float:
-    """Elapsed controller time [s], rounded up by 1 µs: n samples of dt count as n dt."""
-    return now - then + 1e-6
-
-
 @dataclass
 class ControllerSettings:
     """
@@ -291,7 +286,7 @@ class ControllerCore:
         self.handover.reset()
         self.handover.mismatch_ms = 0.0     # the estimate restarts: trust it again
         self.crossing, self.ff_temps = (None, math.inf), None
-        self.interlock = DeadTimeInterlock(self.settings.dead_time_s, _elapsed)
+        self.interlock = DeadTimeInterlock(self.settings.dead_time_s)
         self.clock_s = 0.0
         self.last_duty = (0.0, 0.0)
 
