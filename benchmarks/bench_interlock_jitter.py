@@ -25,7 +25,6 @@ the bridge's and one period (25 ms) longer. Prints the RMS error after the first
 applied), without jitter and for each jitter seed.
 """
 import argparse
-import math
 
 import numpy as np
 from sma_actuator.control import ControllerCore, ControllerSettings, load_model
@@ -33,12 +32,13 @@ from sma_actuator.control.closed_loop import CorePlant, run_tracking
 from sma_actuator.control.interlock import DeadTimeInterlock
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.nodes.common import config_path
+from sma_actuator.profiles import Profile
 
 BRIDGE_DEAD_TIME_S = 0.05
 REFERENCES = {
-    'sine 0.05 Hz': (lambda t: 0.5 * math.sin(2 * math.pi * 0.05 * t), 60.0),
-    'sine 0.2 Hz': (lambda t: 0.5 * math.sin(2 * math.pi * 0.2 * t), 30.0),
-    'square ±0.4 rad, 20 s': (lambda t: 0.4 if t % 20.0 < 10.0 else -0.4, 60.0),
+    'sine 0.05 Hz': (Profile('sine', 0.5, period_s=20.0, delay_s=0.0), 60.0),
+    'sine 0.2 Hz': (Profile('sine', 0.5, period_s=5.0, delay_s=0.0), 30.0),
+    'square ±0.4 rad, 20 s': (Profile('square', 0.4, period_s=20.0, delay_s=0.0), 60.0),
 }
 
 

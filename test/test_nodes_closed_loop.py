@@ -48,6 +48,7 @@ def test_the_nodes_close_the_loop_as_the_ros_free_loop_does_sample_for_sample(ro
     from sma_actuator.core.actuator import ActuatorParams
     from sma_actuator.core.model_file import load_model
     from sma_actuator.nodes.common import config_path
+    from sma_actuator.profiles import Profile
     step = {'profile': 'step', 'amplitude': 0.4, 'offset': 0.0, 'delay_s': 1.0}
     trace = in_process.run_closed_loop(ros_context, step, 6.0, mode='pi_inverse',
                                        real_time_factor=100.0, plant={'seed': 0})
@@ -55,7 +56,7 @@ def test_the_nodes_close_the_loop_as_the_ros_free_loop_does_sample_for_sample(ro
     model = load_model(config_path('controller_model.yaml'))
     core = ControllerCore(model, ControllerSettings('pi_inverse'))
     alone = run_tracking(core, CorePlant(ActuatorParams(), seed=0),
-                         lambda t: 0.4 if t >= 1.0 else 0.0, 6.0).position
+                         Profile('step', 0.4, delay_s=1.0), 6.0).position
     n = min(len(nodes), len(alone) - 1)
     assert n > 200 and np.ptp(nodes[:n]) > 0.35
     # the probe's first sample is the plant's reading before the first step
