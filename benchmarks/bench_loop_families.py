@@ -49,7 +49,8 @@ from scipy.optimize import least_squares, nnls  # noqa: E402
 from scipy.special import ndtr  # noqa: E402
 from sma_actuator.core import actuator as act  # noqa: E402
 from sma_actuator.core.hysteresis import PlayHysteresis  # noqa: E402
-from sma_actuator.core.identification import play_grid, set_values  # noqa: E402
+from sma_actuator.core.identification import set_values  # noqa: E402
+from sma_actuator.core.play_grids import play_grid  # noqa: E402
 from sma_actuator.workbench.crossval import all_records  # noqa: E402
 from sma_actuator.workbench.data import load_data  # noqa: E402
 from sma_actuator.workbench.engine import fit_model  # noqa: E402

@@ -35,7 +35,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from .core import identification as idn  # noqa: E402
+from .core import static_fit  # noqa: E402
 from .core.hysteresis import (ModifiedPrandtlIshlinskii, PrandtlIshlinskii,  # noqa: E402
                               PreisachModel)
 from .core.major_loop import MajorLoopHysteresis  # noqa: E402
@@ -177,7 +177,7 @@ def fig_real(axes: Sequence[Axes], path: str = REAL_DATA) -> Dict[str, Dict[str,
     curve, u, y = load_real(path)
     result = {}
     for ax, kind, nonneg in zip(axes, ('classical', 'modified'), (False, True)):
-        fit = idn.fit_static(u, y, curve, kind=kind, nonneg=nonneg)
+        fit = static_fit.fit_static(u, y, curve, kind=kind, nonneg=nonneg)
         pred = dict(fit.prediction)
         for c in np.unique(curve):
             sel = curve == c

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
+from sma_actuator.core import static_fit
 from sma_actuator.core.hysteresis import (
     ModifiedPrandtlIshlinskii,
     PlayHysteresis,
@@ -58,7 +59,7 @@ CASES = {
     'pi_2d_input': (lambda: PI.simulate(np.zeros((4, 2))), r'^u must be a 1-D'),
     'pi_length_mismatch': (lambda: PlayHysteresis([1.0, 2.0], [-1.0], [1.0], [1.0]),
                            r'\br\b.*\blo\b'),
-    'static_length_mismatch': (lambda: idn.fit_static([0, 1, 2], [0, 1]), r'input.*output'),
+    'static_length_mismatch': (lambda: static_fit.fit_static([0, 1, 2], [0, 1]), r'input.*output'),
     'duty_length_mismatch': (lambda: act.simulate(act.ActuatorParams(), [0.1] * 5, [0.1] * 4,
                                                   0.025), r'duty_a and duty_b'),
     'data_length_mismatch': (lambda: idn.DynamicData(**data(duty_b=np.zeros(19))), r'duty_b'),

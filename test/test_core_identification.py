@@ -21,6 +21,10 @@ import numpy as np
 import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
+from sma_actuator.core import linear_fit
+from sma_actuator.core import play_grids
+from sma_actuator.core import scoring
+from sma_actuator.core import static_fit
 from sma_actuator.core.hysteresis import PreisachModel
 
 REAL = real_data_path()
@@ -39,8 +43,8 @@ def load_real():
 def test_fit_static_on_real_morphing_wing_loops():
     curve, u, y = load_real()
     assert len(np.unique(curve)) == 11
-    modified = idn.fit_static(u, y, curve, kind='modified')
-    classical = idn.fit_static(u, y, curve, kind='classical', nonneg=False)
+    modified = static_fit.fit_static(u, y, curve, kind='modified')
+    classical = static_fit.fit_static(u, y, curve, kind='classical', nonneg=False)
     # saturation is what the measured loops show: the modified PI fits held-out curves
     assert modified.validation['nrmse'] <= 0.025
     # the classical PI cannot saturate: about 14 % on held-out curves (issue 2)
@@ -62,10 +66,11 @@ def test_fit_preisach_recovers_generating_model():
     # weights are identifiable (Mayergoyz) and the fit must generalise to any input
     mids = np.linspace(-1.1, 1.1, 12)
     u_train = np.concatenate([np.concatenate([mids[:i + 1], mids[i::-1]]) for i in range(12)])
-    fit = idn.fit_preisach(u_train, true.simulate(u_train), n_levels=11, u_range=(-1.0, 1.0))
+    fit = static_fit.fit_preisach(u_train, true.simulate(u_train), n_levels=11,
+                                  u_range=(-1.0, 1.0))
     np.testing.assert_allclose(fit.mu, true.mu, atol=1e-6)
     u_val = np.clip(np.cumsum(np.random.default_rng(2).normal(0, 0.08, 4000)), -1.3, 1.3)
-    assert idn.scores(true.simulate(u_val), fit.simulate(u_val))['nrmse'] < 1e-6
+    assert scoring.scores(true.simulate(u_val), fit.simulate(u_val))['nrmse'] < 1e-6
 
 
 def multilevel_duty(n, dt, rng):
@@ -107,7 +112,7 @@ def test_another_coarse_grid_replaces_the_fit_only_where_it_reaches_the_noise(
     y = act.simulate(act.ActuatorParams(), da, db, dt).position_rad
     data = idn.DynamicData(np.arange(n) * dt, da, db, y + np.random.default_rng(4).normal(
         0.0, 0.002, n))
-    sigma = idn.record_noise_rms(data)
+    sigma = scoring.record_noise_rms(data)
     options = idn.SearchOptions()
     grids = (options.coarse,) + options.coarse_alternatives
     tried = []
@@ -124,18 +129,18 @@ def test_another_coarse_grid_replaces_the_fit_only_where_it_reaches_the_noise(
 def test_scores_on_hand_checkable_example():
     y = np.array([0.0, 1.0, 2.0, 3.0])
     y_hat = np.array([0.0, 1.0, 2.0, 5.0])                # one error of -2
-    s = idn.scores(y, y_hat)
+    s = scoring.scores(y, y_hat)
     assert s['rmse'] == pytest.approx(1.0)                # sqrt(4 / 4)
     assert s['nrmse'] == pytest.approx(1.0 / 3.0)         # / range 3
     assert s['fit_percent'] == pytest.approx(100 * (1 - 2 / np.sqrt(5)))   # ||y - 1.5|| = sqrt 5
     assert s['max_error'] == pytest.approx(2.0)
-    perfect = idn.scores(y, y)
+    perfect = scoring.scores(y, y)
     assert perfect['rmse'] == 0 and perfect['fit_percent'] == 100
 
 
 def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_system():
     """
-    `_nnls_with_offset` never builds [X, −x_last].
+    `nnls_with_offset` never builds [X, −x_last].
 
     Its minimiser must be that of scipy's NNLS on the explicit system (weights >= 0, last
     coefficient of either sign).
@@ -145,7 +150,7 @@ def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_syst
     X = np.column_stack([np.abs(rng.normal(size=(400, 6))), np.ones(400)])
     b_true = np.array([0.0, 1.5, 0.0, 0.7, 2.0, 0.0, -3.0])   # negative offset
     y = X @ b_true + 0.01 * rng.normal(size=400)
-    b = idn._nnls_with_offset(X, y, free_cols=1)
+    b = linear_fit.nnls_with_offset(X, y, free_cols=1)
     c, _ = nnls(np.hstack([X, -X[:, -1:]]), y)
     expected = np.r_[c[:-2], c[-2] - c[-1]]
     np.testing.assert_allclose(b, expected, atol=1e-6)
@@ -154,7 +159,7 @@ def test_gram_reduction_with_a_sign_free_column_equals_nnls_on_the_explicit_syst
 
 @pytest.mark.parametrize('bound', [5.0, 0.5])
 def test_box_least_squares_equals_bvls_with_the_bound_idle_and_active(bound):
-    """`_box_ls` tries the sign-relaxed NNLS first; inside the box or not, BVLS's minimiser."""
+    """`box_ls` tries the sign-relaxed NNLS first; inside the box or not, BVLS's minimiser."""
     from scipy.optimize import lsq_linear
     rng = np.random.default_rng(4)
     X = np.column_stack([np.abs(rng.normal(size=(400, 5))), rng.normal(size=(400, 2)),
@@ -162,7 +167,7 @@ def test_box_least_squares_equals_bvls_with_the_bound_idle_and_active(bound):
     y = X @ np.array([0.0, 1.5, 0.0, 0.7, 2.0, 1.0, -1.0, -3.0]) + 0.01 * rng.normal(size=400)
     lower = np.r_[np.zeros(5), -bound, -bound, -np.inf]
     upper = np.r_[np.full(5, np.inf), bound, bound, np.inf]
-    b = idn._box_ls(X, y, lower, upper)
+    b = linear_fit.box_ls(X, y, lower, upper)
     expected = lsq_linear(X, y, bounds=(lower, upper), method='bvls').x
     np.testing.assert_allclose(b, expected, atol=1e-6)
     assert (np.max(np.abs(b[5:7])) == pytest.approx(bound)) == (bound < 1.0)
@@ -199,10 +204,10 @@ def test_tied_loop_keeps_the_heating_cells_and_puts_cooling_at_the_datasheet_hei
     (1 − β)/(1 + β) = 0.49 of the heating edge's height above the rest for the mean width,
     as Flexinol LT's (Ms + Mf)/2 − 22 = 25 K is of (As + Af)/2 − 22 = 51 K.
     """
-    beta = idn.flexinol_loop_ratio()
+    beta = play_grids.flexinol_loop_ratio()
     assert beta == pytest.approx(13.0 / 38.0)
-    grid = idn.play_grid(20.0, 60.0, 'modified', 6, 10)
-    tied = idn.tie_loop_width(grid, 22.0, beta, edge=42.0)
+    grid = play_grids.play_grid(20.0, 60.0, 'modified', 6, 10)
+    tied = play_grids.tie_loop_width(grid, 22.0, beta, edge=42.0)
     rising = 0.5 * (grid.lo + grid.hi) + grid.r
     assert np.allclose(0.5 * (tied.lo + tied.hi) + tied.r, rising)
     assert np.allclose(tied.hi - tied.lo, grid.hi - grid.lo)
@@ -210,7 +215,7 @@ def test_tied_loop_keeps_the_heating_cells_and_puts_cooling_at_the_datasheet_hei
     assert tied.r.max() == pytest.approx(1.15 * tied.r.mean())
     cooling_edge = 42.0 - 2.0 * tied.r.mean()
     assert (cooling_edge - 22.0) / 20.0 == pytest.approx(25.0 / 51.0, abs=0.01)
-    assert idn.tie_loop_width(grid, 22.0, None) is grid
+    assert play_grids.tie_loop_width(grid, 22.0, None) is grid
 
 
 def test_noise_rms_finds_white_noise_on_a_moving_signal_and_on_a_quantised_rest():
@@ -223,11 +228,11 @@ def test_noise_rms_finds_white_noise_on_a_moving_signal_and_on_a_quantised_rest(
     t = np.arange(0.0, 120.0, 0.025)
     motion = 0.5 * np.sin(0.3 * t) + 0.3 * (np.sin(0.05 * t) > 0)
     noise = np.random.default_rng(4).normal(0.0, 0.002, t.size)
-    assert idn.noise_rms(motion + noise) == pytest.approx(0.002, rel=0.1)
+    assert scoring.noise_rms(motion + noise) == pytest.approx(0.002, rel=0.1)
     # two records, each differenced on its own: the jump between them is not noise
-    assert idn.noise_rms(motion[:2000] + noise[:2000], 5.0 + motion[2000:] + noise[2000:]) \
+    assert scoring.noise_rms(motion[:2000] + noise[:2000], 5.0 + motion[2000:] + noise[2000:]) \
         == pytest.approx(0.002, rel=0.1)
-    assert idn.noise_rms(motion) < 0.0002
+    assert scoring.noise_rms(motion) < 0.0002
     q = 0.0206                     # one step of the spring-biased wire's potentiometer [mm]
     rest = q * (np.random.default_rng(5).random(4000) < 0.1)
-    assert 0.1 * q < idn.noise_rms(rest) < q
+    assert 0.1 * q < scoring.noise_rms(rest) < q

@@ -22,7 +22,8 @@ import re
 
 import numpy as np
 import pytest
-from sma_actuator.core.identification import DynamicData, scores
+from sma_actuator.core.identification import DynamicData
+from sma_actuator.core.scoring import scores
 from sma_actuator.workbench.compare import (compare, cross_correlation, loop_masks,
                                             residual_tests, reversals)
 from sma_actuator.workbench.diagnosis import Diagnosis

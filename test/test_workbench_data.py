@@ -22,8 +22,9 @@ from conftest import real_data_path
 import numpy as np
 import pytest
 from sma_actuator.core.identification import DynamicData
-from sma_actuator.workbench.data import (check_excitation, DataError, describe, in_unit,
-                                         load_data, parse_column_map, unit_factor)
+from sma_actuator.workbench.data import (check_excitation, DataError, describe, load_data,
+                                         parse_column_map)
+from sma_actuator.workbench.units import in_unit, unit_factor
 from support.csv_edit import edit_positions, shifted
 
 REAL = real_data_path()
@@ -674,7 +675,7 @@ def test_above_100_hz_a_glitch_may_last_30_ms():
     # at 1 kHz a wiper's lift-off of 10 or 25 ms spans 10 or 25 samples: glitches, bridged
     # close to the clean record; 40 samples off are a move, and the clean record holds none
     from support import plant_records
-    from sma_actuator.workbench.data import leave_out_glitches
+    from sma_actuator.workbench.timegrid import leave_out_glitches
     rec = plant_records.simulate('none', 0, duration_s=60.0, rate_hz=1000.0, seed=3)
     y = np.asarray(rec['position'], float)
     runs = [(int(f * y.size), samples) for f, samples in ((0.3, 10), (0.6, 25), (0.8, 40))]

@@ -25,6 +25,8 @@ import numpy as np
 import pytest
 from sma_actuator.core import actuator as act
 from sma_actuator.core import identification as idn
+from sma_actuator.core import play_grids
+from sma_actuator.core import scoring
 from sma_actuator.core.hysteresis import PlayHysteresis
 from sma_actuator.workbench import diagnosis, engine, judging
 from sma_actuator.workbench.batch import round_summary
@@ -48,7 +50,7 @@ def record(params, seconds=300.0, seed=5, noise=0.002):
 def test_mass_points_concentrate_where_the_coarse_weight_is():
     x = np.array([10.0, 60.0, 90.0])
     mass = np.array([0.0, 1.0, 0.0])
-    pts = idn._mass_points(x, mass, 4.0, 0.0, 100.0, 24)
+    pts = play_grids._mass_points(x, mass, 4.0, 0.0, 100.0, 24)
     assert len(pts) == 24 and np.all(np.diff(pts) >= 0)
     assert pts[0] == 0.0 and pts[-1] == 100.0                   # the even third spans the range
     assert np.sum(np.abs(pts - 60.0) <= 2.0) >= 16              # the rest sits in the mass cell
@@ -57,7 +59,7 @@ def test_mass_points_concentrate_where_the_coarse_weight_is():
 def test_adaptive_grid_tiles_the_range_for_every_width():
     coarse = PlayHysteresis(np.array([5.0, 10.0]), np.array([50.0, 45.0]),
                             np.array([56.0, 51.0]), np.array([0.3, 0.7]))
-    grid, (n_w, n_c) = idn._adaptive_grid(coarse, coarse.hi - coarse.lo, 20.0, 100.0, 6, 12)
+    grid, (n_w, n_c) = play_grids.adaptive_grid(coarse, coarse.hi - coarse.lo, 20.0, 100.0, 6, 12)
     assert grid.n_operators == n_w * n_c
     for r in np.unique(grid.r):
         rows = grid.r == r
@@ -80,7 +82,7 @@ def test_adaptive_grid_follows_the_output_the_data_moves_not_the_raw_weight():
                             np.array([56.0, 81.0]), np.array([0.2, 20.0]))
 
     def cells_near(span, u):
-        grid, _ = idn._adaptive_grid(coarse, span, 20.0, 100.0, 6, 12)
+        grid, _ = play_grids.adaptive_grid(coarse, span, 20.0, 100.0, 6, 12)
         rise = 0.5 * (grid.lo + grid.hi) + grid.r
         return np.sum(np.abs(rise[grid.r == grid.r.min()] - u) < 4.0)
 
@@ -115,7 +117,7 @@ def test_the_base_search_tries_other_coarse_grids_while_it_misfits():
     first_grid = engine.fit_model(data, search=engine.REFIT_SEARCH)
     assert first_grid.train['nrmse'] > 2.0 * floor
     fit = engine.fit_model(data)
-    assert fit.train['nrmse'] <= idn.NEAR_NOISE * floor
+    assert fit.train['nrmse'] <= scoring.NEAR_NOISE * floor
     assert fit.validation['nrmse'] < 0.7 * first_grid.validation['nrmse']
 
 
@@ -124,7 +126,7 @@ def test_the_base_search_keeps_the_best_coarse_grid_that_reaches_the_noise(monke
     # the paper's own model: from the first coarse grid the search ends at 1.8 times the
     # noise, and the best of the other two within 1.5 times is kept
     data = record(act.ActuatorParams(), seconds=240.0, seed=9)
-    near_noise = idn.NEAR_NOISE * idn.record_noise_rms(data)
+    near_noise = scoring.NEAR_NOISE * scoring.record_noise_rms(data)
     searches = []
     one_grid = idn.fit_on_coarse_grid
 
@@ -476,7 +478,7 @@ def test_a_candidate_held_in_the_bases_basin_is_refitted_from_scratch():
 
 def test_a_refit_from_scratch_at_the_noise_is_judged_before_a_warm_one():
     data = record(act.ActuatorParams(), seconds=60.0)
-    noise = idn.record_noise_rms(data)
+    noise = scoring.record_noise_rms(data)
 
     def fit(train_rmse):
         return SimpleNamespace(train={'rmse': train_rmse * noise})
@@ -499,7 +501,7 @@ def test_a_drift_the_bases_grid_absorbs_is_named_from_scratch():
     data = idn.DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'])
     diag = diagnosis.diagnose(data, candidates=['fatigue_drift'])
     base, named = diag.baseline, diag.candidates[0]
-    assert base.train['nrmse'] <= idn.NEAR_NOISE * diag.noise_floor_nrmse
+    assert base.train['nrmse'] <= scoring.NEAR_NOISE * diag.noise_floor_nrmse
     assert diag.missing_effect == 'fatigue_drift', named['explanation']
     assert 'from scratch (it fits the training window to the noise' in named['explanation']
     assert named['fit'].validation['nrmse'] < 0.8 * base.validation['nrmse']
@@ -750,7 +752,7 @@ def test_narrow_bands_keep_the_training_run_and_saturate_beyond_it():
     da, db = multilevel_duty(n, DT, rng)
     da, db = 0.5 * da, 0.5 * db                                  # training: mild heating only
     amb = np.full(n, params.ambient_c)
-    narrow = idn.narrow_bands(params, da, db, amb, DT)
+    narrow = play_grids.narrow_bands(params, da, db, amb, DT)
     h, hn = params.hysteresis, narrow.hysteresis
     assert np.all(hn.lo >= h.lo) and np.all(hn.hi <= h.hi) and np.any(hn.hi < h.hi)
     np.testing.assert_array_equal(act.simulate(narrow, da, db, DT).position_rad,
@@ -768,7 +770,7 @@ def test_narrow_bands_keep_the_training_run_and_saturate_beyond_it():
 def test_regressors_at_the_rows_equal_the_full_rate_columns(delay_s):
     params = act.ActuatorParams(delay_s=delay_s)
     data = record(act.ActuatorParams(), seconds=60.0)
-    grid = idn.play_grid(20.0, 120.0, 'modified', 4, 6)
+    grid = play_grids.play_grid(20.0, 120.0, 'modified', 4, 6)
     prob = idn._Problem(idn.Setup(data, params, {'tau_s': None}, {}, 2000, 40), grid)
     rows = slice(40, 2000, 3)
     full = prob.regressors(params.with_changes(delay_s=0.0), 2000)[0]
@@ -854,7 +856,7 @@ def test_a_trial_from_scratch_at_the_noise_stands_before_a_warm_trial_alike_in_t
     # better than a trial from scratch off the noise (2 times)
     data = record(act.ActuatorParams(), seconds=120.0)
     base = engine.fit_model(data, ())
-    noise = idn.record_noise_rms(data)
+    noise = scoring.record_noise_rms(data)
     real = engine.fit_dynamic
 
     def training_at(times_warm, times_scratch):

@@ -18,7 +18,7 @@ import io
 
 import pytest
 
-from sma_actuator.workbench import cli, data, limits
+from sma_actuator.workbench import cli, csv_table, data, limits
 
 
 def _csv(path, rows, step=0.01, first='0'):
@@ -101,7 +101,7 @@ def test_a_large_csv_logs_its_progress_without_a_terminal(tmp_path):
     path = _csv(tmp_path / 'big.csv', limits.PROGRESS_MIN_ROWS)
     err = io.StringIO()  # not a terminal
     with contextlib.redirect_stderr(err):
-        header, rows, _ = data.read_csv_table(path)
+        header, rows, _ = csv_table.read_csv_table(path)
     lines = err.getvalue().splitlines()
     assert len(rows) == limits.PROGRESS_MIN_ROWS
     assert [line.split(': ')[2].split(' %')[0] for line in lines] == [

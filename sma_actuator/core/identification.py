@@ -13,44 +13,42 @@
 # limitations under the License.
 
 """
-Identification of the hysteresis and thermal parameters (the paper's section 2.2-2.3 tuning).
+Identification of the thermal and hysteresis parameters (the paper's section 2.2-2.3 tuning).
 
-* Scores (`scores`): free-run simulation error, RMSE, NRMSE = RMSE / range(y),
-  fit % = 100 (1 − ‖e‖ / ‖y − ȳ‖), max |e|.
-* Static (`fit_static`): input -> output curves with no time axis (quasi-static loops).
-  Weights of the play operators by non-negative least squares, the paper's "least mean
-  squares" tuning, on a grid of thresholds designed from the input range.
-* Preisach (`fit_preisach`): relay weights mu >= 0 by NNLS on the relay states.
-* Dynamic (`fit_dynamic`): (duty_a, duty_b, position[, ambient]) time series. Variable
-  projection: the outer nonlinear least squares (scipy.optimize.least_squares) adjusts
-  the thermal time constant and any free effect parameters; for each trial the wire
-  temperatures are simulated with the exact step (7d), the play-operator states of both
-  wires are the regressors, and the weights follow by NNLS (position is linear in them:
-  φ = φ0 + Σ_i v_i (s_i^a − s_b s_i^b) + k1 (θ_a − s_b θ_b)). Two stages: a coarse grid
-  over the whole temperature range finds the time constant and where the wire transforms,
-  then a fine grid over that active range gives the final weights. Effects that feed the
-  output back into the regressors (phase resistance, stress coupling) use the previous
-  round's hysteresis in the feedback path, alternating until the weights settle; the
-  sensor polynomial is handled by regressing on p^-1(measured position). Train on the
-  first `train_fraction` of time; score the free-run simulation of the rest. The dynamic
-  fit runs as explicit stages (`prepare`, `input_range`, `fit_coarse`, `refine_grid`,
-  `prune_grid`, `fit_final`, `score_fit`), each taking the previous one's frozen result.
+Dynamic (`fit_dynamic`): (duty_a, duty_b, position[, ambient]) time series. Variable
+projection: the outer nonlinear least squares (scipy.optimize.least_squares) adjusts the
+thermal time constant and any free effect parameters; for each trial the wire temperatures
+are simulated with the exact step (7d), the play-operator states of both wires are the
+regressors, and the weights follow by NNLS (`linear_fit`; position is linear in them:
+φ = φ0 + Σ_i v_i (s_i^a − s_b s_i^b) + k1 (θ_a − s_b θ_b)). Two stages: a coarse grid over
+the whole temperature range finds the time constant and where the wire transforms, then a
+fine grid over that active range gives the final weights (`play_grids`). Effects that feed
+the output back into the regressors (phase resistance, stress coupling) use the previous
+round's hysteresis in the feedback path, alternating until the weights settle; the sensor
+polynomial is handled by regressing on p^-1(measured position). Train on the first
+`train_fraction` of time; score the free-run simulation of the rest (`scoring`). The
+dynamic fit runs as explicit stages (`prepare`, `input_range`, `fit_coarse`,
+`refine_grid`, `prune_grid`, `fit_final`, `score_fit`), each taking the previous one's
+frozen result. Quasi-static curves are fitted in `static_fit`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Callable, Optional
 
 import numpy as np
-from scipy.optimize import least_squares, lsq_linear, nnls
+from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
 from . import actuator as act
 from . import kernels
 from .datakinds import (DynamicData, MIN_DUTY_EXCITATION, SAMPLING_TOLERANCE, Split,  # noqa: F401
                         TRAIN_FRACTION)
-from .hysteresis import PlayHysteresis, PreisachModel
-from .validate import finite_array, same_length
+from .hysteresis import PlayHysteresis
+from .linear_fit import box_ls, nnls_with_offset
+from .play_grids import (adaptive_grid, close_major_loop, heating_edge, narrow_bands, play_grid,
+                         prune_unused, state_range, tie_loop_width)
+from .scoring import NEAR_NOISE, record_noise_rms, scores
 
 # parameters that feed the hysteresis output back into its own regressors, and those
 # solved linearly with the weights (no outer search): the roles declared in `ActuatorParams`
@@ -69,226 +67,6 @@ REGRESSION_RATE_HZ = 20.0
 # parameters): 1e-4 of the cost is 5e-5 of the RMSE, far below any difference diagnose
 # judges; scipy's 1e-8 spent a third of diagnose's time polishing converged fits
 OUTER_TOL = 1e-4
-# ridge on the (unit-norm scaled) hysteresis weights: elements the training data hardly
-# excite would otherwise take arbitrary weights and spoil the held-out prediction
-RIDGE = 1e-10
-
-
-def scores(y: np.ndarray, y_hat: np.ndarray, span: Optional[float] = None) -> dict:
-    """
-    Return the error figures of a prediction y_hat of measured y.
-
-    rmse, nrmse = rmse / span, fit_percent, max_error; span defaults to the range of y
-    (pass the range of the whole record set so a quiet window is not scored as a huge
-    relative error).
-    """
-    y = np.asarray(y, float)
-    e = y - np.asarray(y_hat, float)
-    rmse = float(np.sqrt(np.mean(e ** 2)))
-    span = float(np.ptp(y)) if span is None else float(span)
-    dev = float(np.linalg.norm(y - y.mean()))
-    return {'rmse': rmse,
-            'nrmse': rmse / span if span > 0 else float('inf'),
-            'fit_percent': 100.0 * (1.0 - np.linalg.norm(e) / dev) if dev > 0 else float('-inf'),
-            'max_error': float(np.max(np.abs(e)))}
-
-
-# share of the third differences kept by the fallback noise estimate, and the share of a
-# normal's variance its central part of that probability mass holds
-NOISE_KEPT = 0.9
-NOISE_KEPT_VARIANCE = 0.623
-
-
-def noise_rms(*signals: np.ndarray) -> float:
-    """
-    Return the RMS σ of white measurement noise on smooth signals, estimated from them.
-
-    Third differences d_k = y_{k+2} − 3 y_{k+1} + 3 y_k − y_{k−1} cancel a signal that is
-    smooth at the sampling rate (to its third derivative times dt³) and leave white noise
-    of variance 20 σ², so σ = 1.4826 MAD(d) / √20, MAD the median absolute deviation,
-    which ignores the few samples where the signal itself bends (steps). Each signal (one
-    record) is differenced on its own. A quantised signal resting on one level has MAD 0;
-    then σ² = mean of the `NOISE_KEPT` smallest d² / (20 `NOISE_KEPT_VARIANCE`), the
-    rescaling a normal's trimmed variance needs.
-    """
-    d = np.concatenate([np.diff(np.asarray(y, float), 3) for y in signals if len(y) > 3])
-    if d.size == 0:
-        return 0.0
-    mad = float(np.median(np.abs(d - np.median(d))))
-    if mad > 0:
-        return 1.4826 * mad / np.sqrt(20.0)
-    kept = np.sort(d ** 2)[:max(1, int(NOISE_KEPT * d.size))]
-    return float(np.sqrt(np.mean(kept) / (20.0 * NOISE_KEPT_VARIANCE)))
-
-
-def record_noise_rms(data: DynamicData) -> float:
-    """Return σ of `noise_rms` over each record's measured positions (the whole run if one)."""
-    records = data.segments or (('', 0, len(data)),)
-    return noise_rms(*(data.position[a:b] for _, a, b in records))
-
-
-# a fit within this factor of the measurement noise leaves nothing to find
-NEAR_NOISE = 1.5
-
-
-def play_grid(u_min: float, u_max: float, kind: str = 'modified', n_widths: int = 6,
-              n_centres: int = 8) -> PlayHysteresis:
-    """
-    Threshold grid of play operators covering inputs in [u_min, u_max].
-
-    classical: widths r_j = j/(n−1) · span/2 (unsaturated, eq. 5); modified: every width
-    combined with n_centres saturation bands of half-width span/(2 n_centres) whose
-    centres tile the span shifted by the width (eq. 6 elements centred across the range).
-    Weights start at zero.
-    """
-    span = float(u_max - u_min)
-    if not np.isfinite(span) or span <= 0:
-        raise ValueError(f'input range must be finite and positive, got [{u_min}, {u_max}]')
-    if kind == 'classical':
-        r = np.linspace(0.0, 0.5 * span, n_widths + 4)
-        inf = np.full(r.size, np.inf)
-        return PlayHysteresis(r, -inf, inf, np.zeros(r.size))
-    if kind != 'modified':
-        raise ValueError(f"kind must be 'classical' or 'modified', got {kind!r}")
-    widths = np.linspace(0.0, 0.4 * span, n_widths)
-    band = 0.5 * span / n_centres
-    rows = []
-    for r in widths:
-        # the element rises over [c - band + r, c + band + r]: tile that over the range
-        centres = np.linspace(u_min + band - r, u_max - band - r, n_centres)
-        rows += [(r, c - band, c + band) for c in centres]
-    r, lo, hi = np.array(rows).T
-    return PlayHysteresis(r, lo, hi, np.zeros(r.size))
-
-
-def _nnls_with_offset(X: np.ndarray, y: np.ndarray, free_cols: int = 0) -> np.ndarray:
-    """
-    Min ‖X b − y‖ with b >= 0 except the last `free_cols` columns (sign-free, split ±).
-
-    Solved on the Cholesky factor R of the (scaled) Gram matrix, ‖R b − R^-T X^T y‖ having
-    the same minimiser as ‖X b − y‖, so the active-set NNLS works on an m x m system
-    instead of n x m (n samples >> m regressors).
-    """
-    R, z, scale = _reduced(X, y, negated=free_cols)
-    b, _ = nnls(R, z, maxiter=50 * R.shape[1])
-    b = b / scale
-    if free_cols:
-        b = np.concatenate([b[:-2 * free_cols], b[-2 * free_cols:-free_cols] - b[-free_cols:]])
-    return b
-
-
-def _reduced(X: np.ndarray, y: np.ndarray, negated: int = 0) -> tuple:
-    """
-    (R, z, scale).
-
-    Cholesky factor R of the column-scaled Gram matrix (plus the ridge; it also keeps ± column
-    pairs apart) and z = R^-T Xs^T y, so that ‖R c − z‖ has the minimiser of ‖X b − y‖ with b = c /
-    scale, on an m x m instead of an n x m system.
-
-    negated: the last `negated` columns are also appended with the opposite sign, [X, −X_l]
-    (a sign-free coefficient as the difference of two non-negative ones). Their Gram
-    entries are those of X with the sign flipped, so the n x (m + l) matrix is never built.
-    """
-    G, Xty = X.T @ X, X.T @ y   # one pass each over the large X; A.T @ A is a BLAS syrk
-    if negated:
-        tail = slice(G.shape[0] - negated, None)
-        G = np.block([[G, -G[:, tail]], [-G[tail, :], G[tail, tail]]])
-        Xty = np.concatenate([Xty, -Xty[tail]])
-    scale = np.sqrt(np.diag(G))   # a new array (np.diag of a 2-D array is a read-only view)
-    scale[scale == 0] = 1.0
-    G = G / np.outer(scale, scale)
-    G[np.diag_indices_from(G)] += RIDGE * np.trace(G) / len(G)
-    R = np.linalg.cholesky(G).T
-    return R, np.linalg.solve(R.T, Xty / scale), scale
-
-
-def _box_ls(X: np.ndarray, y: np.ndarray, lower: np.ndarray,
-            upper: np.ndarray) -> np.ndarray:
-    """
-    Solve min ‖X b − y‖ subject to lower <= b <= upper (scipy's bounded-variable LS).
-
-    On the same Cholesky-reduced system as `_nnls_with_offset`.
-    """
-    R, z, scale = _reduced(X, y)
-    lo, hi = lower * scale, upper * scale
-    # the bounds relaxed to signs: a minimiser inside the box is the box's minimiser, and
-    # the active-set NNLS finds it far faster than BVLS, which then only runs when it is not
-    free = np.flatnonzero((lo != 0.0) | np.isfinite(hi))
-    c, _ = nnls(np.hstack([R, -R[:, free]]), z, maxiter=50 * (R.shape[1] + free.size))
-    b = c[:R.shape[1]]
-    b[free] -= c[R.shape[1]:]
-    if not (np.all(b >= lo) and np.all(b <= hi)):
-        b = lsq_linear(R, z, bounds=(lo, hi), method='bvls').x
-    return b / scale
-
-
-@dataclass
-class StaticFit:
-    """Result of `fit_static`: the fitted operator and its scores (train/validation)."""
-
-    model: PlayHysteresis
-    train: dict
-    validation: dict
-    prediction: list = field(default_factory=list)
-
-
-def _curve_list(u: np.ndarray, y: np.ndarray, curve: Optional[np.ndarray]) -> list:
-    """Return [(curve id, input, output), ...] in file order, after checking the arrays."""
-    u = finite_array('input', u)
-    y = finite_array('output', y)
-    same_length(input=u, output=y)
-    curve = np.zeros(len(u), int) if curve is None else np.asarray(curve).astype(int)
-    same_length(input=u, curve=curve)
-    ids = list(dict.fromkeys(curve.tolist()))
-    return [(c, u[curve == c], y[curve == c]) for c in ids]
-
-
-def fit_static(u: np.ndarray, y: np.ndarray, curve: Optional[np.ndarray] = None,
-               kind: str = 'modified', validate_odd: bool = True, n_widths: int = 8,
-               n_centres: int = 10, nonneg: bool = True) -> StaticFit:
-    """
-    Fit a (classical or modified) PI operator to quasi-static input/output curves.
-
-    Each curve is simulated from the reset state (cold, lower branch at its first input),
-    as measured first-order reversal curves are. With validate_odd, even-numbered curves
-    train and odd ones validate (the workbench convention); otherwise all train.
-    nonneg=True constrains the weights to be non-negative (an invertible operator);
-    nonneg=False is plain least squares.
-    """
-    curves = _curve_list(u, y, curve)
-    train = [c for c in curves if not validate_odd or c[0] % 2 == 0]
-    val = [c for c in curves if validate_odd and c[0] % 2 == 1]
-    if not train:
-        raise ValueError('no training curves (need curve ids with even numbers)')
-    u_all = np.concatenate([c[1] for c in curves])
-    grid = play_grid(u_all.min(), u_all.max(), kind, n_widths, n_centres)
-    X = np.vstack([np.column_stack([grid.features(cu, grid.initial_state(u_all.min())),
-                                    cu, np.ones_like(cu)]) for _, cu, _ in train])
-    yt = np.concatenate([cy for _, _, cy in train])
-    b = _nnls_with_offset(X, yt, free_cols=1) if nonneg else np.linalg.lstsq(X, yt, rcond=None)[0]
-    model = PlayHysteresis(grid.r, grid.lo, grid.hi, b[:-2], b[-2], b[-1])
-    pred = [(c, model.simulate(cu, model.initial_state(u_all.min()))) for c, cu, _ in curves]
-    by_id = dict(pred)
-
-    def score(cs: list) -> Optional[dict]:
-        if not cs:
-            return None
-        return scores(np.concatenate([cy for _, _, cy in cs]),
-                      np.concatenate([by_id[c] for c, _, _ in cs]))
-    return StaticFit(model, score(train), score(val), pred)
-
-
-def fit_preisach(u: np.ndarray, y: np.ndarray, n_levels: int = 21,
-                 u_range: Optional[tuple] = None) -> PreisachModel:
-    """Fit a Preisach model, relays on an even grid over the input range, by NNLS (mu >= 0)."""
-    u = finite_array('input', u)
-    y = finite_array('output', y)
-    same_length(input=u, output=y)
-    lo, hi = u_range if u_range is not None else (u.min(), u.max())
-    model = PreisachModel.grid(n_levels, lo, hi)
-    X = np.column_stack([model.features(u).astype(float), np.ones_like(u)])
-    b = _nnls_with_offset(X, y, free_cols=1)
-    return PreisachModel(model.alpha, model.beta, b[:-1], b[-1])
 
 
 # ------------------------------------------------------------------------- dynamic data
@@ -390,7 +168,7 @@ class _Problem:
             g_b = act.fatigue_progress(params, act.transformation_cycles(yb))
         # the range each element's state covers in the training window (either wire, at
         # these rows): the contraction fraction is normalised over it (see `with_linear`)
-        state_lo, state_hi = _state_range(fa, fb)
+        state_lo, state_hi = state_range(fa, fb)
         if self.fatigued(params):
             g_a, g_b = g_a[at.start:at.stop:at.step], g_b[at.start:at.stop:at.step]
             keep_a, keep_b = 1.0 - params.fatigue_stroke * g_a, 1.0 - params.fatigue_stroke * g_b
@@ -465,9 +243,9 @@ class _Problem:
             m = X.shape[1] - 3
             lower = np.r_[np.zeros(m), -bound, -bound, -np.inf]
             upper = np.r_[np.full(m, np.inf), bound, bound, np.inf]
-            b = _box_ls(X, target, lower, upper)
+            b = box_ls(X, target, lower, upper)
         else:
-            b = _nnls_with_offset(X, target, free_cols=1)
+            b = nnls_with_offset(X, target, free_cols=1)
         return LinearSolution(b, act.sensor_polynomial(params, X @ b) - y, state_lo, state_hi)
 
     def with_linear(self, params: act.ActuatorParams,
@@ -532,181 +310,6 @@ class _Problem:
         return dict(zip(names, sol.x)), sol.cost
 
 
-def narrow_bands(params: act.ActuatorParams, duty_a: np.ndarray, duty_b: np.ndarray,
-                 ambient: np.ndarray, dt: float) -> act.ActuatorParams:
-    """
-    Return `params` with each element's saturation band [lo, hi] narrowed to its states.
-
-    The states are those it takes (either wire) when `params` is simulated on these
-    (training) inputs.
-
-    The simulation on these inputs is unchanged (every state visited lies in the narrowed
-    band, so the clip never acts there), but beyond them an element stops where the data
-    stopped showing it: a weight fitted to a small part of an element's band is not
-    extrapolated over the rest, and the model saturates outside the trained range instead.
-    Classical (unsaturated) elements are returned as they are.
-    """
-    h, n = params.hysteresis, len(duty_a)
-    if not (np.isfinite(h.lo).all() and np.isfinite(h.hi).all()) or n == 0:
-        return params
-    fa, fb = np.empty((n, h.n_operators)), np.empty((n, h.n_operators))
-    act.simulate_wires(act.kernel_inputs(duty_a, duty_b, ambient, np.zeros(n)), dt,
-                       params.kernel_vector(),
-                       act.kernel_hysteresis(h), act.initial_state(params),
-                       (fa, fb, np.empty(n), np.empty(n), 0, 1))
-    lo, hi = _state_range(fa, fb)
-    return params.with_changes(hysteresis=PlayHysteresis(h.r, lo, hi, h.w, h.k1, h.y0))
-
-
-def _state_range(fa: np.ndarray, fb: np.ndarray) -> tuple:
-    """(lowest, highest) state of each element over the rows of either wire."""
-    return kernels.column_range(fa, fb)
-
-
-def _mass_points(x: np.ndarray, mass: np.ndarray, cell: float, lo: float, hi: float,
-                 n: int) -> np.ndarray:
-    """
-    N sorted points in [lo, hi].
-
-    a third spread evenly, the rest at quantiles of `mass` located at x, each mass smeared
-    uniformly over ±cell/2 (a piecewise-linear CDF).
-
-    The fine grid's resolution then follows where the coarse fit put its weight (where the
-    wire transforms), while the even third keeps elements everywhere else in the range.
-    """
-    n_even = max(2, n // 3)
-    even = np.linspace(lo, hi, n_even)
-    ok = (mass > 0) & np.isfinite(x)
-    if not ok.any() or n <= n_even:
-        return np.linspace(lo, hi, n)
-    knots = np.concatenate([x[ok] - 0.5 * cell, x[ok] + 0.5 * cell])
-    order = np.argsort(knots)
-    knots = np.clip(knots[order], lo, hi)
-    steps = np.concatenate([mass[ok], -mass[ok]])[order] / cell    # density changes at knots
-    density = np.cumsum(steps)[:-1]
-    cdf = np.concatenate([[0.0], np.cumsum(np.maximum(density, 0.0) * np.diff(knots))])
-    if cdf[-1] <= 0:
-        return np.linspace(lo, hi, n)
-    q = (np.arange(n - n_even) + 0.5) / (n - n_even)
-    dense = np.interp(q * cdf[-1], cdf, knots)
-    return np.sort(np.concatenate([even, dense]))
-
-
-def _adaptive_grid(h: PlayHysteresis, span: np.ndarray, u_lo: float, u_hi: float,
-                   n_widths: int, n_centres: int) -> tuple:
-    """
-    Fine saturated-play grid refined where the coarse fit `h` carries its weight.
-
-    Rising edges (centre + half-width) and half-widths are placed by `_mass_points` from
-    each coarse element's share of the output in the training window, w · span (span: the
-    range its state covers there, `_Problem.state_hi − state_lo`). Weighting by the whole
-    band instead (w (hi − lo)) let a heavily weighted element the data hardly moves (one
-    near the hottest state, fitting a few samples) pull the resolution away from where the
-    wire transforms. Each element's band covers the cell between its edge and the
-    neighbouring edges, so the edges tile [u_lo, u_hi] for every width.
-    """
-    mass = h.w * span
-    if not np.isfinite(mass).all() or mass.sum() <= 0:
-        return play_grid(u_lo, u_hi, 'modified', n_widths, n_centres), (n_widths, n_centres)
-    edges = 0.5 * (h.lo + h.hi) + h.r
-    cell = float(np.max(h.hi - h.lo))
-    r_top = float(np.max(h.r[mass > 1e-3 * mass.sum()])) + cell
-    e = _mass_points(edges, mass, cell, u_lo, u_hi, n_centres)
-    e = e[np.concatenate([[True], np.diff(e) > 1e-3 * (u_hi - u_lo)])]
-    widths = _mass_points(h.r, mass, max(np.diff(np.unique(h.r)).min(initial=cell), 1e-6),
-                          0.0, r_top, n_widths)
-    widths = np.unique(np.round(widths, 9))
-    bounds = np.concatenate([[u_lo], 0.5 * (e[1:] + e[:-1]), [u_hi]])
-    rows = [(r, b0 - r, b1 - r) for r in widths for b0, b1 in zip(bounds[:-1], bounds[1:])]
-    r, lo, hi = np.array(rows).T
-    return PlayHysteresis(r, lo, hi, np.zeros(r.size)), (len(widths), len(e))
-
-
-def close_major_loop(grid: PlayHysteresis, u_rest: float) -> PlayHysteresis:
-    """
-    Return the saturated `grid` with every element fully cold at the rest temperature.
-
-    An element of half-width r and band [lo, hi] falls back to lo on cooling only once
-    its input is below lo − r; with lo < u_rest + r it would stay partly transformed at
-    rest after any heating, and a model fitted on a record that never cooled fully would
-    freeze above the measured rest. The material's major loop closes there (Mf above
-    ambient), so lo is raised to u_rest + r (hi kept, an empty band is a constant):
-    beyond the temperatures seen in training the model then saturates at the ends of the
-    major loop instead of where the training stopped. Unsaturated (classical) elements
-    are returned as they are.
-    """
-    if not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
-        return grid
-    lo = np.minimum(np.maximum(grid.lo, u_rest + grid.r), grid.hi)
-    return PlayHysteresis(grid.r, lo, grid.hi, grid.w, grid.k1, grid.y0)
-
-
-def flexinol_loop_ratio() -> float:
-    """
-    Return β = r / (c − θ_rest) of the datasheet loop (`core.actuator.flexinol_hysteresis`).
-
-    r: the mean half-width of its elements, c − θ_rest: how far the loop's centre lies above
-    the default ambient. For Flexinol LT (As 68, Af 78, Ms 52, Mf 42 °C at 22 °C) that is
-    13 K / 38 K = 0.34: the cooling branch lies at (1 − β)/(1 + β) = 0.49 of the heating
-    branch's height above ambient. The thermal model is linear in the excess temperature
-    θ − θ_rest (eq. 7), so a heating gain G that is off by a factor scales both heights
-    alike and β holds on the model's own temperature scale.
-    """
-    h, p = act.flexinol_hysteresis(), act.ActuatorParams()
-    centre = 0.5 * (h.lo + h.hi)
-    return float(np.mean(h.r) / (np.mean(centre) - p.ambient_c))
-
-
-def tie_loop_width(grid: PlayHysteresis, u_rest: float, ratio: Optional[float],
-                   edge: Optional[float] = None,
-                   spread: Optional[tuple[float, float]] = None) -> PlayHysteresis:
-    """
-    Return the saturated `grid` with the elements' half-widths tied to the heating edge.
-
-    An element of half-width r and band [lo, hi] rises over [lo + r, hi + r] on heating and
-    falls over [lo − r, hi − r] on cooling. Data that only heats identifies the rising
-    cells but not r: any width fits them, and the cooling is then predicted anywhere
-    between the heating edge and the rest. With ratio β (`flexinol_loop_ratio`) the loop
-    keeps the datasheet's proportions: one half-width r = f β (e − θ_rest) / (1 + β) for
-    every element, e the heating edge (the loop centre c = e − r then lies
-    (e − θ_rest)/(1 + β) above the rest and r = f β (c − θ_rest)), so the cooling branch
-    spans as many kelvin as the heating branch, 2 r lower, as As-Af and Ms-Mf do. f spreads
-    the widths of one cell over `spread` by their rank in the grid (the datasheet loop
-    spreads them too, so minor loops keep a shape; default its min and max over mean
-    half-width, 0.85 and 1.15). edge: the heating edge [°C] (the
-    weight centre of a previous fit's rising cells, `heating_edge`); None: each element's
-    own rising cell (before any fit). The rising cells are kept. ratio None, or
-    unsaturated (classical) elements: `grid` is returned as it is.
-    """
-    if ratio is None or not (np.isfinite(grid.lo).all() and np.isfinite(grid.hi).all()):
-        return grid
-    if spread is None:
-        datasheet = act.flexinol_hysteresis().r
-        spread = (datasheet.min() / datasheet.mean(), datasheet.max() / datasheet.mean())
-    cell = 0.5 * (grid.lo + grid.hi) + grid.r
-    half = 0.5 * (grid.hi - grid.lo)
-    widths = np.unique(grid.r)
-    rank = np.searchsorted(widths, grid.r) / max(len(widths) - 1, 1)
-    f = spread[0] + (spread[1] - spread[0]) * rank
-    e = cell if edge is None else edge
-    r = np.maximum(ratio * (e - u_rest) / (1.0 + ratio), 0.0) * f
-    c = cell - r
-    return PlayHysteresis(r, c - half, c + half, grid.w, grid.k1, grid.y0)
-
-
-def heating_edge(h: PlayHysteresis, span: np.ndarray) -> Optional[float]:
-    """
-    Return the weight centre [°C] of the rising cells of hysteresis `h`.
-
-    Σ m_i (c_i + r_i) / Σ m_i with m_i = w_i · span_i, the output each element gives over
-    the state range `span` it covers in the training window (as `_adaptive_grid` weighs).
-    """
-    mass = h.w * span
-    if not np.isfinite(mass).all() or mass.sum() <= 0:
-        return None
-    return float(np.sum(mass * (0.5 * (h.lo + h.hi) + h.r)) / mass.sum())
-
-
 def _settle(prob: _Problem, values: dict, ref: PlayHysteresis,
             steps: int = FIXED_POINT_STEPS) -> Settled:
     """
@@ -745,28 +348,6 @@ def _scan_tau(prob: _Problem, values: dict, ref: PlayHysteresis,
         cost = float(np.sum(prob.solve(trial, values, ref).residual ** 2))
         best = min(best, (cost, tau))
     return best[1]
-
-
-def _prune(grid: PlayHysteresis, w: np.ndarray, shape: Optional[tuple],
-           centre_steps: int = 3) -> PlayHysteresis:
-    """
-    Elements with non-zero weight, dilated by one step in width and `centre_steps` in centre.
-
-    Room for effects that shift where (in model temperature) the wire transforms.
-    """
-    used = w > 0
-    if shape is not None:
-        used = used.reshape(shape)
-        grown = used.copy()
-        grown[1:, :] |= used[:-1, :]
-        grown[:-1, :] |= used[1:, :]
-        for k in range(1, centre_steps + 1):
-            grown[:, k:] |= used[:, :-k]
-            grown[:, :-k] |= used[:, k:]
-        used = grown.ravel()
-    if not used.any():
-        return grid
-    return PlayHysteresis(grid.r[used], grid.lo[used], grid.hi[used], np.zeros(int(used.sum())))
 
 
 # ------------------------------------------------------------------------- dynamic stages
@@ -1057,7 +638,7 @@ def refine_grid(setup: Setup, span: InputRange, kind: str, previous: GridFit,
         h = previous.problem.with_linear(set_values(setup.base, values),
                                          previous.solution).hysteresis
         states = previous.solution.state_hi - previous.solution.state_lo
-        grid, shape = _adaptive_grid(h, states, span.lo, span.hi, *options.fine)
+        grid, shape = adaptive_grid(h, states, span.lo, span.hi, *options.fine)
         edge = heating_edge(h, states)
         grid = close_major_loop(tie_loop_width(grid, span.rest, setup.loop_ratio, edge),
                                 span.rest)
@@ -1078,7 +659,7 @@ def prune_grid(stage: GridFit) -> PlayHysteresis:
 
     The nonlinear search (and every candidate effect after it) then works on a small basis.
     """
-    return _prune(stage.grid, stage.solution.coef[:stage.grid.n_operators], stage.shape)
+    return prune_unused(stage.grid, stage.solution.coef[:stage.grid.n_operators], stage.shape)
 
 
 def fit_final(setup: Setup, grid: PlayHysteresis, values: dict,

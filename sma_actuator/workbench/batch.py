@@ -339,7 +339,7 @@ def compare_reference(spec: dict, data: Any) -> Optional[float]:
     (`commands.steps.convert_to_one_unit`). None for a record of another rig: its layout, or
     its position's quantity, is not the model's.
     """
-    from .data import in_unit
+    from .units import in_unit
     from .engine import load_fit
     data = in_unit(data, spec.get('position_unit') or data.position_unit)
     if data is None or spec.get('layout') not in (None, data.layout):

@@ -66,7 +66,7 @@ from .judging import (bic_gain, BIC_MARGIN, candidate_tasks, few_moving_stretche
                       typical_gain, unresolved_by)
 from .parallel import available_cores, imap_on_cores
 from ..core.datakinds import DynamicData
-from ..core.identification import NEAR_NOISE
+from ..core.scoring import NEAR_NOISE
 
 # candidate entry keys kept out of `Diagnosis.to_json` (objects, timings, internal checks)
 INTERNAL_KEYS = ('fit', 'bic_change', 'seconds', 'base_refit', 'unresolved')

@@ -38,8 +38,9 @@ from .records import (loop_prior, record_strokes, referred_to_rest, stroke_scale
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split, StaticData
 from ..core.hysteresis import PlayHysteresis
-from ..core.identification import (fit_dynamic, fit_static, NEAR_NOISE,
-                                   record_noise_rms, scores, SearchOptions)
+from ..core.identification import fit_dynamic, SearchOptions
+from ..core.scoring import NEAR_NOISE, record_noise_rms, scores
+from ..core.static_fit import fit_static
 
 # significant candidates whose held-out gains are this close (relative to the best) explain
 # the data about equally well: the explanation says so
@@ -446,7 +447,7 @@ def noise_floor(data: Any) -> Optional[float]:
     """
     Return the NRMSE a perfect model would score on `data`: its measurement noise.
 
-    σ / span, σ from `identification.record_noise_rms` over each record's measured positions, span
+    σ / span, σ from `scoring.record_noise_rms` over each record's measured positions, span
     the range measured over the whole set (the NRMSE's scale); None for static curves,
     whose points are not a time series.
     """

@@ -59,7 +59,7 @@ from .engine import (fit_model, MIN_COVERAGE, ModelFit, noise_floor, prefer_warm
 from .levels import duty_levels
 from ..core import actuator as act
 from ..core.datakinds import DynamicData, Split
-from ..core.identification import NEAR_NOISE
+from ..core.scoring import NEAR_NOISE
 
 MIN_IMPROVEMENT = 0.20
 # BIC must fall by at least this much: "very strong" evidence on Kass & Raftery's (1995)

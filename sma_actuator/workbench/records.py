@@ -34,10 +34,12 @@ from typing import Any, Optional, Tuple
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from .data import DataError, MIN_SAMPLES, resample_columns
+from .formats import DataError, MIN_SAMPLES
 from .limits import MAX_FIT_RATE_HZ
+from .timegrid import resample_columns
 from ..core.datakinds import DynamicData, SAMPLING_TOLERANCE
-from ..core.identification import flexinol_loop_ratio, noise_rms
+from ..core.play_grids import flexinol_loop_ratio
+from ..core.scoring import noise_rms
 
 # rest between joined records [s]: e^-6 of the excess temperature is left at a thermal time
 # constant of 10 s
@@ -192,7 +194,7 @@ def loop_prior(data: DynamicData, n_train: Optional[int] = None) -> Optional[flo
 
     Training records that never reverse by MIN_REVERSAL of their range (heat and hold,
     ramps up) leave the descending branch unidentified: the datasheet loop's proportions
-    (`core.identification.flexinol_loop_ratio`, `tie_loop_width`) stand in for it.
+    (`core.play_grids.flexinol_loop_ratio`, `tie_loop_width`) stand in for it.
     """
     return flexinol_loop_ratio() if reversal(data, n_train) < MIN_REVERSAL else None
 

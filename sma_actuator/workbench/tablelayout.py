@@ -14,7 +14,7 @@
 """
 How a logger or a scientific tool lays out a text table: encoding, separator, names, units.
 
-The CSV reader (`data.read_csv_table`) reads what these return. They cover what rigs'
+The CSV reader (`csv_table.read_csv_table`) reads what these return. They cover what rigs'
 loggers write besides a plain UTF-8 CSV: a Windows code page (``°C``, ``µm`` as single
 bytes), UTF-16 with its byte-order mark (a spreadsheet's "Unicode text"), fields separated
 by spaces (``numpy.savetxt``'s default, Octave, gnuplot), column names with spaces

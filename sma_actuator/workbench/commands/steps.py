@@ -235,11 +235,11 @@ def convert_to_one_unit(args: argparse.Namespace, loaded: List[Tuple[str, Any]],
     Convert each record's position into the model's unit, or the first record's.
 
     A rig logged in mm one day and in um the next is still one rig: a record in another
-    unit of the same quantity (`data.unit_factor`) has its position and setpoint scaled,
+    unit of the same quantity (`units.unit_factor`) has its position and setpoint scaled,
     with a note. Units of different quantities (mm and deg) stay as they are, for the
     model's or the join's one-line error.
     """
-    from ..data import in_unit, unit_factor
+    from ..units import in_unit, unit_factor
     target = model_unit or loaded[0][1].position_unit
     source = args.model if model_unit else loaded[0][0]
     for k, (path, d) in enumerate(loaded):
