@@ -29,7 +29,6 @@ import argparse
 import numpy as np
 from sma_actuator.control import ControllerCore, ControllerSettings, load_model
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
-from sma_actuator.control.interlock import DeadTimeInterlock
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.nodes.common import config_path
 from sma_actuator.profiles import Profile
@@ -43,21 +42,16 @@ REFERENCES = {
 
 
 class BridgedPlant(CorePlant):
-    """`CorePlant` behind the bridge's interlock, each command seen at a jittered time."""
+    """`CorePlant` whose interlock, as the bridge's, sees each command at a jittered time."""
 
     def __init__(self, jitter_s: float, seed: int):
-        super().__init__(ActuatorParams(), seed=0)
-        self.interlock = DeadTimeInterlock(BRIDGE_DEAD_TIME_S)
+        super().__init__(ActuatorParams(), seed=0, dead_time_s=BRIDGE_DEAD_TIME_S)
         self.rng_jitter = np.random.default_rng(seed)
-        self.jitter_s, self.time_s, self.held = jitter_s, 0.0, 0
+        self.jitter_s = jitter_s
 
-    def step(self, duty_a: float, duty_b: float) -> float:
-        """Apply the pair the interlock lets through at the command's arrival time."""
-        arrival = self.time_s + self.rng_jitter.uniform(-self.jitter_s, self.jitter_s)
-        applied, reason = self.interlock.apply(duty_a, duty_b, arrival)
-        self.held += reason is not None and max(duty_a, duty_b) > 0
-        self.time_s += self.dt_s
-        return super().step(*applied)
+    def command_time_s(self) -> float:
+        """Return the command's arrival time [s]: its sample's time ± the jitter."""
+        return self.time_s + self.rng_jitter.uniform(-self.jitter_s, self.jitter_s)
 
 
 def run(model, reference, seconds, jitter_s, seed, dead_time_s):
@@ -67,7 +61,7 @@ def run(model, reference, seconds, jitter_s, seed, dead_time_s):
     trace = run_tracking(ctrl, plant, reference, seconds)
     keep = trace.time_s >= 1.0
     rms = float(np.sqrt(np.mean((trace.setpoint[keep] - trace.position[keep]) ** 2)))
-    return rms, plant.held
+    return rms, plant.interlock.held
 
 
 def main():

@@ -26,6 +26,7 @@ import sys
 import time
 
 from conftest import spin_until
+import numpy as np
 import pytest
 
 from sma_actuator.control.interlock import BOTH_REQUESTED, DEAD_TIME, DeadTimeInterlock
@@ -81,6 +82,26 @@ def test_a_dead_time_of_two_periods_ends_on_the_third_sample_on_any_summed_clock
             assert lock.apply(0.0, 0.0, clock[k + 1])[0] == (0.0, 0.0)     # b goes off
             assert lock.apply(0.3, 0.0, clock[k + 2]) == ((0.0, 0.0), DEAD_TIME), k
             assert lock.apply(0.3, 0.0, clock[k + 3]) == ((0.3, 0.0), None), k
+
+
+def test_the_core_plant_holds_a_reversal_for_the_dead_time_as_plant_sim_does():
+    # the ROS-free loop's plant (`control.closed_loop.CorePlant`) applies plant_sim's
+    # interlock, so a controller that reverses at once (mode pi) is held there as well
+    from sma_actuator.control.closed_loop import CorePlant
+    from sma_actuator.core.actuator import ActuatorParams
+
+    def wire_b_heat(dead_time_s):
+        plant = CorePlant(ActuatorParams(), noise_rad=0.0, dead_time_s=dead_time_s)
+        for _ in range(40):
+            plant.step(1.0, 0.0)
+        theta_b = [plant.actuator.temperature_c[1]]
+        for _ in range(3):    # reverse at once: b asks for full duty from the next sample
+            plant.step(0.0, 1.0)
+            theta_b.append(plant.actuator.temperature_c[1])
+        return (np.diff(theta_b) > 0.1).tolist(), plant.interlock.held
+
+    assert wire_b_heat(0.05) == ([False, False, True], 2)    # held two 25 ms samples
+    assert wire_b_heat(0.0) == ([True, True, True], 0)
 
 
 def test_zero_dead_time_still_refuses_both_at_once():

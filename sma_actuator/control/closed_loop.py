@@ -18,8 +18,9 @@ ROS-free closed loop: a `ControllerCore` against a plant, sample by sample.
 The plant is any object with `measure()` -> reading [rad] now and `step(duty_a, duty_b)`
 -> reading one control period later (duties held over it), optionally `ambient_c()` ->
 measured ambient [°C]. `CorePlant` is the package's own plant, the core actuator with the
-plant node's potentiometer (`core.sensor.Potentiometer`: noise, 12-bit ADC), as plant_sim
-steps it. Used by the tracking benchmark and the controller tests.
+plant node's potentiometer (`core.sensor.Potentiometer`: noise, 12-bit ADC) and its
+dead-time interlock (`interlock.DeadTimeInterlock`), as plant_sim steps it. Used by the
+tracking benchmark and the controller tests.
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from typing import Callable, Protocol, TYPE_CHECKING
 
 import numpy as np
 
+from .interlock import DeadTimeInterlock, DEFAULT_DEAD_TIME_S
 from .metrics import summarize
 from ..core.actuator import ActuatorParams, AntagonisticActuator
 from ..core.sensor import POT_RANGE_RAD, Potentiometer
@@ -47,14 +49,20 @@ class Plant(Protocol):
 
 
 class CorePlant:
-    """`core.AntagonisticActuator` + plant_sim's potentiometer, stepped every dt_s."""
+    """
+    `core.AntagonisticActuator` + plant_sim's potentiometer and interlock, stepped every dt_s.
+
+    dead_time_s: the interlock's dead time [s] (plant_sim's `interlock_dead_time_s`; 0: none).
+    """
 
     def __init__(self, params: ActuatorParams, dt_s: float = 0.025, noise_rad: float = 0.001,
-                 seed: int = 7, bits: int = 12):
+                 seed: int = 7, bits: int = 12, dead_time_s: float = DEFAULT_DEAD_TIME_S):
         self.actuator = AntagonisticActuator(params)
         self.pot = Potentiometer(bits, *POT_RANGE_RAD, noise_rad)
         self.rng = np.random.default_rng(seed)
         self.dt_s = dt_s
+        self.interlock = DeadTimeInterlock(dead_time_s)
+        self.time_s = 0.0
         self.reading = self._read(self.actuator.reading_now)
 
     def _read(self, angle: float) -> float:
@@ -69,9 +77,15 @@ class CorePlant:
         """Measured ambient [°C]: the model's constant ambient."""
         return self.actuator.params.ambient_c
 
+    def command_time_s(self) -> float:
+        """Return the time [s] the interlock sees this step's command at: as plant_sim, its end."""
+        return self.time_s
+
     def step(self, duty_a: float, duty_b: float) -> float:
-        """Hold the duties for dt_s; return the reading then [rad]."""
-        self.reading = self._read(self.actuator.step(duty_a, duty_b, self.dt_s))
+        """Hold the duties the interlock lets through for dt_s; return the reading then [rad]."""
+        self.time_s += self.dt_s
+        applied, _ = self.interlock.apply(duty_a, duty_b, self.command_time_s())
+        self.reading = self._read(self.actuator.step(*applied, self.dt_s))
         return self.reading
 
 

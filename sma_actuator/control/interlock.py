@@ -39,6 +39,9 @@ DEAD_TIME = 'other wire still inside the dead time'
 # 1.05 s is 0.04999999999999999 s), and every clock must release a wire on the same sample
 # (the controller's estimate assumes the duty it sent was applied); integer ticks are exact
 TIE_SHARE = 1e-6
+# the dead time [s] plant_sim and the hardware bridge apply and the controller keeps by
+# default: two 25 ms control periods, twice the firmware's own 25 ms
+DEFAULT_DEAD_TIME_S = 0.05
 
 
 class DeadTimeInterlock:

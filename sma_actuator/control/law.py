@@ -66,7 +66,7 @@ from .estimator import DriftEstimator, WireEstimator
 from .feedforward import InverseFeedforward
 from .guard import ThermalGuard
 from .handover import MIN_RATE_RAD_S, Preheat
-from .interlock import DeadTimeInterlock
+from .interlock import DeadTimeInterlock, DEFAULT_DEAD_TIME_S
 from .on_off import OnOffRelay
 from .pi import DiscretePI
 from .split import exclusive, split
@@ -119,7 +119,7 @@ class ControllerSettings:
     drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
     preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
-    dead_time_s: float = 0.05       # pi_inverse: interlock dead time between the wires [s]
+    dead_time_s: float = DEFAULT_DEAD_TIME_S   # pi_inverse: interlock dead time [s]
 
     def __post_init__(self) -> None:
         """Check and normalise the settings (a negative gain: from the model)."""

@@ -43,7 +43,7 @@ from typing import Callable
 
 import numpy as np
 from sma_actuator.control.inputs import duty_problem
-from sma_actuator.control.interlock import BOTH_REQUESTED, DeadTimeInterlock
+from sma_actuator.control.interlock import BOTH_REQUESTED, DeadTimeInterlock, DEFAULT_DEAD_TIME_S
 from sma_actuator.hardware import protocol as p
 from sma_actuator.hardware.calibration import AdcCalibration, VelocityEstimator
 
@@ -69,7 +69,7 @@ class BridgeConfig:
     heartbeat_period_s: float = 0.2
     adc_period_s: float = 0.005
     # two command periods; twice the firmware's 25 ms, so the MCU never holds off a frame
-    interlock_dead_time_s: float = 0.05
+    interlock_dead_time_s: float = DEFAULT_DEAD_TIME_S
 
     def __post_init__(self) -> None:
         for name in ('max_duty', 'interlock_threshold'):

@@ -59,6 +59,7 @@ from .ros_console import (
 )
 from .ros_diagnostics import Diagnostics, LEVELS
 from .ros_params import declare_parameters, Param
+from ..control.interlock import DEFAULT_DEAD_TIME_S
 from ..core.sensor import POT_RANGE_RAD, Potentiometer
 from ..hardware.bridge_core import BridgeConfig, BridgeCore
 from ..hardware.calibration import AdcCalibration
@@ -91,9 +92,9 @@ PARAMETERS = (
           'firmware caps it at 0.5).', (0.0, 0.5), read_only=True),
     Param('duty_timeout_s', 0.2, 'Host watchdog: no /sma/duty this long -> zero duty + '
           'WARN [s].', (0.01, 10.0), read_only=True),
-    Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
-          'duty this long; not below the firmware dead time 0.025 s [s].', (0.025, 10.0),
-          read_only=True),
+    Param('interlock_dead_time_s', DEFAULT_DEAD_TIME_S, 'A wire heats only after the other '
+          'has had zero duty this long; not below the firmware dead time 0.025 s [s].',
+          (0.025, 10.0), read_only=True),
     Param('link_timeout_s', 0.5, 'No valid frame from the MCU this long -> link lost, zero '
           'duty, re-handshake [s].', (0.05, 10.0), read_only=True),
     Param('heartbeat_hz', 5.0, 'Round-trip probe rate [Hz].', (0.1, 100.0), read_only=True),

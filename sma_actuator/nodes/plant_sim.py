@@ -63,7 +63,7 @@ from .ros_console import (
 from .ros_diagnostics import Diagnostics, ERROR, OK, WARN
 from .ros_params import declare_parameters, initial_value, Param, ParameterError
 from ..control.inputs import duty_problem, LastValid
-from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock
+from ..control.interlock import BOTH_REQUESTED, DeadTimeInterlock, DEFAULT_DEAD_TIME_S
 from ..core import actuator as act
 from ..core.actuator import ActuatorParams, AMBIENT_RANGE_C, AntagonisticActuator
 from ..core.model_file import load_model
@@ -102,8 +102,8 @@ PARAMETERS = (
           read_only=True),
     Param('duty_timeout_s', 0.2, 'No valid /sma/duty for this long [plant s] -> zero duty.',
           (0.01, 10.0)),
-    Param('interlock_dead_time_s', 0.05, 'A wire heats only after the other has had zero '
-          'applied duty for this long [plant s] (docs/safety.md).', (0.0, 10.0),
+    Param('interlock_dead_time_s', DEFAULT_DEAD_TIME_S, 'A wire heats only after the other '
+          'has had zero applied duty for this long [plant s] (docs/safety.md).', (0.0, 10.0),
           read_only=True),
     Param('model_file', '', 'Optional model file (sma-model fit --out) for the plant; the '
           'effect parameters override it.', read_only=True),
