@@ -17,10 +17,10 @@ pi_inverse behind a bridge whose interlock sees each command at a jittered arriv
     python benchmarks/bench_interlock_jitter.py [--jitter-ms 5] [--seeds 1 2 3 4]
 
 plant_sim's model (`control.closed_loop.CorePlant`) behind a 0.05 s dead-time interlock
-(`control.interlock`, as the hardware bridge applies it) that sees command k at k dt + u,
-u uniform in ±jitter. pi_inverse with the committed model tracks a 0.05 Hz and a 0.2 Hz
-±0.5 rad sine and a ±0.4 rad square of 20 s, with its own dead time `dead_time_s` equal to
-the bridge's and one period (25 ms) longer. Prints the RMS error after the first second
+(`control.interlock`, as the hardware bridge applies it) that sees each command at its
+sample's time + u, u uniform in ±jitter. pi_inverse with the committed model tracks a
+0.05 Hz and a 0.2 Hz ±0.5 rad sine and a ±0.4 rad square of 20 s, with its own dead time
+`dead_time_s` equal to the bridge's and one period (25 ms) longer. Prints the RMS error after the first second
 [rad] and how often the bridge held a duty the controller sent (its model counts it as
 applied), without jitter and for each jitter seed.
 """
@@ -29,11 +29,12 @@ import argparse
 import numpy as np
 from sma_actuator.control import ControllerCore, ControllerSettings, load_model
 from sma_actuator.control.closed_loop import CorePlant, run_tracking
+from sma_actuator.control.interlock import DEFAULT_DEAD_TIME_S
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.nodes.common import config_path
 from sma_actuator.profiles import Profile
 
-BRIDGE_DEAD_TIME_S = 0.05
+BRIDGE_DEAD_TIME_S = DEFAULT_DEAD_TIME_S   # the bridge's default
 REFERENCES = {
     'sine 0.05 Hz': (Profile('sine', 0.5, period_s=20.0, delay_s=0.0), 60.0),
     'sine 0.2 Hz': (Profile('sine', 0.5, period_s=5.0, delay_s=0.0), 30.0),

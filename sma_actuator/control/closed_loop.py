@@ -52,7 +52,8 @@ class CorePlant:
     """
     `core.AntagonisticActuator` + plant_sim's potentiometer and interlock, stepped every dt_s.
 
-    dead_time_s: the interlock's dead time [s] (plant_sim's `interlock_dead_time_s`; 0: none).
+    dead_time_s: the interlock's dead time [s] (plant_sim's `interlock_dead_time_s`; 0: none,
+    though a request to heat both wires at once still applies zero to both).
     """
 
     def __init__(self, params: ActuatorParams, dt_s: float = 0.025, noise_rad: float = 0.001,
