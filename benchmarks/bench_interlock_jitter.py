@@ -20,9 +20,9 @@ plant_sim's model (`control.closed_loop.CorePlant`) behind a 0.05 s dead-time in
 (`control.interlock`, as the hardware bridge applies it) that sees each command at its
 sample's time + u, u uniform in ±jitter. pi_inverse with the committed model tracks a
 0.05 Hz and a 0.2 Hz ±0.5 rad sine and a ±0.4 rad square of 20 s, with its own dead time
-`dead_time_s` equal to the bridge's and one period (25 ms) longer. Prints the RMS error after the first second
-[rad] and how often the bridge held a duty the controller sent (its model counts it as
-applied), without jitter and for each jitter seed.
+`dead_time_s` equal to the bridge's and one period (25 ms) longer. Prints the RMS error
+after the first second [rad] and how often the bridge held a duty the controller sent (its
+model counts it as applied), without jitter and for each jitter seed.
 """
 import argparse
 
