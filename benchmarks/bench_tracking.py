@@ -92,11 +92,15 @@ DRIFT_CASES = {
 }
 
 
-def make_plant(source, case, seed):
-    """Return a fresh plant of `source` for `case` (a dict: plant_sim parameter changes)."""
+def make_plant(source, case, seed, **core_plant):
+    """
+    Return a fresh plant of `source` for `case` (a dict: plant_sim parameter changes).
+
+    core_plant: further `CorePlant` arguments (plant_sim's model only).
+    """
     if source == 'plant':
         changes = case if isinstance(case, dict) else PLANT_CASES[case][0]
-        return CorePlant(ActuatorParams(**changes), DT, seed=seed)
+        return CorePlant(ActuatorParams(**changes), DT, seed=seed, **core_plant)
     from support.richsim_loop import RichPlant
     effect, magnitude = RICH_CASES[case][0]
     return RichPlant(effect, magnitude, seed=seed, params=RICH_RIG)
@@ -124,7 +128,9 @@ def excitation_record(source, case, seconds, seed):
         return DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'],
                            d['ambient_temperature'])
     duty_a, duty_b = multilevel(seconds, DT, seed=seed)
-    plant = make_plant(source, case, seed + 1000)
+    # no interlock, as `in_process.run_excitation`: the record's duties must be the applied
+    # ones, and `multilevel` passes from one wire straight to the other
+    plant = make_plant(source, case, seed + 1000, dead_time_s=0.0)
     pos = [plant.measure()]
     amb = [plant.ambient_c()]
     for a, b in zip(duty_a[:-1], duty_b[:-1]):

@@ -15,9 +15,11 @@
 """Excitation sequences (core.excitation) and model files (core.model_file)."""
 import numpy as np
 import pytest
+from sma_actuator.control.interlock import DeadTimeInterlock, DEFAULT_DEAD_TIME_S
 from sma_actuator.core.actuator import ActuatorParams
 from sma_actuator.core.datakinds import DynamicData
-from sma_actuator.core.excitation import HOLD_TAUS, LEVEL_FRACTIONS, multilevel, rig_excitation
+from sma_actuator.core.excitation import (HOLD_TAUS, LEVEL_FRACTIONS, multilevel,
+                                          rig_excitation, SWITCH_GAP_S)
 from sma_actuator.core.model_file import load_model, save_model
 from sma_actuator.workbench.levels import duty_levels
 import yaml
@@ -67,7 +69,7 @@ def test_model_file_round_trip_keeps_every_parameter(tmp_path):
 
 def test_rig_excitation_holds_in_the_wires_time_at_several_duties():
     tau_s, dt = 6.0, 0.025
-    a, b = rig_excitation(900.0, dt, tau_s=tau_s, duty_full=0.2, seed=1)
+    a, b = rig_excitation(900.0, dt, tau_s=tau_s, duty_full=0.2, seed=1, switch_gap_s=0.0)
     levels = {round(0.2 * f, 6) for f in LEVEL_FRACTIONS}
     assert not ((a > 0) & (b > 0)).any()                       # never both heated
     assert {round(v, 6) for v in np.unique(np.r_[a, b])} <= levels | {0.0}
@@ -82,10 +84,36 @@ def test_rig_excitation_holds_in_the_wires_time_at_several_duties():
 
 
 def test_rig_excitation_for_one_wire_heats_wire_a_only():
-    pair = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, seed=4)
+    pair = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, seed=4, switch_gap_s=0.0)
     a, b = rig_excitation(300.0, 0.025, tau_s=2.0, duty_full=0.5, layout='single', seed=4)
     assert not b.any()
-    np.testing.assert_array_equal(a, np.maximum(*pair))
+    np.testing.assert_array_equal(a, np.maximum(*pair))     # no switch gap on one wire
+
+
+@pytest.mark.parametrize('jitter_s', [0.0, 0.0125])
+def test_the_bridges_interlock_applies_every_command_of_a_rig_excitation(jitter_s):
+    # played through the bridge's dead time, a command the interlock holds would be logged
+    # as heating that never happened; the switch gap leaves it nothing to hold
+    dt = 0.025
+    rng = np.random.default_rng(0)
+
+    def held(a, b):
+        """Count the commands the interlock holds, each seen within ± jitter_s of its time."""
+        interlock = DeadTimeInterlock(DEFAULT_DEAD_TIME_S)
+        for k, pair in enumerate(zip(a, b)):
+            interlock.apply(*pair, k * dt + rng.uniform(-jitter_s, jitter_s))
+        return interlock.held
+
+    plain = rig_excitation(300.0, dt, tau_s=2.0, duty_full=0.5, seed=4, switch_gap_s=0.0)
+    a, b = rig_excitation(300.0, dt, tau_s=2.0, duty_full=0.5, seed=4)
+    assert held(*plain) > 20 and held(a, b) == 0
+    # the gap only zeroes the first samples of each segment that follows the other wire's
+    gap = int(np.ceil(SWITCH_GAP_S / dt))
+    for now, before, other in ((a, plain[0], plain[1]), (b, plain[1], plain[0])):
+        changed = np.flatnonzero(now != before)
+        switches = np.flatnonzero((before[1:] > 0) & (other[:-1] > 0)) + 1
+        assert switches.size > 5 and not now[changed].any()
+        np.testing.assert_array_equal(changed, (switches[:, None] + np.arange(gap)).ravel())
 
 
 def test_rig_excitation_holds_wire_b_at_its_own_full_stroke_duty():

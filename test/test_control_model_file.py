@@ -33,7 +33,7 @@ def fitted_file(tmp_path_factory):
     """Return a model file written by `sma-model fit --out` from a 90 s simulated record."""
     folder = tmp_path_factory.mktemp('fit')
     duty_a, duty_b = multilevel(90.0, DT, seed=4)
-    plant = CorePlant(ActuatorParams(), DT, seed=5)
+    plant = CorePlant(ActuatorParams(), DT, seed=5, dead_time_s=0.0)   # applied = recorded
     pos = [plant.measure()] + [plant.step(a, b) for a, b in zip(duty_a[:-1], duty_b[:-1])]
     csv = folder / 'record.csv'
     np.savetxt(csv, np.column_stack([np.arange(len(duty_a)) * DT, duty_a, duty_b, pos]),

@@ -454,6 +454,27 @@ def excite_duties(path):
     return np.loadtxt(path, delimiter=',', comments='#', skiprows=4)[:, 1:].T
 
 
+def test_excite_leaves_the_bridges_dead_time_between_the_wires(tmp_path, capsys):
+    from sma_actuator.control.interlock import DeadTimeInterlock, DEFAULT_DEAD_TIME_S
+    held = []
+    for gap in ([], ['--switch-gap-s', '0']):
+        out = tmp_path / f'e{len(gap)}.csv'
+        args = ['excite', '--tau-s', '2', '--duty-full', '0.5', '--duration', '300']
+        assert cli.main(args + gap + ['--out', str(out)]) == 0
+        interlock = DeadTimeInterlock(DEFAULT_DEAD_TIME_S)
+        for k, pair in enumerate(zip(*excite_duties(out))):
+            interlock.apply(*pair, k * 0.025)
+        held.append(interlock.held)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith('one wire heated at a time, 0.1 s at zero duty between them')
+    assert held[0] == 0 and held[1] > 20
+    with pytest.raises(SystemExit) as bad:
+        cli.main(['excite', '--tau-s', '2', '--duty-full', '0.5', '--switch-gap-s', '-1',
+                  '--out', str(tmp_path / 'x.csv')])
+    assert bad.value.code == 2 and not (tmp_path / 'x.csv').exists()
+    assert "'-1' is not a number >= 0" in capsys.readouterr().err
+
+
 def test_excite_takes_tau_duty_and_layout_from_a_model_file(tmp_path, capsys):
     from sma_actuator.core.model_file import save_model
     from sma_actuator.workbench.excite import full_stroke_duty

@@ -234,6 +234,11 @@ def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
                      help="duty command rate [Hz] (default 40, the controller's)")
     exc.add_argument('--seed', type=_non_negative_int, default=0, metavar='N',
                      help='random seed of the sequence (default 0)')
+    exc.add_argument('--switch-gap-s', type=_non_negative_number, default=None, metavar='S',
+                     help='zero duty where heating passes from one wire to the other [s] '
+                     "(default 0.1: longer than hardware_bridge's 0.05 s interlock dead time, "
+                     'so the bridge applies every command and the recorded duty is the '
+                     'applied one)')
     exc.add_argument('--out', required=True, metavar='OUT.csv|BAG',
                      help='CSV file, or bag directory for `replay`')
     exc.add_argument('--force', action='store_true', help='overwrite OUT')
@@ -269,15 +274,28 @@ def _positive_float(text: str) -> float:
     return value
 
 
-def _positive_number(text: str) -> float:
-    """Parse a positive finite number (a time [s], a duty; argparse type)."""
+def _number(text: str) -> float:
+    """Parse a decimal number (argparse type; NaN and infinity parse)."""
     from .limits import parse_number
     try:
-        value = parse_number(text)
+        return parse_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f'{text[:40]!r} is not a number') from None
+
+
+def _positive_number(text: str) -> float:
+    """Parse a positive finite number (a time [s], a duty; argparse type)."""
+    value = _number(text)
     if not np.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f'{text!r} is not a positive number')
+    return value
+
+
+def _non_negative_number(text: str) -> float:
+    """Parse a finite number >= 0 (a time [s]; argparse type)."""
+    value = _number(text)
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a number >= 0')
     return value
 
 

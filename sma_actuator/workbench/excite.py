@@ -99,7 +99,8 @@ def model_design(spec: Mapping[str, Any],
 
 
 def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: float,
-                 layout: str, seed: int, duty_full_b: Optional[float] = None) -> Sequence[str]:
+                 layout: str, seed: int, duty_full_b: Optional[float] = None,
+                 switch_gap_s: float = 0.0) -> Sequence[str]:
     """Return the lines that describe an excitation (the CSV's comment lines, stdout)."""
     hold_lo, hold_hi = (f * tau_s for f in HOLD_TAUS)
     duties = ', '.join(f'{duty_full * f:.3g}' for f in LEVEL_FRACTIONS)
@@ -107,7 +108,8 @@ def design_lines(duration_s: float, rate_hz: float, tau_s: float, duty_full: flo
         duties_b = ', '.join(f'{duty_full_b * f:.3g}' for f in LEVEL_FRACTIONS)
         duties = f'{duties} (wire b: {duties_b})'
     wires = ('one wire against a bias spring (duty_b 0)' if layout == 'single'
-             else 'an antagonistic pair, one wire heated at a time')
+             else 'an antagonistic pair, one wire heated at a time'
+             + (f', {switch_gap_s:g} s at zero duty between them' if switch_gap_s else ''))
     return [f'identification excitation: {duration_s:g} s at {rate_hz:g} Hz for {wires}',
             f'holds of {hold_lo:.3g}-{hold_hi:.3g} s ({HOLD_TAUS[0]:g}-{HOLD_TAUS[1]:g} x tau '
             f'{tau_s:.3g} s) at duties {duties} or 0, seed {seed}',
