@@ -22,8 +22,8 @@ pi and pi_inverse track a ±amplitude rad square of 20 s on plant_sim's model
 parameters (exact), the committed config/controller_model.yaml, and with --models the plain
 model `bench_tracking.py --models DIR` fitted. Prints the RMS error from 21 s [rad], the
 integrated squared error [rad² s] of the first 1.5 s after each of the four steps from 21 s,
-and of the rest. A step that finds the newly active wire cold waits about 0.9 s for it to
-reach its transformation, (0.8 rad)² x 0.9 s ≈ 0.6 rad² s; a warm wire moves sooner.
+and of the rest; then, for each step, the temperatures [°C] of the wire that takes over and
+of the wire that held the level, and when the shaft crosses zero [s after the step].
 """
 import argparse
 from pathlib import Path
@@ -39,16 +39,43 @@ STEPS_S = (21.0, 31.0, 41.0, 51.0)
 STEP_WINDOW_S = 1.5
 
 
+class LoggedPlant(CorePlant):
+    """`CorePlant` that keeps the wire temperatures [°C] after each step."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.temperatures = []
+
+    def step(self, duty_a, duty_b):
+        """Step as `CorePlant`; log [θ_a, θ_b] at the step's end."""
+        reading = super().step(duty_a, duty_b)
+        self.temperatures.append(self.actuator.temperature_c[:2])
+        return reading
+
+
 def decomposition(model, mode, amplitude, seed):
-    """Return (RMS from 21 s, [ISE of each step window], ISE of the rest) of one run."""
+    """
+    Return (RMS from 21 s, [ISE of each step window], ISE of the rest, [step lines]).
+
+    A step line: the taking-over and holding wires' temperatures at the step [°C] and the
+    time from the step to the shaft's zero crossing [s].
+    """
     reference = Profile('square', amplitude, period_s=20.0, delay_s=1.0)
-    run = run_tracking(ControllerCore(model, ControllerSettings(mode)),
-                       CorePlant(ActuatorParams(), seed=seed), reference, 61.0)
+    plant = LoggedPlant(ActuatorParams(), seed=seed)
+    run = run_tracking(ControllerCore(model, ControllerSettings(mode)), plant, reference, 61.0)
     t, dt = run.time_s, run.time_s[1] - run.time_s[0]
+    theta = np.array(plant.temperatures)   # theta[k]: at t[k + 1]
     squared = (run.setpoint - run.position) ** 2
-    steps = [float(np.sum(squared[(t >= s) & (t < s + STEP_WINDOW_S)]) * dt) for s in STEPS_S]
+    steps, lines = [], []
+    for s in STEPS_S:
+        steps.append(float(np.sum(squared[(t >= s) & (t < s + STEP_WINDOW_S)]) * dt))
+        k = int(np.searchsorted(t, s))
+        new = 0 if run.setpoint[k] > 0 else 1
+        crossed = t[(t > s) & (np.sign(run.position) == np.sign(run.setpoint[k]))]
+        lines.append(f'{theta[k - 1, new]:.0f}/{theta[k - 1, 1 - new]:.0f} °C '
+                     f'{crossed[0] - s if crossed.size else np.inf:.2f} s')
     total = float(np.sum(squared[t >= STEPS_S[0]]) * dt)
-    return float(np.sqrt(np.mean(squared[t >= STEPS_S[0]]))), steps, total - sum(steps)
+    return float(np.sqrt(np.mean(squared[t >= STEPS_S[0]]))), steps, total - sum(steps), lines
 
 
 def main():
@@ -63,11 +90,15 @@ def main():
         models['refitted'] = load_model(args.models / 'plant_plain_base.yaml')
     print(f'square ±{args.amplitude:g} rad, 20 s, plant_sim, seed {args.seed}: RMS from 21 s '
           f'[rad]; ISE [rad² s] of the first {STEP_WINDOW_S:g} s after each step and of the rest')
+    table = []
     for name, model in models.items():
         for mode in ('pi', 'pi_inverse'):
-            rms, steps, rest = decomposition(model, mode, args.amplitude, args.seed)
+            rms, steps, rest, lines = decomposition(model, mode, args.amplitude, args.seed)
             print(f'{name:9s} {mode:10s} {rms:.4f}   steps '
                   + ' '.join(f'{x:.3f}' for x in steps) + f'   rest {rest:.3f}')
+            table.append(f'{name:9s} {mode:10s} ' + ' | '.join(lines))
+    print('at each step: taking-over / holding wire [°C], zero crossing [s after the step]')
+    print('\n'.join(table))
 
 
 if __name__ == '__main__':
