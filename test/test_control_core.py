@@ -107,5 +107,6 @@ def test_runtime_reconfiguration_validates_and_resets_on_mode_change():
 def test_on_off_relay_ignores_a_setpoint_dithering_inside_its_band():
     ctrl = ControllerCore(ActuatorParams(), ControllerSettings(mode='on_off', on_off_band_rad=0.1,
                                                                max_temp_c=200))
-    seq = [ctrl.step(r, 0.0, DT) for r in (0.3, 0.05, -0.05, 0.0, -0.3)]
-    assert [(s.duty_a, s.duty_b) for s in seq] == [(1, 0), (1, 0), (1, 0), (1, 0), (0, 1)]
+    seq = [ctrl.step(r, 0.0, DT) for r in (0.3, 0.05, -0.05, 0.0, -0.3, -0.3, -0.3)]
+    # the reversal waits out the interlock's dead time (two 25 ms steps) at zero duty
+    assert [(s.duty_a, s.duty_b) for s in seq] == [(1, 0)] * 4 + [(0, 0), (0, 0), (0, 1)]

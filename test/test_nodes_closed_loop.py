@@ -45,9 +45,9 @@ def test_the_nodes_close_the_loop_as_the_ros_free_loop_does_sample_for_sample(
     # ADC count; the plant's dead-time interlock and the controller's release a wire on the
     # same sample (one sample later in the plant and the controller's model heats a wire
     # the plant holds off, its estimate runs 1 K ahead and the step creeps: 0.9 s to rise).
-    # pi keeps no dead time, and the core plant holds its reversals as plant_sim does
-    # (without that 0.25 rad apart); its integral sums the stamps' dt, 0.025 s to within
-    # 1e-15 s, which flips an ADC count now and then: within 17 counts (0.01 rad)
+    # pi keeps the dead time too (the plant holds nothing); its integral sums the stamps'
+    # dt, 0.025 s to within 1e-15 s, which flips an ADC count now and then: within 17
+    # counts (0.01 rad)
     from sma_actuator.control.closed_loop import CorePlant, run_tracking
     from sma_actuator.control.law import ControllerCore, ControllerSettings
     from sma_actuator.core.actuator import ActuatorParams

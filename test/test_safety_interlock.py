@@ -86,7 +86,8 @@ def test_a_dead_time_of_two_periods_ends_on_the_third_sample_on_any_summed_clock
 
 def test_the_core_plant_holds_a_reversal_for_the_dead_time_as_plant_sim_does():
     # the ROS-free loop's plant (`control.closed_loop.CorePlant`) applies plant_sim's
-    # interlock, so a controller that reverses at once (mode pi) is held there as well
+    # interlock, so a command that reverses at once (a second publisher, an excitation
+    # without a switch gap) is held there as well
     from sma_actuator.control.closed_loop import CorePlant
     from sma_actuator.core.actuator import ActuatorParams
 
@@ -102,6 +103,22 @@ def test_the_core_plant_holds_a_reversal_for_the_dead_time_as_plant_sim_does():
 
     assert wire_b_heat(0.05) == ([False, False, True], 2)    # held two 25 ms samples
     assert wire_b_heat(0.0) == ([True, True, True], 0)
+
+
+@pytest.mark.parametrize('mode', ['pi', 'pi_inverse', 'on_off'])
+def test_the_controller_sends_only_duties_the_plants_interlock_applies(mode):
+    # the controller keeps the dead time in every mode, so the duty it publishes (and a
+    # recorder logs) is the duty the wires get: the plant's interlock has nothing to hold
+    from sma_actuator.control import ControllerCore, ControllerSettings
+    from sma_actuator.control.closed_loop import CorePlant, run_tracking
+    from sma_actuator.core.actuator import ActuatorParams
+    from sma_actuator.profiles import Profile
+    plant = CorePlant(ActuatorParams(), seed=3)
+    run = run_tracking(ControllerCore(ActuatorParams(), ControllerSettings(mode)), plant,
+                       Profile('square', 0.3, period_s=4.0, delay_s=0.5), 20.0)
+    heated = np.flatnonzero(run.duty.max(axis=1) > 0)
+    switches = np.count_nonzero(np.diff(run.duty[heated].argmax(axis=1)))
+    assert switches >= 8 and plant.interlock.held == 0, (switches, plant.interlock.held)
 
 
 def test_zero_dead_time_still_refuses_both_at_once():

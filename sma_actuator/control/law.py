@@ -29,6 +29,10 @@ measured angle, both in sensor units [rad] (the error that is judged is r − y)
                   on_off:      u = relay(r − φ0) (±on_duty: one end position or the other)
   4. split      duty_a = clip(u, 0, L_a), duty_b = clip(−u, 0, L_b), then never both
                 above `both_threshold`
+  5. interlock  a wire heats only `dead_time_s` after the other stopped (`interlock`, the
+                rule plant_sim and the hardware bridge apply), in every mode: the duty
+                published is the duty applied, so a recorded `/sma/duty` is what the
+                wires got
 
 pi_inverse, effect by effect:
   * sensor nonlinearity: the PI and the inverse work on true angles, p^-1(r) and p^-1(y),
@@ -119,7 +123,7 @@ class ControllerSettings:
     drift_correction: bool = False  # pi_inverse: correct offset/stroke from measurements
     drift_time_s: float = 30.0      # memory of the drift estimator [s]
     preheat: bool = True            # pi_inverse: preheat the incoming wire (`handover`)
-    dead_time_s: float = DEFAULT_DEAD_TIME_S   # pi_inverse: interlock dead time [s]
+    dead_time_s: float = DEFAULT_DEAD_TIME_S   # interlock dead time [s] (every mode)
 
     def __post_init__(self) -> None:
         """Check and normalise the settings (a negative gain: from the model)."""
@@ -353,7 +357,7 @@ class ControllerCore:
             if shared is not None:
                 self.pi.integral = integral
                 duty_a, duty_b = min(shared[0], lim_a), min(shared[1], lim_b)
-            (duty_a, duty_b), _ = self.interlock.apply(duty_a, duty_b, self.clock_s)
+        (duty_a, duty_b), _ = self.interlock.apply(duty_a, duty_b, self.clock_s)
         self.last_duty = (duty_a, duty_b)
         return ControlStep(duty_a, duty_b, error, u_ff, (lim_a, lim_b), tuple(theta),
                            self.pi.saturated, min(g_a, g_b) < s.duty_max)

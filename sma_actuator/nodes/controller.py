@@ -74,7 +74,7 @@ TUNABLE = (
     ('on_off_duty', 0.0, 1.0, 'on_off: duty of the heated wire.'),
     ('ff_horizon_s', 0.0, 10.0, 'pi_inverse: thermal inverse horizon [s]; 0 = static map.'),
     ('drift_time_s', 1.0, 3600.0, 'pi_inverse: memory of the drift estimator [s].'),
-    ('dead_time_s', 0.0, 1.0, 'pi_inverse: interlock dead time between the wires [s] (as '
+    ('dead_time_s', 0.0, 1.0, 'Interlock dead time between the wires [s], every mode (as '
      'interlock_dead_time_s of plant_sim and the bridge).'),
 )
 # runtime-switchable settings: (name, description)
