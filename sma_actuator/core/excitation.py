@@ -38,9 +38,9 @@ def multilevel(duration_s: float, dt: float, seed: int = 0,
     """
     (duty_a, duty_b) arrays of n = duration_s/dt samples (held per sample), seeded.
 
-    switch_gap_s: where a segment heats the wire the previous one did not, its first
-    ceil(switch_gap_s / dt) samples hold both wires at zero, so that a drive with a
-    dead-time interlock (`control.interlock`) applies every command as written.
+    switch_gap_s: where a segment heats one wire right after a segment that heated the
+    other, its first ceil(switch_gap_s / dt) samples hold both wires at zero, so that a
+    drive with a dead-time interlock (`control.interlock`) applies every command as written.
     """
     duration_s, dt = finite_scalar('duration_s', duration_s), finite_scalar('dt', dt)
     if duration_s <= 0 or dt <= 0 or hold_min_s <= 0 or hold_max_s < hold_min_s:

@@ -213,6 +213,7 @@ def _add_effects(sub: Any, common: argparse.ArgumentParser) -> None:
 
 def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
     """Add `excite`: write an identification excitation for a rig."""
+    from ..core.excitation import SWITCH_GAP_S
     exc = sub.add_parser('excite', help='write an identification excitation for a rig',
                          description='Write the duty sequence of an identification record '
                          "in the rig's own time: holds of 0.75-2.5 tau at six duties from "
@@ -236,9 +237,9 @@ def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
                      help='random seed of the sequence (default 0)')
     exc.add_argument('--switch-gap-s', type=_non_negative_number, default=None, metavar='S',
                      help='zero duty where heating passes from one wire to the other [s] '
-                     "(default 0.1: longer than hardware_bridge's 0.05 s interlock dead time, "
-                     'so the bridge applies every command and the recorded duty is the '
-                     'applied one)')
+                     f"(default {SWITCH_GAP_S:g}: longer than hardware_bridge's 0.05 s "
+                     'interlock dead time, so the bridge applies every command and the '
+                     'recorded duty is the applied one)')
     exc.add_argument('--out', required=True, metavar='OUT.csv|BAG',
                      help='CSV file, or bag directory for `replay`')
     exc.add_argument('--force', action='store_true', help='overwrite OUT')
