@@ -235,7 +235,8 @@ def _add_excite(sub: Any, common: argparse.ArgumentParser) -> None:
                      help="duty command rate [Hz] (default 40, the controller's)")
     exc.add_argument('--seed', type=_non_negative_int, default=0, metavar='N',
                      help='random seed of the sequence (default 0)')
-    exc.add_argument('--switch-gap-s', type=_non_negative_number, default=None, metavar='S',
+    exc.add_argument('--switch-gap-s', type=_non_negative_number, default=SWITCH_GAP_S,
+                     metavar='S',
                      help='zero duty where heating passes from one wire to the other [s] '
                      f"(default {SWITCH_GAP_S:g}: longer than hardware_bridge's 0.05 s "
                      'interlock dead time, so the bridge applies every command and the '

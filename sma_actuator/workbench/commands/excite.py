@@ -24,7 +24,7 @@ from .steps import fitted_model, read_fitted_spec, UsageError
 
 def cmd_excite(args: argparse.Namespace) -> int:
     """Run `sma-model excite`: write an identification excitation in the rig's time scale."""
-    from ...core.excitation import rig_excitation, SWITCH_GAP_S
+    from ...core.excitation import rig_excitation
     from ...core.model_file import check_writable
     from ..excite import design_lines, write_bag, write_csv
     tau_s, (full_a, full_b), layout = _excite_design(args)
@@ -32,11 +32,10 @@ def cmd_excite(args: argparse.Namespace) -> int:
     csv_out = out.suffix.lower() == '.csv'
     check_writable(out, args.force, directory=not csv_out)
     dt_s = 1.0 / args.rate
-    gap_s = SWITCH_GAP_S if args.switch_gap_s is None else args.switch_gap_s
     duty_a, duty_b = rig_excitation(args.duration, dt_s, tau_s, full_a, layout, args.seed,
-                                    duty_full_b=full_b, switch_gap_s=gap_s)
+                                    duty_full_b=full_b, switch_gap_s=args.switch_gap_s)
     lines = design_lines(args.duration, args.rate, tau_s, full_a, layout, args.seed,
-                         duty_full_b=full_b, switch_gap_s=gap_s)
+                         duty_full_b=full_b, switch_gap_s=args.switch_gap_s)
     if csv_out:
         write_csv(out, duty_a, duty_b, dt_s, lines)
     else:
