@@ -81,8 +81,8 @@ def main():
     ap.add_argument('--seeds', type=int, nargs='+', default=[0, 1, 2])
     ap.add_argument('--seconds', type=float, default=300.0)
     args = ap.parse_args()
-    print(f'{args.seconds:g} s at {1 / DT:g} Hz behind a 0.05 s interlock; base model '
-          'NRMSE train / validation [%] (commands held)')
+    print(f'{args.seconds:g} s at {1 / DT:g} Hz behind a {DEFAULT_DEAD_TIME_S:g} s interlock; '
+          'base model NRMSE train / validation [%] (commands held)')
     cases = [('no gap, logged as sent', 0.0, 'sent'),
              (f'{SWITCH_GAP_S:g} s gap, logged as sent', SWITCH_GAP_S, 'sent'),
              ('no gap, the applied duties', 0.0, 'applied')]

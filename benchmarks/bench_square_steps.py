@@ -75,7 +75,7 @@ def decomposition(model, mode, amplitude, seed):
         lines.append(f'{theta[k - 1, new]:.0f}/{theta[k - 1, 1 - new]:.0f} °C '
                      f'{crossed[0] - s if crossed.size else np.inf:.2f} s')
     total = float(np.sum(squared[t >= STEPS_S[0]]) * dt)
-    return float(np.sqrt(np.mean(squared[t >= STEPS_S[0]]))), steps, total - sum(steps), lines
+    return run.summary(STEPS_S[0])['rms_error'], steps, total - sum(steps), lines
 
 
 def main():
