@@ -277,3 +277,52 @@ def test_a_jump_in_log_time_is_reported_not_allocated(tmp_path):
     path = _write(tmp_path / 'jump', events)
     with pytest.raises(BagError, match=r'jump.*samples \(limit.*sim time before /clock'):
         load_run(path)
+
+
+def _duty_status(t_ms, held, clamped, name='hardware_bridge: duty', hardware_id='/dev/ttyACM0'):
+    """Return a /diagnostics event: one duty status carrying the two counters."""
+    values = [{'key': 'commands', 'value': str(3 * t_ms)},
+              {'key': 'interlock_held', 'value': held}, {'key': 'clamped', 'value': clamped}]
+    msg = {'header': {'stamp': stamp(T0)},
+           'status': [{'level': 0, 'name': name, 'message': 'ok',
+                       'hardware_id': hardware_id, 'values': values}]}
+    return ('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', msg, T0 + t_ms * MS)
+
+
+def test_duty_commands_the_diagnostics_count_as_held_or_clamped_are_noted(tmp_path):
+    # the bridge restarts at 600 ms: its counters fall to 1 held and count on from there
+    counters = [(100, '4', '0'), (350, '9', '0'), (600, '1', '2'), (900, '3', 'n/a')]
+    events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY) + [
+        _duty_status(t, held, clamped) for t, held, clamped in counters]
+    path = _write(tmp_path / 'held', sorted(events, key=lambda e: e[3]))
+    notes = []
+    plain = load_run(path, notes=notes)
+    assert notes == [f'{path}: hardware_bridge: duty (/dev/ttyACM0) held 8 duty commands at '
+                     'the dead-time interlock and clamped 2 to max_duty while recorded: '
+                     '/sma/duty logs them as sent, not as applied']
+    # the note changes nothing loaded; counters that never rise say nothing
+    np.testing.assert_array_equal(plain['duty_a'], load_run(tmp_path / 'held')['duty_a'])
+    steady = _events(range(0, 1001, 10), lambda t: 0.5, DUTY) + [
+        _duty_status(t, '7', '1') for t in (100, 600)]
+    quiet = []
+    load_run(_write(tmp_path / 'steady', sorted(steady, key=lambda e: e[3])), notes=quiet)
+    assert quiet == []
+
+
+def test_undecodable_diagnostics_are_noted_and_the_run_still_loads(tmp_path):
+    events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY)
+    path = _write(tmp_path / 'garbled', events)
+    with BagWriter(tmp_path / 'garbled2') as bag:
+        payloads = to_cdr([(type_name, msg) for _, type_name, msg, _ in events])
+        for (topic, type_name, _, log), data in zip(events, payloads):
+            bag.add_topic(topic, type_name)
+            bag.write(topic, data, log)
+        bag.add_topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray')
+        bag.write('/diagnostics', b'\x00\x01\x00\x00\xff', T0 + 500 * MS)
+    notes = []
+    garbled = load_run(tmp_path / 'garbled2', notes=notes)
+    assert len(notes) == 1 and notes[0].startswith(
+        f'{tmp_path / "garbled2"}: /diagnostics cannot be decoded (')
+    assert notes[0].endswith('), so whether a node held or clamped the commands on /sma/duty '
+                             'is not known')
+    np.testing.assert_array_equal(garbled['position'], load_run(path)['position'])

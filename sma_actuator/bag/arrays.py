@@ -39,6 +39,7 @@ from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 
+from .applied import altered_duty_notes
 from .errors import BagError, MissingTopicError, TruncatedBagError, UnknownTypeError
 from .reader import BagReader
 
@@ -257,7 +258,9 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
     :param notes: A list that receives one line per recovered file (what a cut-off or
         damaged file kept and lost, :class:`RecoveryReport`) and, with ``bridged_steps``, one
         line on the joint-state gaps longer than that many median steps, whose position is
-        interpolated, not measured (:func:`gap_note`).
+        interpolated, not measured (:func:`gap_note`); and one line per node whose
+        /diagnostics count duty commands it held or clamped, which the duty topic logs as
+        sent (:func:`applied.altered_duty_notes`).
     :param bridged_steps: Joint-state steps longer than this many median steps are gaps
         (:func:`long_gaps`); default: none are.
     :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
@@ -274,12 +277,14 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
         namespace = bag_namespace(reader, path)
     elif not namespace.startswith('/'):
         raise ValueError(f'namespace must be absolute (start with /), got {namespace!r}')
-    data = _read_series(reader, path, _topic_map(topics, namespace))
+    topic_of = _topic_map(topics, namespace)
+    data = _read_series(reader, path, topic_of)
     js_t, js_pos = _sorted(*data['joint_states'])
     if np.unique(js_t).size < 2:
         raise MissingTopicError(path, 'needs at least two joint states at distinct times')
     if notes is not None:
         notes.extend(str(report) for report in reader.recoveries)
+        notes.extend(altered_duty_notes(reader, path, topic_of['duty']))
         gaps = None if bridged_steps is None else gap_note(js_t, bridged_steps)
         if gaps:
             notes.append(f'{path}: {gaps}')
