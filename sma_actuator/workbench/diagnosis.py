@@ -35,8 +35,12 @@ base model, by `min_improvement` in training RMSE and no worse held out (and, wh
 effect is named, better held out than the named effect's model by `min_improvement`, or
 better than it in training by that bar and no worse held out), the base's own fit sat in a
 poor minimum: the diagnosis starts again from that fit (`better_base`, `Diagnosis.refitted`
-says so). When still nothing is named and the base is short of the noise, check 1 is taken
-once more on the typical held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS`
+says so). Where the named effect's model beats that fit, diagnose runs again from it all the
+same, and an effect named there whose model outfits the named one's (`outfits_named`)
+stands instead (`second_opinion`): a candidate refitted on a grid of its own can gain
+against a poor base grid where one refitted on that grid cannot. When still nothing is
+named and the base is short of the noise, check 1 is taken once more on the typical
+held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS`
 blocks of held-out time, against the base and against the counterfactual. One excursion
 beyond the trained travel can carry the whole window's RMSE while the candidate is better
 everywhere else; checks 2 and 4 stay as they are, and so does the moving blocks' median of
@@ -81,7 +85,8 @@ class Diagnosis:
     missing_effect: object
     # why the baseline is not the model diagnose was given: a better fit of it was found
     refitted: str = ''
-    # seconds of the candidate refits judged against the base before it was refitted
+    # seconds of candidate refits not listed: judged against the base before it was
+    # refitted, or from a better base whose diagnosis did not stand (`second_opinion`)
     earlier_seconds: float = 0.0
     # the NRMSE the measurement noise alone gives (`noise_floor`), None if not known
     noise_floor_nrmse: Optional[float] = None
@@ -182,6 +187,11 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
                         rebase - 1)
         diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
         diag.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
+    elif rebase > 0 and diag.missing_effect is not None:
+        diag = second_opinion(diag, entries, min_improvement, partial(
+            diagnose, data, candidates=candidates, progress=progress,
+            min_improvement=min_improvement, kind=kind, jobs=jobs, mapper=mapper,
+            rebase=rebase - 1))
     diag.noise_floor_nrmse = noise_floor(data)
     diag.training_lead = training_lead(data, diag, min_improvement)
     if progress:
@@ -290,6 +300,24 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     difference is chance), or else fit training better than the effect's model by that bar
     and hold out no worse (`outfits_named`).
     """
+    found = better_base_fit(base, entries, min_improvement)
+    if found is None:
+        return None
+    refit, why = found
+    if named is not None and not (refit.validation['nrmse'] < (1.0 - min_improvement) * named.get(
+            'validation_nrmse', -np.inf) or outfits_named(refit, named, min_improvement)):
+        return None
+    return refit, why + ': diagnosed from that fit'
+
+
+def better_base_fit(base: ModelFit, entries: list, min_improvement: float) -> Optional[tuple]:
+    """
+    Return (the counterfactual that fits the base model best, why) where it beats `base`.
+
+    Of the entries' counterfactuals (the base model refitted from where a candidate's refit
+    ended), the one of least training RMSE, where that is below (1 − min_improvement) times
+    the base's and its held-out NRMSE is no worse than the base's; else None.
+    """
     refits = [(c['base_refit'], c['effect']) for c in entries if c.get('base_refit') is not None]
     if not refits:
         return None
@@ -298,13 +326,46 @@ def better_base(base: ModelFit, entries: list, min_improvement: float,
     v0, v1 = base.validation['nrmse'], refit.validation['nrmse']
     if t1 > (1.0 - min_improvement) * t0 or v1 > v0:
         return None
-    if named is not None and not (v1 < (1.0 - min_improvement) * named.get(
-            'validation_nrmse', -np.inf) or outfits_named(refit, named, min_improvement)):
-        return None
     return refit, (f'the base model refitted from where the {name} refit ended fits better '
                    f'(training NRMSE {100 * base.train["nrmse"]:.2f} % -> '
                    f'{100 * refit.train["nrmse"]:.2f} %, held-out {100 * v0:.2f} % -> '
-                   f'{100 * v1:.2f} %): diagnosed from that fit')
+                   f'{100 * v1:.2f} %)')
+
+
+def second_opinion(diag: 'Diagnosis', entries: dict, min_improvement: float,
+                   rediagnose: Callable) -> 'Diagnosis':
+    """
+    Return the diagnosis from a better base fit the named effect kept its name against.
+
+    Where `better_base_fit` finds a better fit of the base and the named effect's model still
+    beats it (`better_base` keeps the base), the candidates were judged against a base whose
+    grid sits in a poor minimum: an effect refitted from scratch on a grid of its own gains
+    there, one refitted on that grid does not. So diagnose runs again from the better fit
+    (rediagnose(base) -> Diagnosis). When it names another effect whose model outfits the
+    named one's (`outfits_named`: training RMSE lower by `min_improvement`, held out no
+    worse), its diagnosis stands; else `diag`. entries: {name: entry} judged against the
+    base of `diag`.
+    """
+    found = better_base_fit(diag.baseline, list(entries.values()), min_improvement)
+    if found is None:
+        return diag
+    refit, why = found
+    other = rediagnose(refit)
+    named = entries[diag.missing_effect]
+    theirs = next((c for c in other.candidates if c['effect'] == other.missing_effect), None)
+    spent = sum(c.get('seconds', 0.0) for c in other.candidates) + other.earlier_seconds
+    if (theirs is None or theirs['effect'] == named['effect']
+            or not outfits_named(theirs['fit'], named, min_improvement)):
+        diag.earlier_seconds += spent
+        return diag
+    other.refitted = '; '.join(filter(None, (
+        f'{why}: diagnosed from that fit, {theirs["effect"]} outfits {named["effect"]} named '
+        f'against the base (training NRMSE {100 * theirs["fit"].train["nrmse"]:.2f} % '
+        f'against {100 * named["fit"].train["nrmse"]:.2f} %, held-out '
+        f'{100 * theirs["validation_nrmse"]:.2f} % against '
+        f'{100 * named["validation_nrmse"]:.2f} %)', other.refitted)))
+    other.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
+    return other
 
 
 def outfits_named(refit: ModelFit, named: dict, min_improvement: float) -> bool:
