@@ -37,8 +37,8 @@ better than it in training by that bar and no worse held out), the base's own fi
 poor minimum: the diagnosis starts again from that fit (`better_base`, `Diagnosis.refitted`
 says so). Where the named effect's model beats that fit, diagnose runs again from it all the
 same, and an effect named there whose model outfits the named one's (`outfits_named`)
-stands instead (`second_opinion`): a candidate refitted on a grid of its own can gain
-against a poor base grid where one refitted on that grid cannot. When still nothing is
+stands instead (`second_opinion`): against a base in a poor minimum a candidate whose refit
+leaves that minimum gains, and one whose refit stays in it does not. When still nothing is
 named and the base is short of the noise, check 1 is taken once more on the typical
 held-out gain (`typical_pass`): the median over `HELD_OUT_BLOCKS`
 blocks of held-out time, against the base and against the counterfactual. One excursion
@@ -338,9 +338,9 @@ def second_opinion(diag: 'Diagnosis', entries: dict, min_improvement: float,
     Return the diagnosis from a better base fit the named effect kept its name against.
 
     Where `better_base_fit` finds a better fit of the base and the named effect's model still
-    beats it (`better_base` keeps the base), the candidates were judged against a base whose
-    grid sits in a poor minimum: an effect refitted from scratch on a grid of its own gains
-    there, one refitted on that grid does not. So diagnose runs again from the better fit
+    beats it (`better_base` keeps the base), the candidates were judged against a base in a
+    poor minimum: a candidate whose refit leaves it gains, one whose refit stays in it does
+    not, whichever is the missing effect. So diagnose runs again from the better fit
     (rediagnose(base) -> Diagnosis). When it names another effect whose model outfits the
     named one's (`outfits_named`: training RMSE lower by `min_improvement`, held out no
     worse), its diagnosis stands; else `diag`. entries: {name: entry} judged against the
