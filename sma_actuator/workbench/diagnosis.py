@@ -187,7 +187,8 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
                         rebase - 1)
         diag.refitted = '; '.join(filter(None, (why, diag.refitted)))
         diag.earlier_seconds += sum(c.get('seconds', 0.0) for c in entries.values())
-    elif rebase > 0 and diag.missing_effect is not None:
+    elif rebase > 0 and diag.missing_effect is not None and len(names) > 1:
+        # with one candidate the better base can name no other effect
         diag = second_opinion(diag, entries, min_improvement, partial(
             diagnose, data, candidates=candidates, progress=progress,
             min_improvement=min_improvement, kind=kind, jobs=jobs, mapper=mapper,
