@@ -132,7 +132,9 @@ def diagnose(data: Any, base: Optional[ModelFit] = None, candidates: Optional[li
     batch sends them to its Dask cluster); default: a pool of `jobs` processes. Plug-in
     effects are refitted in this process, since a worker would not have them registered.
     rebase: how many times a better fit of the base itself, found by a counterfactual
-    (`better_base`), may replace it and the diagnosis start again from there.
+    (`better_base`), may replace it and the diagnosis start again from there, or, where
+    the named effect's model beats that fit, the diagnosis be run again from it as a
+    second opinion (`second_opinion`).
     """
     if base is None:
         base = fit_model(data, (), kind=kind)
