@@ -96,11 +96,15 @@ def emulator_thread(tcp=False, **kwargs):
 
 
 class Probe(Node):
-    """Publishes /sma/duty; records joint states, raw counts and diagnostics with arrival times."""
+    """
+    Publishes /sma/duty; records what the bridge publishes, with arrival times.
+
+    Joint states, raw counts, applied duties (as (duty_a, duty_b) tuples) and diagnostics.
+    """
 
     def __init__(self, duty=True, **kwargs):
         super().__init__('bridge_probe', **c.node_options(kwargs))
-        self.joint_states, self.raw, self.diagnostics = [], [], []
+        self.joint_states, self.raw, self.diagnostics, self.applied = [], [], [], []
         # duty=False beside a controller: a second duty publisher makes the bridge send zero
         self.duty_pub = (self.create_publisher(Float64MultiArray, c.DUTY, c.COMMAND_QOS)
                          if duty else None)
@@ -113,6 +117,8 @@ class Probe(Node):
                                  c.SENSOR_QOS)
         self.create_subscription(DiagnosticArray, c.DIAGNOSTICS, keep(self.diagnostics),
                                  c.DIAGNOSTICS_QOS)
+        self.create_subscription(Float64MultiArray, c.APPLIED_DUTY,
+                                 keep(self.applied, lambda m: tuple(m.data)), c.COMMAND_QOS)
 
     def duty(self, a, b):
         self.duty_pub.publish(Float64MultiArray(data=[float(a), float(b)]))

@@ -309,6 +309,31 @@ def test_duty_commands_the_diagnostics_count_as_held_or_clamped_are_noted(tmp_pa
     assert quiet == []
 
 
+def test_the_duty_the_bridge_applied_is_loaded_in_place_of_the_commands(tmp_path):
+    # the bridge held wire b's command for the dead time and sent the 0.9 clamped to 0.7
+    applied = [(106, (0.3, 0.0)), (160, (0.3, 0.1)), (500, (0.0, 0.0)), (551, (0.0, 0.7))]
+    events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY) + [
+        ('/sma/applied_duty', 'std_msgs/msg/Float64MultiArray', {'data': list(v)},
+         T0 + t * MS) for t, v in applied] + [_duty_status(300, '0', '0'),
+                                              _duty_status(800, '1', '0')]
+    path = _write(tmp_path / 'bridge', sorted(events, key=lambda e: e[3]))
+    notes = []
+    a = load_run(path, notes=notes)
+    t = a['time']
+    expected_b = np.where(t < 0.16, 0.0, np.where(t < 0.5, 0.1, np.where(t < 0.551, 0.0, 0.7)))
+    np.testing.assert_array_equal(a['duty_b'], expected_b)
+    np.testing.assert_array_equal(a['duty_a'], np.where((t >= 0.106) & (t < 0.5), 0.3, 0.0))
+    assert notes == [f'{path}: duty read from /sma/applied_duty, as the hardware applied it, '
+                     'not from the commands on /sma/duty',
+                     f'{path}: hardware_bridge: duty (/dev/ttyACM0) held 1 duty command at the '
+                     'dead-time interlock while recorded: the duty is read from '
+                     '/sma/applied_duty, as applied']
+    # asked for, the commands as logged
+    commands = load_run(path, topics={'applied_duty': ''})
+    np.testing.assert_array_equal(commands['duty_b'],
+                                  np.where(t < 0.105, 0.0, np.where(t < 0.5, 0.1, 0.7)))
+
+
 def test_undecodable_diagnostics_are_noted_and_the_run_still_loads(tmp_path):
     events = _events(range(0, 1001, 10), lambda t: 0.5 + 0.1 * t, DUTY)
     path = _write(tmp_path / 'garbled', events)

@@ -144,6 +144,29 @@ def test_a_reversal_waits_the_dead_time_then_heats():
     assert (rig.mcu.pwm_a, rig.mcu.pwm_b) == (0, to_counts(0.4))
 
 
+def test_the_applied_duty_is_what_the_mcu_outputs():
+    # clamped to max_duty, a reversal held at the interlock, then the host watchdog
+    rig = Rig(BridgeConfig(interlock_dead_time_s=0.1, max_duty=0.7))
+    applied, outputs = [], []
+    for until, command in ((0.2, (0.9, 0.0)), (0.5, (0.0, 0.4)), (1.0, None)):
+        while rig.t < until - 1e-9:
+            if command and round(rig.t * 1000) % 25 == 0:   # a controller at 40 Hz
+                rig.command(*command)
+            rig.run(rig.t + 0.001)
+            # the frames sent so far reach the MCU (the rig delivers them a step later)
+            rig._to_bridge += rig.mcu.receive(rig._to_mcu, int(rig.t * 1e6))
+            rig._to_mcu = b''
+            applied.append(rig.bridge.applied_duty())
+            outputs.append((rig.mcu.pwm_a / p.DUTY_FULL_SCALE, rig.mcu.pwm_b / p.DUTY_FULL_SCALE))
+    assert applied == outputs
+    assert set(applied) == {(0.0, 0.0), (to_counts(0.7) / p.DUTY_FULL_SCALE, 0.0),
+                            (0.0, to_counts(0.4) / p.DUTY_FULL_SCALE)}
+    rig.run(1.1, command=(0.3, 0.0))
+    assert rig.bridge.applied_duty() != (0.0, 0.0)
+    rig.bridge.on_close('read failed: device disconnected', rig.t)
+    assert rig.bridge.applied_duty() == (0.0, 0.0)
+
+
 def test_duty_above_max_duty_is_limited():
     rig = Rig(BridgeConfig(max_duty=0.7))
     rig.run(0.1, command=(0.9, 0.0))

@@ -143,6 +143,24 @@ def test_never_both_wires_heated_at_the_mcu(emulated):
     assert wait_for(lambda: int(loop.probe.status('duty')[2]['interlock_held']) > 0)
 
 
+def test_the_applied_duty_topic_follows_the_mcu_outputs_through_a_reversal(emulated):
+    emulator, loop = emulated
+    probe, full = loop.probe, p.DUTY_FULL_SCALE
+    heat_a, heat_b = (to_counts(0.4) / full, 0.0), (0.0, to_counts(0.5) / full)
+    probe.hold(0.4, 0.0, 0.3, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))
+    assert wait_for(lambda: probe.applied and probe.applied[-1][1] == heat_a)
+    # wire b waits out the dead time after wire a: the topic passes through zero
+    probe.hold(0.0, 0.5, 0.3, until=lambda: emulator.mcu.pwm_b == to_counts(0.5))
+    assert wait_for(lambda: probe.applied[-1][1] == heat_b)
+    values = [v for _, v in probe.applied]
+    first_b = values.index(heat_b)
+    last_a = max(k for k, v in enumerate(values[:first_b]) if v == heat_a)
+    assert (0.0, 0.0) in values[last_a:first_b]
+    assert all(a == 0.0 or b == 0.0 for a, b in values)
+    # the host watchdog's zero goes out on the topic too
+    assert wait_for(lambda: emulator.mcu.pwm_b == 0 and probe.applied[-1][1] == (0.0, 0.0))
+
+
 def test_bad_duty_message_is_rejected_and_the_last_valid_one_kept(emulated):
     emulator, loop = emulated
     loop.probe.hold(0.4, 0.0, 0.2, until=lambda: emulator.mcu.pwm_a == to_counts(0.4))

@@ -123,6 +123,33 @@ def test_replays_stored_bytes_remapped_filtered_with_clock(probe, tmp_path):
     assert T0 <= times[0] and times[-1] <= T0 + 290 * MS
 
 
+def test_a_hardware_runs_applied_duty_drives_the_duty_topic_and_ends_at_zero(probe, tmp_path):
+    # the bridge held wire b's commands: the applied duty, not the commands, is played
+    node, executor, got, extra = probe
+    duty_type, applied = 'std_msgs/msg/Float64MultiArray', []
+    with BagWriter(tmp_path / 'bag') as bag:
+        for topic in ('/sma/duty', '/sma/applied_duty'):
+            bag.add_topic(topic, duty_type, [offered_profile('reliable')])
+        for i in range(20):
+            t = T0 + i * 10 * MS
+            command, sent = to_cdr([(duty_type, {'data': [0.0, 0.4]}),
+                                    (duty_type, {'data': [0.0, 0.4 if i > 4 else 0.0]})])
+            bag.write('/sma/duty', command, t)
+            bag.write('/sma/applied_duty', sent, t + 1000)
+            applied.append(sent)
+    replay = ReplayNode(context=executor.context, bag_path=str(tmp_path / 'bag'),
+                        topics=['/sma/applied_duty'], remap=['/sma/applied_duty:=/sma/duty'],
+                        duty_topic='/sma/applied_duty', wait_for_subscribers_s=NOTICE_S)
+    extra.append(replay)
+    executor.add_node(replay)
+    assert replay.played_topics == {'/sma/applied_duty': '/sma/duty'}
+    replay.start()
+    assert _spin_until(executor, replay.finished.is_set)
+    _spin_until(executor, lambda: len(got['/sma/duty']) > len(applied))
+    assert got['/sma/duty'][:-1] == applied
+    assert _last_duty(got) == ZERO_DUTY
+
+
 def test_stop_mid_playback_zeroes_the_duty(probe, tmp_path):
     node, executor, got, extra = probe
     stored = _write_bag(tmp_path / 'bag', count=200, period_ms=20)

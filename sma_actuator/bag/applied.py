@@ -18,11 +18,13 @@ What the nodes' /diagnostics say about the duty a bag logs: commands not applied
 The recorder logs each duty command as sent. The hardware bridge (and plant_sim) holds a
 command that heats one wire within the dead time after the other was heated, and the
 bridge clamps one above its max_duty; both count them in their ``duty`` status on
-/diagnostics (``interlock_held``, ``clamped``). A model fitted to the logged duty then
-sees heating the wires never got, so the workbench says how many there were.
+/diagnostics (``interlock_held``, ``clamped``). A model fitted to the logged commands then
+sees heating the wires never got, so the workbench says how many there were. The bridge
+also publishes the duty it applied (``applied_duty``); a bag that holds it is loaded from
+it, and the note says so.
 """
 from pathlib import Path
-from typing import Dict, Iterable, List, Tuple
+from typing import Dict, Iterable, List, Optional, Tuple
 
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
@@ -33,7 +35,7 @@ from .reader import BagReader
 DIAGNOSTICS = '/diagnostics'
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
 #: counter key of a duty status -> what the note says of the commands it counts
-ALTERED = {'interlock_held': 'held {n} duty commands at the dead-time interlock',
+ALTERED = {'interlock_held': 'held {n} duty command{s} at the dead-time interlock',
            'clamped': 'clamped {n} to max_duty'}
 
 
@@ -67,13 +69,15 @@ def _counter_readings(reader: BagReader, info) -> Dict[Tuple[str, str], Dict[str
     return readings
 
 
-def altered_duty_notes(reader: BagReader, path: Path, duty_topic: str) -> List[str]:
+def altered_duty_notes(reader: BagReader, path: Path, duty_topic: str,
+                       applied_topic: Optional[str] = None) -> List[str]:
     """
     Return one line per node whose /diagnostics count duty commands it did not apply as sent.
 
     Counts are the rises of each status's ``interlock_held`` and ``clamped`` counters over
     the bag (`counted`); commands altered before the first /diagnostics message of the bag
     are not seen. A /diagnostics topic that cannot be decoded gives one line saying so.
+    `applied_topic`: the topic the duty is loaded from instead of the commands, if any.
     """
     info = reader.topics.get(DIAGNOSTICS)
     if (info is None or info.message_count == 0 or info.type != DIAGNOSTIC_ARRAY
@@ -86,9 +90,11 @@ def altered_duty_notes(reader: BagReader, path: Path, duty_topic: str) -> List[s
                 f'a node held or clamped the commands on {duty_topic} is not known']
     notes = []
     for (name, hardware_id), counters in sorted(readings.items()):
-        said = [ALTERED[key].format(n=n) for key, n in
+        said = [ALTERED[key].format(n=n, s='' if n == 1 else 's') for key, n in
                 ((k, counted(v)) for k, v in counters.items()) if n > 0]
         if said:
+            tail = (f'{duty_topic} logs them as sent, not as applied' if applied_topic is None
+                    else f'the duty is read from {applied_topic}, as applied')
             notes.append(f'{path}: {name} ({hardware_id}) {" and ".join(said)} while recorded: '
-                         f'{duty_topic} logs them as sent, not as applied')
+                         f'{tail}')
     return notes

@@ -21,8 +21,10 @@ is the actuator's namespace, ``/sma`` by default, found in the bag):
 
 - ``position`` [rad]: linear interpolation between joint-state samples (a measured,
   continuous signal);
-- ``duty_a``, ``duty_b`` [0..1]: zero-order hold of ``<ns>/duty`` (a command holds until the
-  next one); 0 before the first command, since the amplifiers start switched off;
+- ``duty_a``, ``duty_b`` [0..1]: zero-order hold of ``<ns>/applied_duty`` when the bag holds
+  it (the duty the hardware bridge sent to the MCU, after its interlock, clamp and watchdog),
+  else of the commands on ``<ns>/duty`` (a command holds until the next one); 0 before the
+  first message, since the amplifiers start switched off;
 - ``setpoint`` [rad]: zero-order hold, NaN before the first setpoint;
 - ``ambient_temperature`` [degC]: zero-order hold, the first reading held backwards to the
   start (ambient changes slowly, and a NaN would stop the model).
@@ -47,6 +49,7 @@ from .reader import BagReader
 ROLES = {
     'joint_states': ('joint_states', 'sensor_msgs/msg/JointState'),
     'duty': ('duty', 'std_msgs/msg/Float64MultiArray'),
+    'applied_duty': ('applied_duty', 'std_msgs/msg/Float64MultiArray'),
     'setpoint': ('setpoint', 'std_msgs/msg/Float64'),
     'ambient_temperature': ('ambient_temperature', 'sensor_msgs/msg/Temperature'),
 }
@@ -82,6 +85,7 @@ def _duty_pair(msg, path: Path):
 _EXTRACT = {
     'joint_states': _joint_position,
     'duty': _duty_pair,
+    'applied_duty': _duty_pair,
     'setpoint': lambda msg, path: float(msg.data),
     'ambient_temperature': lambda msg, path: float(msg.temperature),
 }
@@ -251,16 +255,17 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
 
     :param path: Bag directory or ``.mcap`` file (ours or rosbag2's).
     :param rate_hz: Grid rate [Hz]; default: the joint-state rate (1 / median interval).
-    :param topics: Override topic names by role: ``joint_states``, ``duty``, ``setpoint``,
-        ``ambient_temperature`` (e.g. ``{'joint_states': '/measured/joint_states'}``).
+    :param topics: Override topic names by role: ``joint_states``, ``duty``,
+        ``applied_duty``, ``setpoint``, ``ambient_temperature`` (e.g. ``{'joint_states':
+        '/measured/joint_states'}``; ``{'applied_duty': ''}`` loads the commands).
     :param namespace: The actuator's namespace (``/left``); default: found in the bag
         (:func:`bag_namespace`).
     :param notes: A list that receives one line per recovered file (what a cut-off or
         damaged file kept and lost, :class:`RecoveryReport`) and, with ``bridged_steps``, one
         line on the joint-state gaps longer than that many median steps, whose position is
-        interpolated, not measured (:func:`gap_note`); and one line per node whose
-        /diagnostics count duty commands it held or clamped, which the duty topic logs as
-        sent (:func:`applied.altered_duty_notes`).
+        interpolated, not measured (:func:`gap_note`); one line when the duty is read from
+        the applied-duty topic; and one line per node whose /diagnostics count duty commands
+        it held or clamped (:func:`applied.altered_duty_notes`).
     :param bridged_steps: Joint-state steps longer than this many median steps are gaps
         (:func:`long_gaps`); default: none are.
     :return: ``time`` [s from the first joint state], ``duty_a``, ``duty_b`` [0..1],
@@ -284,7 +289,11 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
         raise MissingTopicError(path, 'needs at least two joint states at distinct times')
     if notes is not None:
         notes.extend(str(report) for report in reader.recoveries)
-        notes.extend(altered_duty_notes(reader, path, topic_of['duty']))
+        applied = topic_of['applied_duty'] if 'applied_duty' in data else None
+        if applied:
+            notes.append(f'{path}: duty read from {applied}, as the hardware applied it, not '
+                         f"from the commands on {topic_of['duty']}")
+        notes.extend(altered_duty_notes(reader, path, topic_of['duty'], applied))
         gaps = None if bridged_steps is None else gap_note(js_t, bridged_steps)
         if gaps:
             notes.append(f'{path}: {gaps}')
@@ -303,7 +312,7 @@ def load_run(path: Union[str, Path], rate_hz: Optional[float] = None,
                              '/clock started or damaged data, or the rate is too high')
     count = int(samples)
     grid = js_t[0] + np.round(np.arange(count) / rate * 1e9).astype(np.int64)
-    duty_t, duty = _sorted(*data['duty'])
+    duty_t, duty = _sorted(*data.get('applied_duty', data['duty']))
     duty_ab = zero_order_hold(duty_t, duty, grid, before=0.0)
     out = {'time': (grid - js_t[0]) * _NS,
            'duty_a': duty_ab[:, 0], 'duty_b': duty_ab[:, 1],

@@ -322,6 +322,18 @@ class BridgeCore:
                           f'(timeout {cfg.duty_timeout_s} s): sending zero duty')
         return self._send_duty(now_s)
 
+    def applied_duty(self) -> tuple[float, float]:
+        """
+        Return (duty_a, duty_b) [0..1]: the duty of the last Duty frame sent to the MCU.
+
+        What the wires get after the gates, the dead-time interlock and the max_duty clamp,
+        in the MCU's counts; zero while the MCU is not connected (its watchdog has switched
+        the outputs off).
+        """
+        if self.state != LinkState.CONNECTED:
+            return 0.0, 0.0
+        return self.duty[0] / p.DUTY_FULL_SCALE, self.duty[1] / p.DUTY_FULL_SCALE
+
     def shutdown(self) -> bytes:
         """Zero-duty frame to send before closing the port (empty if not connected)."""
         self.duty = (0, 0)

@@ -32,6 +32,8 @@ from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 NAMESPACE = 'sma'
 SETPOINT = 'setpoint'
 DUTY = 'duty'
+# the duty the hardware applied (after its interlock and limits), as the bridge sent it
+APPLIED_DUTY = 'applied_duty'
 JOINT_STATES = 'joint_states'
 AMBIENT_TEMPERATURE = 'ambient_temperature'
 DIAGNOSTICS = '/diagnostics'

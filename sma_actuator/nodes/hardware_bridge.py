@@ -25,6 +25,10 @@ topics:
 - publishes every ADC report as /sma/joint_states (joint `shaft`, calibrated position,
   filtered velocity, stamp = node clock at reception) and the raw counts as
   /sma/potentiometer_raw (std_msgs/UInt16);
+- publishes /sma/applied_duty (std_msgs/Float64MultiArray [duty_a, duty_b]): the duty the
+  bridge sent to the MCU, after the interlock, the max_duty clamp and the watchdog, zero
+  while no MCU is connected; at each change and at least every APPLIED_REPEAT_S, so a bag
+  holds what the wires got beside the commands on /sma/duty (docs/recording.md);
 - publishes /diagnostics: `hardware_bridge: link` (state, frame/CRC errors, lost
   frames, round-trip times), `hardware_bridge: mcu` (faults, firmware, MCU-side
   receive errors) and `hardware_bridge: duty` (host watchdog, rejected/clamped commands).
@@ -39,6 +43,7 @@ middleware queued it. The host watchdog runs again on the clock of every write, 
 freeze between checking a command and writing its frame sends zero duty on waking. More
 than one publisher on the duty topic means zero duty + ERROR.
 """
+import math
 import sys
 import threading
 import time
@@ -68,6 +73,8 @@ from ..hardware.link import SerialLink
 POTENTIOMETER_RAW = 'potentiometer_raw'
 TICK_PERIOD_S = 0.005   # resolution of the host watchdog, duty refresh and heartbeat timers
 PUBLISHER_CHECK_PERIOD_S = 0.05   # how often the duty topic's publishers are counted
+# an unchanged applied duty is published again this often, for a recorder that joins late
+APPLIED_REPEAT_S = 0.1
 
 
 # every parameter is read-only: they take effect at start
@@ -136,6 +143,10 @@ class HardwareBridge(Node):
                                f['velocity_filter_tau_s'], self._log)
         self.js_pub = self.create_publisher(JointState, c.JOINT_STATES, c.SENSOR_QOS)
         self.raw_pub = self.create_publisher(UInt16, POTENTIOMETER_RAW, c.SENSOR_QOS)
+        # reliable, as the commands: a lost change would misstate the heating until the next
+        self.applied_pub = self.create_publisher(Float64MultiArray, c.APPLIED_DUTY,
+                                                 c.COMMAND_QOS)
+        self._applied, self._applied_at_s = None, -math.inf
         # the serial port names the hardware: one rig, whichever node drives it
         self.diag = Diagnostics(self, hardware_id=self.port)
         self.duty_sub = self.create_subscription(
@@ -224,6 +235,18 @@ class HardwareBridge(Node):
         data = self.core.watchdog(time.monotonic()) or data
         if data:
             self.link.write(data)
+        self._publish_applied(time.monotonic())
+
+    def _publish_applied(self, now_s: float) -> None:
+        # under self._lock, after the frame is written: the messages leave in the order the
+        # duties were sent, each about when the MCU applies it
+        duty = self.core.applied_duty()
+        if duty == self._applied and now_s - self._applied_at_s < APPLIED_REPEAT_S:
+            return
+        if self._stopping or not self.context.ok():
+            return   # shutting down: publishers may already be invalid
+        self._applied, self._applied_at_s = duty, now_s
+        self.applied_pub.publish(Float64MultiArray(data=list(duty)))
 
     def _log(self, level: str, text: str) -> None:
         # one call site per severity: rclpy refuses a severity change at the same call site
@@ -241,6 +264,9 @@ class HardwareBridge(Node):
             self._stopping = True
             final = self.core.shutdown()
         self.link.stop(final)
+        if self._applied not in (None, (0.0, 0.0)) and self.context.ok():
+            # the zero frame is out: a recorder still running logs it
+            self.applied_pub.publish(Float64MultiArray(data=[0.0, 0.0]))
         super().destroy_node()
 
 

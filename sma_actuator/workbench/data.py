@@ -268,8 +268,9 @@ def load_bag(path: PathLike, rate_hz: Optional[float] = None,
     than MAX_BRIDGED_STEPS median steps (the CSV's bridging rule) are not measured: their
     samples are simulated but neither fitted nor scored (`DynamicData.scored`), and so are
     sensor glitches unless kept (`leave_out_glitches`). notes: receives what a cut-off or
-    damaged file kept and lost, those gaps, the glitches and the duty commands a node held
-    or clamped (logged as sent, not as applied).
+    damaged file kept and lost, those gaps, the glitches, whether the duty is the one the
+    hardware applied (`/sma/applied_duty`) or the commands, and the commands a node held or
+    clamped.
     """
     try:
         from ..bag.arrays import load_run
