@@ -28,6 +28,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import pytest
 from support.stopping import teardown_hung
 
@@ -284,9 +285,19 @@ def test_two_actuators_side_by_side_do_not_cross_talk(tmp_path, ros_domain_id):
 
 
 def test_emulator_launch_closes_the_loop_through_bridge_and_emulator(tmp_path, ros_domain_id):
+    from sma_actuator.bag.arrays import load_run
+    bag = tmp_path / 'bag'
+    recorded = {**RECORDED, '/sma/applied_duty': 10}
     watcher, exits, _ = run_launch('emulator.launch.py', [{
         'params_file': _step_params(tmp_path, {'sma': STEP_RAD}), 'mode': 'pi',
-        'link': str(tmp_path / 'mcu'), 'baud': '1000000'}], ros_domain_id, ['sma'])
+        'link': str(tmp_path / 'mcu'), 'baud': '1000000', 'record': 'true',
+        'bag_path': str(bag)}], ros_domain_id, ['sma'], recorded=recorded)
     assert watcher.reached == {'sma': True}, watcher.positions['sma'][-5:]
     assert sorted(exits) == [('controller', 0), ('hardware_bridge', 0), ('mcu_emulator', 0),
-                             ('setpoint', 0)]
+                             ('recorder', 0), ('setpoint', 0)]
+    # the bag's duty is the one the bridge sent to the emulated MCU
+    notes = []
+    run = load_run(bag, notes=notes)
+    assert f'{bag}: duty read from /sma/applied_duty, as the hardware applied it, not from the ' \
+           'commands on /sma/duty' in notes
+    assert run['duty_a'].max() > 0.0 and not np.any((run['duty_a'] > 0) & (run['duty_b'] > 0))
