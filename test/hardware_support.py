@@ -26,6 +26,7 @@ import time
 from conftest import NOTICE_S
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from sma_actuator.hardware.emulator import Emulator, PtyTransport, TcpTransport
 from sma_actuator.nodes import common as c
@@ -117,8 +118,10 @@ class Probe(Node):
                                  c.SENSOR_QOS)
         self.create_subscription(DiagnosticArray, c.DIAGNOSTICS, keep(self.diagnostics),
                                  c.DIAGNOSTICS_QOS)
+        # deep: a starved executor must not drop a change it has not taken yet
         self.create_subscription(Float64MultiArray, c.APPLIED_DUTY,
-                                 keep(self.applied, lambda m: tuple(m.data)), c.COMMAND_QOS)
+                                 keep(self.applied, lambda m: tuple(m.data)),
+                                 QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
 
     def duty(self, a, b):
         self.duty_pub.publish(Float64MultiArray(data=[float(a), float(b)]))
