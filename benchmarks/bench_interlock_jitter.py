@@ -20,9 +20,11 @@ plant_sim's model (`control.closed_loop.CorePlant`) behind a 0.05 s dead-time in
 (`control.interlock`, as the hardware bridge applies it) that sees each command at its
 sample's time + u, u uniform in ±jitter. pi_inverse with the committed model tracks a
 0.05 Hz and a 0.2 Hz ±0.5 rad sine and a ±0.4 rad square of 20 s, with its own dead time
-`dead_time_s` equal to the bridge's and one period (25 ms) longer. Prints the RMS error
-after the first second [rad] and how often the bridge held a duty the controller sent (its
-model counts it as applied), without jitter and for each jitter seed.
+`dead_time_s` equal to the bridge's and one period (25 ms) longer, and with the bridge's
+dead time and its estimate advanced on the duty the bridge applied (`applied fed`: what a
+controller reading /sma/applied_duty could know at best, each period's applied duty with no
+transport delay). Prints the RMS error after the first second [rad] and how often the
+bridge held a duty the controller sent, without jitter and for each jitter seed.
 """
 import argparse
 
@@ -54,11 +56,32 @@ class BridgedPlant(CorePlant):
         """Return the command's arrival time [s]: its sample's time ± the jitter."""
         return self.time_s + self.rng_jitter.uniform(-self.jitter_s, self.jitter_s)
 
+    def step(self, duty_a: float, duty_b: float) -> float:
+        """Step as `CorePlant` does, keeping the duties the interlock applied."""
+        self.time_s += self.dt_s
+        self.applied, _ = self.interlock.apply(duty_a, duty_b, self.command_time_s())
+        self.reading = self._read(self.actuator.step(*self.applied, self.dt_s))
+        return self.reading
 
-def run(model, reference, seconds, jitter_s, seed, dead_time_s):
+
+class AppliedFedController(ControllerCore):
+    """pi_inverse whose estimate advances on the duties the plant applied, not its commands."""
+
+    plant = None
+
+    def _advance(self, dt, ambient_c):
+        """Advance the estimate by dt [s] on the duties the plant applied over it."""
+        if getattr(self.plant, 'applied', None) is not None:
+            self.last_duty = tuple(self.plant.applied)
+        super()._advance(dt, ambient_c)
+
+
+def run(model, reference, seconds, jitter_s, seed, dead_time_s, fed=False):
     """Return (RMS error after 1 s [rad], duties held) of one pi_inverse run."""
     plant = BridgedPlant(jitter_s, seed)
-    ctrl = ControllerCore(model, ControllerSettings('pi_inverse', dead_time_s=dead_time_s))
+    kind = AppliedFedController if fed else ControllerCore
+    ctrl = kind(model, ControllerSettings('pi_inverse', dead_time_s=dead_time_s))
+    ctrl.plant = plant
     trace = run_tracking(ctrl, plant, reference, seconds)
     keep = trace.time_s >= 1.0
     rms = float(np.sqrt(np.mean((trace.setpoint[keep] - trace.position[keep]) ** 2)))
@@ -73,14 +96,16 @@ def main():
     model = load_model(config_path('controller_model.yaml'))
     print(f'bridge dead time {BRIDGE_DEAD_TIME_S} s; RMS error [rad] (duties held), '
           f'no jitter | ±{args.jitter_ms:g} ms, seeds {args.seeds}')
+    variants = ((BRIDGE_DEAD_TIME_S, False), (BRIDGE_DEAD_TIME_S + 0.025, False),
+                (BRIDGE_DEAD_TIME_S, True))
     for name, (reference, seconds) in REFERENCES.items():
-        for dead_time_s in (BRIDGE_DEAD_TIME_S, BRIDGE_DEAD_TIME_S + 0.025):
-            still = run(model, reference, seconds, 0.0, 0, dead_time_s)
+        for dead_time_s, fed in variants:
+            still = run(model, reference, seconds, 0.0, 0, dead_time_s, fed)
             jittered = [run(model, reference, seconds, args.jitter_ms * 1e-3, seed,
-                            dead_time_s) for seed in args.seeds]
+                            dead_time_s, fed) for seed in args.seeds]
             cells = ' '.join(f'{rms:.4f} ({held})' for rms, held in jittered)
-            print(f'{name:22s} dead_time_s {dead_time_s:.3f} s: {still[0]:.4f} ({still[1]}) '
-                  f'| {cells}')
+            label = f'dead_time_s {dead_time_s:.3f} s{", applied fed" if fed else ""}'
+            print(f'{name:22s} {label:32s}: {still[0]:.4f} ({still[1]}) | {cells}')
 
 
 if __name__ == '__main__':
