@@ -79,9 +79,12 @@ class AppliedFedController(ControllerCore):
 def run(model, reference, seconds, jitter_s, seed, dead_time_s, fed=False):
     """Return (RMS error after 1 s [rad], duties held) of one pi_inverse run."""
     plant = BridgedPlant(jitter_s, seed)
-    kind = AppliedFedController if fed else ControllerCore
-    ctrl = kind(model, ControllerSettings('pi_inverse', dead_time_s=dead_time_s))
-    ctrl.plant = plant
+    settings = ControllerSettings('pi_inverse', dead_time_s=dead_time_s)
+    if fed:
+        ctrl = AppliedFedController(model, settings)
+        ctrl.plant = plant
+    else:
+        ctrl = ControllerCore(model, settings)
     trace = run_tracking(ctrl, plant, reference, seconds)
     keep = trace.time_s >= 1.0
     rms = float(np.sqrt(np.mean((trace.setpoint[keep] - trace.position[keep]) ** 2)))
