@@ -56,13 +56,6 @@ class BridgedPlant(CorePlant):
         """Return the command's arrival time [s]: its sample's time ± the jitter."""
         return self.time_s + self.rng_jitter.uniform(-self.jitter_s, self.jitter_s)
 
-    def step(self, duty_a: float, duty_b: float) -> float:
-        """Step as `CorePlant` does, keeping the duties the interlock applied."""
-        self.time_s += self.dt_s
-        self.applied, _ = self.interlock.apply(duty_a, duty_b, self.command_time_s())
-        self.reading = self._read(self.actuator.step(*self.applied, self.dt_s))
-        return self.reading
-
 
 class AppliedFedController(ControllerCore):
     """pi_inverse whose estimate advances on the duties the plant applied, not its commands."""
@@ -71,7 +64,7 @@ class AppliedFedController(ControllerCore):
 
     def _advance(self, dt, ambient_c):
         """Advance the estimate by dt [s] on the duties the plant applied over it."""
-        if getattr(self.plant, 'applied', None) is not None:
+        if self.plant is not None:
             self.last_duty = tuple(self.plant.applied)
         super()._advance(dt, ambient_c)
 

@@ -64,6 +64,7 @@ class CorePlant:
         self.dt_s = dt_s
         self.interlock = DeadTimeInterlock(dead_time_s)
         self.time_s = 0.0
+        self.applied = (0.0, 0.0)   # duties the interlock let through over the last step
         self.reading = self._read(self.actuator.reading_now)
 
     def _read(self, angle: float) -> float:
@@ -85,8 +86,8 @@ class CorePlant:
     def step(self, duty_a: float, duty_b: float) -> float:
         """Hold the duties the interlock lets through for dt_s; return the reading then [rad]."""
         self.time_s += self.dt_s
-        applied, _ = self.interlock.apply(duty_a, duty_b, self.command_time_s())
-        self.reading = self._read(self.actuator.step(*applied, self.dt_s))
+        self.applied, _ = self.interlock.apply(duty_a, duty_b, self.command_time_s())
+        self.reading = self._read(self.actuator.step(*self.applied, self.dt_s))
         return self.reading
 
 
