@@ -20,7 +20,11 @@ effect, run diagnose, and print: the base model's held-out NRMSE, whether the hi
 is named first and significant, its held-out improvement, and what was named instead;
 then the named candidate's typical gain (`judging.typical_gain`, the median over 5 blocks of
 held-out time) and its RMSE against the base's in each block (base/named [rad]), which say
-whether the name rests on one block. Also the null case. Two sources of records:
+whether the name rests on one block. Also the null case. With `--rounds N` (N > 1) each
+record then goes through `diagnose --rounds N` from the same base: the effects added round
+by round (`- name`: removed as redundant next to the others) and `exact` when the final
+model holds the hidden effect and nothing else (nothing, for the null record). Two sources
+of records:
   --source richsim (default): the independent rich simulator over its magnitude range
       (test/support/richsim.py EFFECTS); the figure the hidden-effect tests sample from;
   --source plant: the package's own plant model with the effect switched on, as
@@ -38,6 +42,7 @@ own duty sequences; no saturation case (the simulator's saturation is an excitat
         [--effects NAME ...]   (a subset: same records as in the full run, no null case)
         [--jobs N]             (records diagnosed in parallel, one BLAS thread each; the
                                 seconds column then includes the contention)
+        [--rounds N]           (also run the rounds to the end, up to N)
 """
 import argparse
 from pathlib import Path
@@ -52,8 +57,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 
 from sma_actuator.core.excitation import rig_excitation  # noqa: E402, I100
 from sma_actuator.core.identification import DynamicData  # noqa: E402
-from sma_actuator.workbench.diagnosis import diagnose  # noqa: E402
+from sma_actuator.workbench.diagnosis import diagnose_rounds  # noqa: E402
 from sma_actuator.workbench.effects import get_effect  # noqa: E402
+from sma_actuator.workbench.engine import fit_model  # noqa: E402
 from sma_actuator.workbench.judging import held_out_block_rmse, typical_gain  # noqa: E402
 from support import plant_records  # noqa: E402
 from support.parallel import imap_on_cores  # noqa: E402
@@ -81,7 +87,11 @@ def run_case(case):
     data = DynamicData(d['time'], d['duty_a'], d['duty_b'], d['position'], ambient,
                        layout=args.layout)
     t0 = time.perf_counter()
-    diag = diagnose(data, kind='classical' if effect == 'saturation' else None)
+    kind = 'classical' if effect == 'saturation' else None
+    # round 1 is `diagnose(data)`: the same base fit, the same diagnosis
+    diags, added, _ = diagnose_rounds(data, fit_model(data, (), kind=kind), args.rounds,
+                                      kind=kind)
+    diag = diags[0]
     mine = next((c for c in diag.candidates if c['effect'] == effect), None)
     named = next((c for c in diag.candidates if c['effect'] == diag.missing_effect), None)
     return {'effect': effect, 'magnitude': magnitude,
@@ -93,6 +103,8 @@ def run_case(case):
             else typical_gain(data, diag.baseline, named['fit']),
             'blocks': [] if named is None or 'fit' not in named
             else held_out_block_rmse(data, diag.baseline, named['fit']).T.tolist(),
+            'rounds': [('- ' if a.get('removed') else '') + a['added'] for a in added],
+            'kept': sorted(a['added'] for a in added if not a.get('removed')),
             'seconds': time.perf_counter() - t0}
 
 
@@ -109,6 +121,8 @@ def main():
                     help='a rich-simulator rig parameter (test/support/richsim.py DEFAULTS)')
     ap.add_argument('--effects', nargs='*', default=None)
     ap.add_argument('--jobs', type=int, default=1)
+    ap.add_argument('--rounds', type=int, default=1,
+                    help='run diagnose --rounds up to this many rounds (1: the first only)')
     ap.add_argument('--no-ambient', action='store_true',
                     help='hand diagnose no ambient column, as from a rig that logs none')
     args = ap.parse_args()
@@ -141,10 +155,15 @@ def main():
         imp = '-' if row['improvement'] is None else f'{100 * row["improvement"]:+.0f} %'
         typ = '-' if row['typical'] is None else f'{100 * row["typical"]:+.0f} %'
         ok = row['named'] == (None if row['effect'] == 'none' else row['effect'])
+        rounds = ''
+        if args.rounds > 1:
+            exact = row['kept'] == ([] if row['effect'] == 'none' else [row['effect']])
+            rounds = (f'  rounds: {" + ".join(row["rounds"]) or "-"} '
+                      f'{"exact" if exact else "NOT EXACT"}')
         print(f'{row["effect"]:20s} {row["magnitude"]:5.2f} {100 * row["base_nrmse"]:9.2f}% '
               f'{str(row["named"]):>20s} {imp:>11s} {typ:>8s} {row["seconds"]:5.0f}  '
               f'{"ok" if ok else "MISSED"}  '
-              + ' '.join(f'{e0:.4f}/{e1:.4f}' for e0, e1 in row['blocks']), flush=True)
+              + ' '.join(f'{e0:.4f}/{e1:.4f}' for e0, e1 in row['blocks']) + rounds, flush=True)
 
     unknown = sorted(set(effects) - set(catalog) - {'none'})
     if unknown:
@@ -165,6 +184,10 @@ def main():
         report(row)
     hits = sum(r['named'] == (None if r['effect'] == 'none' else r['effect']) for r in rows)
     print(f'named correctly: {hits} of {len(rows)}')
+    if args.rounds > 1:
+        exact = sum(r['kept'] == ([] if r['effect'] == 'none' else [r['effect']]) for r in rows)
+        print(f'after up to {args.rounds} rounds, exactly the hidden effect: '
+              f'{exact} of {len(rows)}')
 
 
 if __name__ == '__main__':
