@@ -22,9 +22,9 @@ then the named candidate's typical gain (`judging.typical_gain`, the median over
 held-out time) and its RMSE against the base's in each block (base/named [rad]), which say
 whether the name rests on one block. Also the null case. With `--rounds N` (N > 1) each
 record then goes through `diagnose --rounds N` from the same base: the effects added round
-by round (`- name`: removed as redundant next to the others) and `exact` when the final
-model holds the hidden effect and nothing else (nothing, for the null record). Two sources
-of records:
+by round (`- name`: then removed as redundant next to the others), the held-out NRMSE
+after each, and `exact` when the final model holds the hidden effect and nothing else
+(nothing, for the null record). Two sources of records:
   --source richsim (default): the independent rich simulator over its magnitude range
       (test/support/richsim.py EFFECTS); the figure the hidden-effect tests sample from;
   --source plant: the package's own plant model with the effect switched on, as
@@ -103,7 +103,10 @@ def run_case(case):
             else typical_gain(data, diag.baseline, named['fit']),
             'blocks': [] if named is None or 'fit' not in named
             else held_out_block_rmse(data, diag.baseline, named['fit']).T.tolist(),
-            'rounds': [('- ' if a.get('removed') else '') + a['added'] for a in added],
+            'rounds': [a['added'] for a in added]
+            + [f'- {a["added"]}' for a in added if a.get('removed')],
+            'round_nrmse': [a['validation_nrmse'] for a in added]
+            + [a['validation_nrmse_without'] for a in added if a.get('removed')],
             'kept': sorted(a['added'] for a in added if not a.get('removed')),
             'seconds': time.perf_counter() - t0}
 
@@ -158,7 +161,9 @@ def main():
         rounds = ''
         if args.rounds > 1:
             exact = row['kept'] == ([] if row['effect'] == 'none' else [row['effect']])
-            rounds = (f'  rounds: {" + ".join(row["rounds"]) or "-"} '
+            errors = ' > '.join(f'{100 * e:.2f}' for e in [row['base_nrmse']]
+                                + row['round_nrmse'])
+            rounds = (f'  rounds: {" + ".join(row["rounds"]) or "-"} ({errors} %) '
                       f'{"exact" if exact else "NOT EXACT"}')
         print(f'{row["effect"]:20s} {row["magnitude"]:5.2f} {100 * row["base_nrmse"]:9.2f}% '
               f'{str(row["named"]):>20s} {imp:>11s} {typ:>8s} {row["seconds"]:5.0f}  '
