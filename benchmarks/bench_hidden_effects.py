@@ -107,7 +107,8 @@ def run_case(case):
             + [f'- {a["added"]}' for a in added if a.get('removed')],
             'round_nrmse': [a['validation_nrmse'] for a in added]
             + [a['validation_nrmse_without'] for a in added if a.get('removed')],
-            'kept': sorted(a['added'] for a in added if not a.get('removed')),
+            'exact': sorted(a['added'] for a in added if not a.get('removed'))
+            == ([] if effect == 'none' else [effect]),
             'seconds': time.perf_counter() - t0}
 
 
@@ -160,11 +161,10 @@ def main():
         ok = row['named'] == (None if row['effect'] == 'none' else row['effect'])
         rounds = ''
         if args.rounds > 1:
-            exact = row['kept'] == ([] if row['effect'] == 'none' else [row['effect']])
             errors = ' > '.join(f'{100 * e:.2f}' for e in [row['base_nrmse']]
                                 + row['round_nrmse'])
             rounds = (f'  rounds: {" + ".join(row["rounds"]) or "-"} ({errors} %) '
-                      f'{"exact" if exact else "NOT EXACT"}')
+                      f'{"exact" if row["exact"] else "NOT EXACT"}')
         print(f'{row["effect"]:20s} {row["magnitude"]:5.2f} {100 * row["base_nrmse"]:9.2f}% '
               f'{str(row["named"]):>20s} {imp:>11s} {typ:>8s} {row["seconds"]:5.0f}  '
               f'{"ok" if ok else "MISSED"}  '
@@ -190,9 +190,8 @@ def main():
     hits = sum(r['named'] == (None if r['effect'] == 'none' else r['effect']) for r in rows)
     print(f'named correctly: {hits} of {len(rows)}')
     if args.rounds > 1:
-        exact = sum(r['kept'] == ([] if r['effect'] == 'none' else [r['effect']]) for r in rows)
         print(f'after up to {args.rounds} rounds, exactly the hidden effect: '
-              f'{exact} of {len(rows)}')
+              f'{sum(r["exact"] for r in rows)} of {len(rows)}')
 
 
 if __name__ == '__main__':
