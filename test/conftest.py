@@ -33,6 +33,8 @@ for _name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):
 import pytest  # noqa: E402
 
 from sma_actuator.workbench.parallel import keep_freed_memory  # noqa: E402
+# a hook: `--dist loadfile` that finishes the session after a crashed or hung worker
+from support.xdist_scheduling import pytest_xdist_make_scheduler  # noqa: E402, F401, I100
 
 keep_freed_memory()   # as `sma-model` runs: fits reuse their freed arrays
 
