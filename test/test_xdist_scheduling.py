@@ -37,7 +37,7 @@ def test_before():
     pass
 
 
-def test_crash():
+def test_stop():
     os.kill(os.getpid(), signal.SIGKILL)
 
 
@@ -52,15 +52,15 @@ ONE_TEST_FILE = 'def test_only():\n    pass\n'
 @pytest.mark.parametrize('workers', [1, 2])
 def test_a_crashed_worker_fails_one_test_and_the_session_runs_the_rest(tmp_path, workers):
     out = _run_session(tmp_path, CRASHING_FILE, '-n', str(workers))
-    assert "crashed while running 'test_a_stops.py::test_crash'" in out, out
+    assert "crashed while running 'test_a_stops.py::test_stop'" in out, out
 
 
 @pytest.mark.slow
 def test_a_hung_test_ends_its_worker_after_the_faulthandler_timeout(tmp_path):
     out = _run_session(tmp_path, HANGING_FILE, '-n', '1', '-o', 'faulthandler_timeout=2',
                        '-o', 'faulthandler_exit_on_timeout=true')
-    assert 'Timeout (0:00:02)!' in out and 'in test_crash' in out, out
-    assert "crashed while running 'test_a_stops.py::test_crash'" in out, out
+    assert 'Timeout (0:00:02)!' in out and 'in test_stop' in out, out
+    assert "crashed while running 'test_a_stops.py::test_stop'" in out, out
 
 
 def _run_session(tmp_path, stopping_file, *args):
@@ -80,6 +80,6 @@ def _run_session(tmp_path, stopping_file, *args):
     for test in ('test_a_stops.py::test_before', 'test_a_stops.py::test_after',
                  'test_b_one.py::test_only', 'test_c_one.py::test_only'):
         assert f'PASSED {test}' in out, out
-    assert out.count('FAILED test_a_stops.py::test_crash') == 1, out    # reported once, run once
+    assert out.count('FAILED test_a_stops.py::test_stop') == 1, out    # reported once, run once
     assert '1 failed, 4 passed' in out, out
     return out
